@@ -1,0 +1,50 @@
+"""Shared test fixtures: tiny hand-built traces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vggc_cp.trace import Trace
+
+
+def image_for(state: str, size: int = 8, noise: int = 0, rng=None) -> np.ndarray:
+    """A tiny RGB image determined by ``state`` (plus optional uniform noise)."""
+    seed = sum(ord(c) * (i + 1) for i, c in enumerate(state)) % (2**32)
+    img = np.random.default_rng(seed).integers(0, 256, size=(size, size, 3), dtype=np.uint8)
+    if noise and rng is not None:
+        img = np.clip(img.astype(int) + rng.integers(-noise, noise + 1, img.shape), 0, 255)
+    return img.astype(np.uint8)
+
+
+def make_trace(episodes, action_names, size: int = 8, noise: int = 0, seed: int = 0) -> Trace:
+    """Build a trace from episodes ``[[s0, a0, s1, a1, s2, ...], ...]``.
+
+    States are strings, actions are names from ``action_names``; images come from
+    :func:`image_for`, so two observations of one state look alike.
+    """
+    rng = np.random.default_rng(seed)
+    obs, acts, states = [], [], []
+    names = list(action_names)
+    for e, ep in enumerate(episodes):
+        if e > 0:
+            acts.append(-1)
+        for i, item in enumerate(ep):
+            if i % 2 == 0:
+                obs.append(image_for(item, size, noise, rng))
+                states.append(item)
+            else:
+                acts.append(names.index(item))
+    return Trace(np.stack(obs), np.array(acts, dtype=np.int64), tuple(names),
+                 np.array(states, dtype=str), {"benchmark": "handmade"})
+
+
+# Two regions, one object: states "L" (object left, pick side), "R", and "H" (held, place side).
+TOY_NAMES = ("pick_L", "pick_R", "place_L", "place_R")
+
+
+@pytest.fixture
+def toy_trace() -> Trace:
+    ep1 = ["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
+    ep2 = ["R", "pick_R", "H", "place_R", "R"]
+    return make_trace([ep1, ep2], TOY_NAMES)

@@ -1,0 +1,5 @@
+import sys
+
+from vggc_cp.cli import main
+
+sys.exit(main())

@@ -1,0 +1,207 @@
+"""The values every solver shares: one :class:`Problem` in, one :class:`SolveResult` out.
+
+A *cell* is a pair ``(k_pick, k_place)``: at most ``k_pick`` pick colours and ``k_place``
+place colours. A solver colours the pick observations and the place observations of a
+:class:`Problem` so that the induced task graph is bipartite and satisfies Exactly-One
+(:func:`vggc_cp.graph.check`), and among such colourings prefers a low visual score J.
+"""
+
+from __future__ import annotations
+
+import abc
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vggc_cp.errors import lookup
+from vggc_cp.graph import TaskGraph
+from vggc_cp.score import visual_score
+from vggc_cp.trace import PICK, PLACE, Trace
+
+OPTIMAL = "optimal"
+FEASIBLE = "feasible"
+INFEASIBLE = "infeasible"
+UNKNOWN = "unknown"
+STATUSES = (OPTIMAL, FEASIBLE, INFEASIBLE, UNKNOWN)
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """What a solver may see: roles, transitions, action names and within-role distances.
+
+    Never holds ground-truth states.
+
+    Attributes
+    ----------
+    roles : ndarray of int8, shape (N,)
+    src, act, dst : ndarray of int64, shape (|D|,)
+        Transition ``t`` goes from observation ``src[t]`` by action ``act[t]`` to ``dst[t]``.
+    action_names : tuple of str, length A
+    dist_pick : ndarray of float64, shape (n_pick, n_pick)
+        Visual distance between pick observations, in the order of ``pick_obs``.
+    dist_place : ndarray of float64, shape (n_place, n_place)
+    """
+
+    roles: np.ndarray
+    src: np.ndarray
+    act: np.ndarray
+    dst: np.ndarray
+    action_names: tuple[str, ...]
+    dist_pick: np.ndarray
+    dist_place: np.ndarray
+    pick_obs: np.ndarray = field(init=False)
+    place_obs: np.ndarray = field(init=False)
+    local: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        roles = np.asarray(self.roles, dtype=np.int8)
+        object.__setattr__(self, "roles", roles)
+        pick = np.flatnonzero(roles == PICK)
+        place = np.flatnonzero(roles == PLACE)
+        local = np.empty(len(roles), dtype=np.int64)
+        local[pick] = np.arange(len(pick))
+        local[place] = np.arange(len(place))
+        object.__setattr__(self, "pick_obs", pick)
+        object.__setattr__(self, "place_obs", place)
+        object.__setattr__(self, "local", local)
+        for name, d, n in (("dist_pick", self.dist_pick, len(pick)),
+                           ("dist_place", self.dist_place, len(place))):
+            if np.shape(d) != (n, n):
+                raise ValueError(f"{name} has shape {np.shape(d)}, expected ({n}, {n})")
+
+    @classmethod
+    def from_trace(cls, trace: Trace, dist_pick: np.ndarray, dist_place: np.ndarray) -> Problem:
+        """Build a problem from a trace (its ``states`` are not copied) and distances."""
+        src, act, dst = trace.transitions()
+        return cls(trace.roles(), src, act, dst, trace.action_names,
+                   np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64))
+
+    @property
+    def n_obs(self) -> int:
+        return len(self.roles)
+
+    @property
+    def n_pick(self) -> int:
+        return len(self.pick_obs)
+
+    @property
+    def n_place(self) -> int:
+        return len(self.place_obs)
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.action_names)
+
+    def labels_from_colours(self, pick_colour: np.ndarray, place_colour: np.ndarray) -> np.ndarray:
+        """Global node labels from per-role colours (shapes (n_pick,), (n_place,)).
+
+        Pick colours become nodes ``0..`` and place colours follow, both renumbered compactly
+        in order of first appearance, so node ids are unique across roles.
+        """
+        labels = np.empty(self.n_obs, dtype=np.int64)
+        pick_ids = _compact(np.asarray(pick_colour))
+        place_ids = _compact(np.asarray(place_colour))
+        labels[self.pick_obs] = pick_ids
+        labels[self.place_obs] = place_ids + (pick_ids.max() + 1 if len(pick_ids) else 0)
+        return labels
+
+    def visual_score(self, labels: np.ndarray) -> float:
+        """The paper's J of a labelling on this problem's distances."""
+        return visual_score(labels, self.roles, self.dist_pick, self.dist_place)
+
+    def graph(self, labels: np.ndarray) -> TaskGraph:
+        """The task graph that ``labels`` induces on this problem's transitions."""
+        return TaskGraph.from_labels(labels, self.roles, self.src, self.act, self.dst,
+                                     self.action_names)
+
+
+def _compact(colours: np.ndarray) -> np.ndarray:
+    if len(colours) == 0:
+        return colours.astype(np.int64)
+    _, first = np.unique(colours, return_index=True)
+    order = np.argsort(first)
+    mapping = {int(colours[first[i]]): rank for rank, i in enumerate(order)}
+    return np.array([mapping[int(c)] for c in colours], dtype=np.int64)
+
+
+@dataclass(frozen=True, eq=False)
+class SolveResult:
+    """The one result object every solver and baseline returns (like POT's ``OTResult``).
+
+    Attributes
+    ----------
+    labels : ndarray of int64, shape (N,), or None
+        Node of every observation; None when no colouring was found.
+    k_pick, k_place : int
+        The cell that was solved (upper bounds on colours per role).
+    J : float
+        Visual score of ``labels`` (``nan`` without a solution).
+    status : str
+        One of :data:`STATUSES`.
+    bound : float or None
+        Best proved lower bound on J (exact solvers).
+    seconds : float
+        Wall time.
+    solver : str
+    stats : dict
+        Solver-specific statistics (backtracks, conflicts, model size, ...).
+    """
+
+    labels: np.ndarray | None
+    k_pick: int
+    k_place: int
+    J: float
+    status: str
+    solver: str
+    seconds: float = 0.0
+    bound: float | None = None
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def found(self) -> bool:
+        return self.labels is not None
+
+    @property
+    def n_nodes(self) -> int:
+        return 0 if self.labels is None else int(len(np.unique(self.labels)))
+
+    @property
+    def gap(self) -> float | None:
+        if self.bound is None or not self.found:
+            return None
+        if self.J == 0:
+            return 0.0
+        return max(0.0, (self.J - self.bound) / abs(self.J))
+
+
+class Solver(abc.ABC):
+    """Base class of a colouring solver for one ``(k_pick, k_place)`` cell."""
+
+    name: str = "base"
+
+    def solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
+        """Solve one cell; times the call and fills ``seconds``."""
+        t0 = time.perf_counter()
+        res = self._solve(problem, k_pick, k_place)
+        seconds = time.perf_counter() - t0
+        return SolveResult(res.labels, res.k_pick, res.k_place, res.J, res.status, res.solver,
+                           seconds, res.bound, res.stats)
+
+    @abc.abstractmethod
+    def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
+        """Solve one cell (``seconds`` is filled in by :meth:`solve`)."""
+
+
+SOLVERS: dict[str, type[Solver]] = {}
+
+
+def register_solver(cls: type[Solver]) -> type[Solver]:
+    """Class decorator: add a solver to :data:`SOLVERS` under ``cls.name``."""
+    SOLVERS[cls.name] = cls
+    return cls
+
+
+def get_solver(name: str, **options) -> Solver:
+    """Instantiate a registered solver by name (unknown names list the known ones)."""
+    return lookup(SOLVERS, name, "solver")(**options)

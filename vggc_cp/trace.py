@@ -1,0 +1,302 @@
+"""Execution traces: the ``trace.npz`` format of ``FORMATS.md``, its validation, and roles.
+
+A trace is a time-ordered list of RGB observations ``o_0 .. o_{N-1}`` and the action
+``actions[t]`` taken between ``o_t`` and ``o_{t+1}`` (``-1`` where a new episode starts).
+The set of transitions ``D = {(o_t, a_t, o_{t+1}) : a_t >= 0}`` is what every solver sees.
+
+Roles (``FORMATS.md``): an observation followed by a pick, or preceded by a place, is a
+*pick* observation (a pick is executed from it); followed by a place or preceded by a pick,
+a *place* observation.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import zipfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.atomic import write_bytes
+from vggc_cp.errors import TraceError
+
+PICK = 0
+PLACE = 1
+ROLE_NAMES = ("pick", "place")
+REQUIRED_KEYS = ("observations", "actions", "action_names")
+
+
+def action_kind(name: str) -> int | None:
+    """Return :data:`PICK`, :data:`PLACE` or ``None`` for an action name by its prefix."""
+    if name.startswith("pick"):
+        return PICK
+    if name.startswith("place"):
+        return PLACE
+    return None
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """An execution trace (immutable value).
+
+    Attributes
+    ----------
+    observations : ndarray, uint8, shape (N, H, W, 3)
+    actions : ndarray, int64, shape (N-1,)
+        Index into ``action_names``, or -1 between episodes.
+    action_names : tuple of str, length A
+    states : ndarray of str, shape (N,), or None
+        Ground-truth state keys; read only by :mod:`vggc_cp.evaluate`.
+    meta : dict
+        Free-form metadata (benchmark, seed, camera, ...).
+    """
+
+    observations: np.ndarray
+    actions: np.ndarray
+    action_names: tuple[str, ...]
+    states: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def n_obs(self) -> int:
+        return int(self.observations.shape[0])
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.action_names)
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        return int(self.observations.shape[1]), int(self.observations.shape[2])
+
+    def transitions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return ``(src, act, dst)``, int64 arrays of shape (|D|,), one row per transition."""
+        t = np.flatnonzero(self.actions >= 0)
+        return t.astype(np.int64), self.actions[t].astype(np.int64), (t + 1).astype(np.int64)
+
+    @property
+    def n_transitions(self) -> int:
+        return int(np.count_nonzero(self.actions >= 0))
+
+    def episodes(self) -> list[tuple[int, int]]:
+        """Return ``[(first, last), ...]``, inclusive observation ranges of each episode."""
+        breaks = np.flatnonzero(self.actions < 0)
+        starts = np.concatenate([[0], breaks + 1])
+        ends = np.concatenate([breaks, [self.n_obs - 1]])
+        return [(int(s), int(e)) for s, e in zip(starts, ends)]
+
+    def roles(self) -> np.ndarray:
+        """Role of every observation, int8 array of shape (N,): :data:`PICK` or :data:`PLACE`."""
+        return compute_roles(self.actions, self.action_names)
+
+    def action_kinds(self) -> np.ndarray:
+        """int8 array of shape (A,): :data:`PICK` or :data:`PLACE` for every action."""
+        return np.array([action_kind(a) for a in self.action_names], dtype=np.int8)
+
+    def without_states(self) -> Trace:
+        """A copy with the ground truth removed (what a solver is allowed to see)."""
+        return replace(self, states=None)
+
+    def content_hash(self) -> str:
+        """SHA-256 of what solvers see (observations, actions, action names).
+
+        Ground-truth ``states`` and ``meta`` are excluded, so removing them keeps caches valid.
+        """
+        h = hashlib.sha256()
+        obs = np.ascontiguousarray(self.observations)
+        h.update(repr(obs.shape).encode())
+        h.update(obs.tobytes())
+        h.update(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
+        h.update("\x00".join(self.action_names).encode())
+        return h.hexdigest()
+
+
+def compute_roles(actions: np.ndarray, action_names) -> np.ndarray:
+    """Roles from actions alone (assumes a valid trace). Returns int8 array of shape (N,)."""
+    kinds = np.array([action_kind(a) for a in action_names], dtype=np.int8)
+    n = len(actions) + 1
+    roles = np.full(n, -1, dtype=np.int8)
+    valid = actions >= 0
+    t = np.flatnonzero(valid)
+    k = kinds[actions[t]]
+    roles[t] = k  # followed by a pick -> pick, by a place -> place
+    roles[t + 1] = 1 - k  # preceded by a pick -> place, by a place -> pick
+    return roles
+
+
+def _fail(source: str, msg: str) -> TraceError:
+    return TraceError(f"{source}: {msg}")
+
+
+def validate(trace: Trace, source: str = "<trace>") -> None:
+    """Check a :class:`Trace` against ``FORMATS.md``; raise :class:`TraceError` on the first problem.
+
+    The message names the source file, the field and the index.
+    """
+    obs, actions, names = trace.observations, trace.actions, trace.action_names
+    if not isinstance(obs, np.ndarray) or obs.dtype != np.uint8:
+        dt = getattr(obs, "dtype", type(obs).__name__)
+        raise _fail(source, f"field 'observations' has dtype {dt}, expected uint8")
+    if obs.ndim != 4 or obs.shape[3] != 3:
+        raise _fail(source, f"field 'observations' has shape {obs.shape}, expected [N, H, W, 3]")
+    n = obs.shape[0]
+    if n == 0 or obs.shape[1] == 0 or obs.shape[2] == 0:
+        raise _fail(source, "empty trace: field 'observations' holds no image")
+    if not isinstance(actions, np.ndarray) or actions.dtype.kind != "i":
+        dt = getattr(actions, "dtype", type(actions).__name__)
+        raise _fail(source, f"field 'actions' has dtype {dt}, expected int64")
+    if actions.ndim != 1:
+        raise _fail(source, f"field 'actions' has rank {actions.ndim}, expected 1")
+    if actions.shape[0] != n - 1:
+        raise _fail(source, f"field 'actions' has length {actions.shape[0]}, expected N-1 = {n - 1}")
+    a = len(names)
+    if a == 0:
+        raise _fail(source, "field 'action_names' is empty")
+    for i, name in enumerate(names):
+        if action_kind(name) is None:
+            raise _fail(source, f"action_names[{i}] = {name!r} begins with neither 'pick' nor 'place'")
+    bad = np.flatnonzero((actions < -1) | (actions >= a))
+    if bad.size:
+        t = int(bad[0])
+        raise _fail(source, f"actions[{t}] = {int(actions[t])} is out of range [-1, {a - 1}]")
+    if not np.any(actions >= 0):
+        raise _fail(source, "empty trace: no transition (every entry of 'actions' is -1)")
+    kinds = np.array([action_kind(x) for x in names], dtype=np.int8)
+    for t in range(n):
+        prev_a = int(actions[t - 1]) if t > 0 else -1
+        next_a = int(actions[t]) if t < n - 1 else -1
+        if prev_a < 0 and next_a < 0:
+            raise _fail(source, f"observations[{t}] has no transition (an episode of length one)")
+        if prev_a >= 0 and next_a >= 0 and kinds[prev_a] == kinds[next_a]:
+            kind = ROLE_NAMES[kinds[prev_a]]
+            raise _fail(
+                source,
+                f"observations[{t}] gets two roles: preceded by {names[prev_a]!r} (actions[{t - 1}]) "
+                f"and followed by {names[next_a]!r} (actions[{t}]): two {kind}s in a row inside an episode",
+            )
+    if trace.states is not None:
+        st = trace.states
+        if not isinstance(st, np.ndarray) or st.dtype.kind != "U" or st.ndim != 1:
+            raise _fail(source, "field 'states' must be a unicode array of shape [N]")
+        if st.shape[0] != n:
+            raise _fail(source, f"field 'states' has length {st.shape[0]}, expected N = {n}")
+
+
+def _read_member(data, key: str, source: str) -> np.ndarray:
+    try:
+        return data[key]
+    except ValueError as exc:
+        if "allow_pickle" in str(exc) or "Object arrays" in str(exc):
+            raise _fail(source, f"field {key!r} holds an object array (pickle); refused") from None
+        raise _fail(source, f"field {key!r} is unreadable: {exc}") from None
+    except (zipfile.BadZipFile, OSError, EOFError, KeyError) as exc:
+        raise _fail(source, f"field {key!r} is corrupt or truncated ({type(exc).__name__})") from None
+    except Exception as exc:  # zlib.error and friends on damaged members
+        raise _fail(source, f"field {key!r} is corrupt or truncated ({type(exc).__name__})") from None
+
+
+def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
+    """Load and validate ``trace.npz`` (never unpickles).
+
+    Raises
+    ------
+    TraceError
+        Naming the file, the field and the index of the first problem.
+    """
+    path = Path(path)
+    source = str(path)
+    if not path.is_file():
+        raise _fail(source, "no such file")
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        raise _fail(source, f"not an npz archive ({type(exc).__name__})") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise _fail(source, "not an npz archive (a single .npy array)")
+    with data:
+        keys = set(data.files)
+        for key in REQUIRED_KEYS:
+            if key not in keys:
+                raise _fail(source, f"missing field {key!r}")
+        obs = _read_member(data, "observations", source)
+        actions = _read_member(data, "actions", source)
+        names_arr = _read_member(data, "action_names", source)
+        states = _read_member(data, "states", source) if "states" in keys else None
+        meta_arr = _read_member(data, "meta", source) if "meta" in keys else None
+        # read every other member too, so pickles or corruption anywhere are refused
+        for key in keys - set(REQUIRED_KEYS) - {"states", "meta"}:
+            _read_member(data, key, source)
+    if names_arr.dtype.kind != "U" or names_arr.ndim != 1:
+        raise _fail(source, f"field 'action_names' has dtype {names_arr.dtype} and rank "
+                            f"{names_arr.ndim}, expected unicode [A]")
+    meta: dict = {}
+    if meta_arr is not None:
+        if meta_arr.dtype.kind != "U" or meta_arr.ndim != 0:
+            raise _fail(source, "field 'meta' must be a unicode scalar holding a JSON object")
+        try:
+            meta = json.loads(str(meta_arr))
+        except json.JSONDecodeError as exc:
+            raise _fail(source, f"field 'meta' is not JSON: {exc}") from None
+        if not isinstance(meta, dict):
+            raise _fail(source, "field 'meta' is JSON but not an object")
+    if actions.dtype.kind == "i":
+        actions = actions.astype(np.int64, copy=False)
+    trace = Trace(obs, actions, tuple(str(x) for x in names_arr), states, meta)
+    if validate_trace:
+        validate(trace, source)
+    return trace
+
+
+def trace_to_bytes(trace: Trace) -> bytes:
+    """Serialize a trace to the npz format (deterministic bytes for a given trace)."""
+    arrays = {
+        "observations": np.ascontiguousarray(trace.observations, dtype=np.uint8),
+        "actions": np.ascontiguousarray(trace.actions, dtype=np.int64),
+        "action_names": np.array(trace.action_names, dtype=str),
+    }
+    if trace.states is not None:
+        arrays["states"] = np.asarray(trace.states, dtype=str)
+    if trace.meta:
+        arrays["meta"] = np.array(json.dumps(trace.meta, sort_keys=True))
+    buf = io.BytesIO()
+    # zip entries carry a timestamp; write through ZipFile with a fixed date for same bytes
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key, arr in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            member = io.BytesIO()
+            np.lib.format.write_array(member, arr, allow_pickle=False)
+            zf.writestr(info, member.getvalue())
+    return buf.getvalue()
+
+
+def save_trace(trace: Trace, path: str | Path) -> None:
+    """Validate, then atomically write ``trace`` to ``path`` (same trace, same bytes)."""
+    validate(trace, str(path))
+    write_bytes(path, trace_to_bytes(trace))
+
+
+def summarize(trace: Trace) -> dict:
+    """Facts ``vggc-cp inspect`` prints: sizes, actions, counts per role, states if present."""
+    roles = trace.roles()
+    _, act, _ = trace.transitions()
+    counts = np.bincount(act, minlength=trace.n_actions)
+    out = {
+        "observations": trace.n_obs,
+        "transitions": trace.n_transitions,
+        "episodes": len(trace.episodes()),
+        "actions": trace.n_actions,
+        "action_names": list(trace.action_names),
+        "action_counts": {n: int(c) for n, c in zip(trace.action_names, counts)},
+        "pick_observations": int(np.count_nonzero(roles == PICK)),
+        "place_observations": int(np.count_nonzero(roles == PLACE)),
+        "image_size": list(trace.image_shape),
+    }
+    if trace.states is not None:
+        out["distinct_states"] = int(len(np.unique(trace.states)))
+    if trace.meta:
+        out["meta"] = trace.meta
+    return out
