@@ -8,8 +8,8 @@ from vggc_cp.solvers.base import (
     STATUSES,
     UNKNOWN,
     Problem,
-    SolveResult,
     Solver,
+    SolveResult,
     get_solver,
     register_solver,
 )
