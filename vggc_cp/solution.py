@@ -155,3 +155,18 @@ def verify_solution(solution: Solution, trace: Trace, source: str = "<solution>"
         first = next(v for v in report.violations if v.kind != "determinism")
         raise SolutionError(f"{source}: violates {first.kind}: {first.detail}")
     return graph
+
+
+def labels_solution(trace: Trace, labels, *, solver: str = "manual", status: str = "feasible",
+                    J: float | None = None, **extra) -> dict:
+    """A solution JSON object for any labelling of ``trace`` (hand-made, baseline, ground truth).
+
+    ``k_pick``/``k_place`` are the numbers of pick and place nodes the labels use.
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    roles = trace.roles()
+    src, act, dst = trace.transitions()
+    graph = TaskGraph.from_labels(labels, roles, src, act, dst, trace.action_names)
+    by_role = graph.count_by_role()
+    return solution_dict(labels, roles, graph, k_pick=by_role["pick"], k_place=by_role["place"],
+                         J=float("nan") if J is None else J, solver=solver, status=status, **extra)

@@ -1,0 +1,64 @@
+"""Evaluation against ground truth (the only package that reads a trace's ``states``)."""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+
+from vggc_cp.errors import VggcError
+from vggc_cp.evaluate.groundtruth import GroundTruth, StepFn
+from vggc_cp.evaluate.metrics import (
+    Metrics,
+    evaluate_labels,
+    execution_probability,
+    sample_queries,
+    transition_precision_coverage,
+    validate_dag,
+)
+from vggc_cp.graph import TaskGraph
+from vggc_cp.trace import Trace
+
+DYNAMICS = ("auto", "trace", "sim")
+
+__all__ = ["DYNAMICS", "GroundTruth", "Metrics", "evaluate_labels", "evaluate_trace",
+           "execution_probability", "sample_queries", "simulator_step",
+           "transition_precision_coverage", "validate_dag"]
+
+
+def simulator_step(trace: Trace, gt: GroundTruth) -> StepFn | None:
+    """The benchmark simulator's true dynamics for ``trace`` (from ``meta['benchmark']``),
+    or None when the trace names no known benchmark."""
+    name = trace.meta.get("benchmark") if trace.meta else None
+    if not name:
+        return None
+    try:
+        sim = importlib.import_module("vggc_cp.sim")
+        bench = sim.get_benchmark(name)
+    except (ImportError, AttributeError, VggcError):
+        return None
+    return gt.step_from_names(bench.step, trace.action_names)
+
+
+def evaluate_trace(trace: Trace, graph: TaskGraph, labels: np.ndarray, *, n_queries: int = 1500,
+                   seed: int = 0, dynamics: str = "auto", localize=None) -> tuple[Metrics, str]:
+    """Evaluate a labelling of ``trace``; returns the metrics and the dynamics used for Exec.
+
+    ``dynamics``: ``trace`` executes plans on the transitions observed in the trace, ``sim``
+    on the benchmark simulator's dynamics (``meta['benchmark']``), ``auto`` the simulator
+    when the trace names a known benchmark, else the trace.
+    """
+    if dynamics not in DYNAMICS:
+        raise VggcError(f"unknown dynamics {dynamics!r}; known: {', '.join(DYNAMICS)}")
+    gt = GroundTruth.from_trace(trace)
+    step = None
+    used = "trace"
+    if dynamics in ("auto", "sim"):
+        step = simulator_step(trace, gt)
+        if step is not None:
+            used = "sim"
+        elif dynamics == "sim":
+            raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    metrics = evaluate_labels(graph, labels, gt, n_queries=n_queries, seed=seed,
+                              localize=localize, step=step)
+    return metrics, used
