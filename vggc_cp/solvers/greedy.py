@@ -1,0 +1,498 @@
+"""The paper's solver: three-stage vision-guided DSATUR for one ``(k_pick, k_place)`` cell.
+
+Colour the pick observations with at most ``k_pick`` colours and the place observations with
+at most ``k_place`` so that the induced task graph is bipartite (by construction: colours never
+cross roles) and satisfies **Exactly-One** in both directions — pick edges (pick node -> place
+node, labelled by pick actions) and place edges (place node -> pick node, labelled by place
+actions) — while keeping visually similar observations together.
+
+Visual affinity (paper, Eq. K_vis) on the within-role distances ``d``:
+
+.. math::  K_{vis}(o_i, o_j) = \\exp(-d(o_i, o_j) / \\tau)
+
+``tau`` defaults, per role, to the median off-diagonal within-role distance, so an affinity of
+``exp(-1)`` means "as far apart as a typical pair of this role".
+
+Stages
+------
+1. **Pick seeding, vision only.** Among the uncoloured pick observations the one with the
+   highest mean affinity to the others seeds a colour; the cluster grows by the observation of
+   highest mean affinity to its members while that mean stays above ``affinity_threshold``
+   (the cluster's mean distance stays low); then the next seed. Once ``k_pick`` colours are
+   open, every remaining observation joins the colour of highest mean affinity.
+2. **Place side, picks fixed.** Two place observations *conflict* when sharing a colour would
+   give one ordered pair of colours two action labels: both entered from the same pick colour by
+   different pick actions, or both leaving to the same pick colour by different place actions.
+   Feasibility is kept through the pair-action tables Lambda (for each ordered pair of colours,
+   in each direction, the one action label already fixed, with reference counts so decisions
+   can be undone). DSATUR order: the uncoloured observation with the most used colours already
+   infeasible for it (saturation), ties by conflict degree, then by visual centrality. Among the
+   feasible colours the one with highest mean K_vis to its members is tried first; a new colour
+   (while fewer than ``k_place`` are used) is tried before the existing ones whose mean affinity
+   is not above ``affinity_threshold`` (``open_when="dissimilar"``) or only after all of them
+   (``open_when="stuck"``, plain DSATUR). With no candidate left, the search backtracks
+   chronologically: the most recent decision is undone and its next candidate tried, within a
+   node limit and a time limit (reported in the statistics when hit).
+3. **Pick side, places frozen.** The seeds are discarded and the pick side is recoloured the
+   same way against the place colours. Should that search hit a limit, the stage-1 pick colours
+   (which the place colours were built to fit) are kept, so a stage-2 success is never lost.
+
+A greedy solver never proves infeasibility: without a colouring the status is ``unknown``.
+
+References
+----------
+A. Ajith, C. Chamzas. *Learning Discrete Abstractions for Visual Rearrangement Tasks Using
+Vision-Guided Graph Coloring*, arXiv:2509.14460, 2025.
+D. Brelaz. *New methods to color the vertices of a graph*, CACM 22(4), 1979 (DSATUR).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.errors import lookup
+from vggc_cp.score import affinity
+from vggc_cp.solvers.base import FEASIBLE, UNKNOWN, Problem, Solver, SolveResult, register_solver
+from vggc_cp.trace import PICK, PLACE
+
+OPEN_WHEN = ("dissimilar", "stuck")
+DEFAULT_NODE_LIMIT = 20_000
+DEFAULT_TIME_LIMIT = 10.0
+DEFAULT_AFFINITY_THRESHOLD = math.exp(-1.0)
+
+
+def default_tau(dist: np.ndarray) -> float:
+    """The data-derived temperature of K_vis for one role.
+
+    Parameters
+    ----------
+    dist : ndarray, shape (n, n)
+        Symmetric within-role distances.
+
+    Returns
+    -------
+    float
+        The median off-diagonal distance; if that is 0 (mostly identical images), the mean of the
+        positive distances; 1.0 when there is no positive distance at all.
+    """
+    n = len(dist)
+    if n < 2:
+        return 1.0
+    off = np.asarray(dist, dtype=np.float64)[np.triu_indices(n, 1)]
+    med = float(np.median(off))
+    if med > 0:
+        return med
+    pos = off[off > 0]
+    return float(pos.mean()) if pos.size else 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class SideLinks:
+    """The transitions seen from one role's observations (local indices).
+
+    Every observation of a trace has at most one incoming and one outgoing transition, both to
+    observations of the other role.
+
+    Attributes
+    ----------
+    in_obs, out_obs : ndarray of int64, shape (n_side,)
+        Local index (in the other role) of the predecessor / successor; -1 if none.
+    in_act, out_act : ndarray of int64, shape (n_side,)
+        Action of that transition; -1 if none.
+    """
+
+    in_obs: np.ndarray
+    in_act: np.ndarray
+    out_obs: np.ndarray
+    out_act: np.ndarray
+
+    @classmethod
+    def of(cls, problem: Problem, role: int) -> SideLinks:
+        """Incoming/outgoing transitions of every observation of ``role`` (PICK or PLACE)."""
+        n = problem.n_pick if role == PICK else problem.n_place
+        in_obs = np.full(n, -1, dtype=np.int64)
+        in_act = np.full(n, -1, dtype=np.int64)
+        out_obs = np.full(n, -1, dtype=np.int64)
+        out_act = np.full(n, -1, dtype=np.int64)
+        roles, local = problem.roles, problem.local
+        src, act, dst = (np.asarray(x, dtype=np.int64) for x in (problem.src, problem.act,
+                                                                 problem.dst))
+        if np.any(roles[src] == roles[dst]):
+            raise ValueError("a transition joins two observations of one role")
+        into = roles[dst] == role
+        for arr_obs, arr_act, mine, other, sel in ((in_obs, in_act, dst, src, into),
+                                                   (out_obs, out_act, src, dst, ~into)):
+            where = local[mine[sel]]
+            if len(np.unique(where)) != len(where):
+                raise ValueError("an observation has two incoming or two outgoing transitions")
+            arr_obs[where] = local[other[sel]]
+            arr_act[where] = act[sel]
+        return cls(in_obs, in_act, out_obs, out_act)
+
+    def signatures(self, other_colour: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Colour of the other-role neighbour of each incidence under ``other_colour``.
+
+        Returns
+        -------
+        in_col, out_col : ndarray of int64, shape (n_side,)
+            -1 where there is no transition.
+        """
+        oc = np.asarray(other_colour, dtype=np.int64)
+        in_col = np.where(self.in_obs >= 0, oc[np.maximum(self.in_obs, 0)], -1) if len(oc) else \
+            np.full(len(self.in_obs), -1, dtype=np.int64)
+        out_col = np.where(self.out_obs >= 0, oc[np.maximum(self.out_obs, 0)], -1) if len(oc) else \
+            np.full(len(self.out_obs), -1, dtype=np.int64)
+        return in_col, out_col
+
+
+def seed_colours(aff: np.ndarray, k: int, threshold: float) -> np.ndarray:
+    """Stage 1: vision-only clustering of one role into at most ``k`` colours.
+
+    Parameters
+    ----------
+    aff : ndarray, shape (n, n)
+        K_vis within the role.
+    k : int
+        Most colours.
+    threshold : float
+        An observation joins a growing cluster while its mean affinity to the members is
+        above this.
+
+    Returns
+    -------
+    ndarray of int64, shape (n,)
+        Colour of every observation, ``0 .. k-1``.
+    """
+    n = len(aff)
+    colour = np.full(n, -1, dtype=np.int64)
+    free = np.ones(n, dtype=bool)
+    c = 0
+    while free.any() and c < k:
+        idx = np.flatnonzero(free)
+        sub = aff[np.ix_(idx, idx)]
+        centrality = (sub.sum(axis=1) - np.diag(sub)) / max(len(idx) - 1, 1)
+        seed = int(idx[np.argmax(centrality)])
+        colour[seed] = c
+        free[seed] = False
+        total = aff[:, seed].copy()
+        size = 1
+        while free.any():
+            cand = np.flatnonzero(free)
+            mean = total[cand] / size
+            j = int(np.argmax(mean))
+            if not mean[j] > threshold:
+                break
+            o = int(cand[j])
+            colour[o] = c
+            free[o] = False
+            total += aff[:, o]
+            size += 1
+        c += 1
+    if free.any():
+        rest = np.flatnonzero(free)
+        onehot = np.zeros((n, c))
+        assigned = np.flatnonzero(~free)
+        onehot[assigned, colour[assigned]] = 1.0
+        mean = (aff[rest] @ onehot) / onehot.sum(axis=0)
+        colour[rest] = np.argmax(mean, axis=1)
+    return colour
+
+
+def conflict_clique(in_col, in_act, out_col, out_act) -> int:
+    """Size of a clique of the conflict graph, found greedily (a lower bound on colours needed).
+
+    Observations with equal signatures ``(in_col, in_act, out_col, out_act)`` never conflict
+    with each other and conflict with the same others, so the clique is searched among the
+    signature classes, greedily by class degree.
+    """
+    sig = np.stack([in_col, in_act, out_col, out_act], axis=1)
+    if len(sig) == 0:
+        return 0
+    cls = np.unique(sig, axis=0)
+    ic, ia, oc, oa = cls.T
+    adj = ((ic[:, None] == ic[None, :]) & (ic[:, None] >= 0) & (ia[:, None] != ia[None, :])) | \
+          ((oc[:, None] == oc[None, :]) & (oc[:, None] >= 0) & (oa[:, None] != oa[None, :]))
+    order = np.argsort(-adj.sum(axis=1), kind="stable")
+    clique: list[int] = []
+    for u in order:
+        if all(adj[u, v] for v in clique):
+            clique.append(int(u))
+    return len(clique)
+
+
+def conflict_degree(in_col, in_act, out_col, out_act) -> np.ndarray:
+    """Degree of every observation in the conflict graph, shape (n,), by counting signatures.
+
+    ``deg(i) = #{j : same in-colour, other in-action} + #{j : same out-colour, other
+    out-action} - #{j : both}`` (inclusion-exclusion; an absent side never conflicts).
+    """
+    def count(*cols):
+        key = np.stack(cols, axis=1)
+        _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        return cnt[inv.reshape(-1)]
+
+    n = len(in_col)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    has_in = in_col >= 0
+    has_out = out_col >= 0
+    d_in = np.where(has_in, count(in_col) - count(in_col, in_act), 0)
+    d_out = np.where(has_out, count(out_col) - count(out_col, out_act), 0)
+    both = count(in_col, out_col) - count(in_col, in_act, out_col) \
+        - count(in_col, out_col, out_act) + count(in_col, in_act, out_col, out_act)
+    d_both = np.where(has_in & has_out, both, 0)
+    return (d_in + d_out - d_both).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class SideResult:
+    """Outcome of colouring one role (stages 2 and 3)."""
+
+    colour: np.ndarray | None
+    nodes: int
+    backtracks: int
+    limit: str | None  # "nodes", "time", or None
+    exhausted: bool  # the whole search space was tried (no colouring for these fixed colours)
+    clique: int
+    seconds: float
+
+    def stats(self) -> dict:
+        return {"found": self.colour is not None, "nodes": self.nodes,
+                "backtracks": self.backtracks, "limit": self.limit, "exhausted": self.exhausted,
+                "clique": self.clique, "seconds": round(self.seconds, 6)}
+
+
+def colour_side(links: SideLinks, other_colour: np.ndarray, n_other_colours: int,
+                aff: np.ndarray, k: int, *, threshold: float, open_when: str,
+                node_limit: int, deadline: float) -> SideResult:
+    """Stages 2/3: colour one role with at most ``k`` colours, the other role frozen.
+
+    Parameters
+    ----------
+    links : SideLinks
+        Transitions of this role's observations.
+    other_colour : ndarray of int64, shape (n_other,)
+        Frozen colours of the other role.
+    n_other_colours : int
+        Upper bound on those colours (size of the Lambda tables).
+    aff : ndarray, shape (n, n)
+        K_vis within this role.
+    k : int
+        Most colours for this role.
+    threshold, open_when
+        See the module docstring.
+    node_limit : int
+        Most colour assignments (search nodes).
+    deadline : float
+        ``time.perf_counter()`` value after which the search stops.
+    """
+    t0 = time.perf_counter()
+    n = len(aff)
+    in_col, out_col = links.signatures(other_colour)
+    in_act = np.where(in_col >= 0, links.in_act, -1)
+    out_act = np.where(out_col >= 0, links.out_act, -1)
+    clique = conflict_clique(in_col, in_act, out_col, out_act)
+    if n == 0:
+        return SideResult(np.zeros(0, dtype=np.int64), 0, 0, None, False, 0, 0.0)
+    if clique > k:
+        return SideResult(None, 0, 0, None, True, clique, time.perf_counter() - t0)
+
+    deg = conflict_degree(in_col, in_act, out_col, out_act)
+    centrality = (aff.sum(axis=1) - np.diag(aff)) / max(n - 1, 1)
+    # static tie-break rank: degree first, then visual centrality, then lower index
+    order = np.lexsort((-np.arange(n), centrality, deg))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    m = max(int(n_other_colours), 1)
+    lam_in = np.full((k, m), -1, dtype=np.int64)
+    cnt_in = np.zeros((k, m), dtype=np.int64)
+    lam_out = np.full((k, m), -1, dtype=np.int64)
+    cnt_out = np.zeros((k, m), dtype=np.int64)
+    asum = np.zeros((n, k))  # sum of K_vis from each observation to each colour's members
+    size = np.zeros(k, dtype=np.int64)
+    colour = np.full(n, -1, dtype=np.int64)
+    used = 0
+    new_first = open_when == "dissimilar"
+
+    def blocked(idx: np.ndarray, used: int) -> np.ndarray:
+        """(len(idx), used) bool: colour infeasible for the observation under Lambda."""
+        out = np.zeros((len(idx), used), dtype=bool)
+        if used == 0:
+            return out
+        for col, act, lam in ((in_col, in_act, lam_in), (out_col, out_act, lam_out)):
+            c = col[idx]
+            has = c >= 0
+            if has.any():
+                lab = lam[:used, c[has]].T  # (h, used)
+                out[has] |= (lab >= 0) & (lab != act[idx][has][:, None])
+        return out
+
+    def assign(i: int, c: int) -> None:
+        nonlocal used
+        if in_col[i] >= 0:
+            cnt_in[c, in_col[i]] += 1
+            lam_in[c, in_col[i]] = in_act[i]
+        if out_col[i] >= 0:
+            cnt_out[c, out_col[i]] += 1
+            lam_out[c, out_col[i]] = out_act[i]
+        asum[:, c] += aff[:, i]
+        size[c] += 1
+        colour[i] = c
+        if c == used:
+            used += 1
+
+    def unassign(i: int, c: int) -> None:
+        nonlocal used
+        if in_col[i] >= 0:
+            cnt_in[c, in_col[i]] -= 1
+            if cnt_in[c, in_col[i]] == 0:
+                lam_in[c, in_col[i]] = -1
+        if out_col[i] >= 0:
+            cnt_out[c, out_col[i]] -= 1
+            if cnt_out[c, out_col[i]] == 0:
+                lam_out[c, out_col[i]] = -1
+        asum[:, c] -= aff[:, i]
+        size[c] -= 1
+        colour[i] = -1
+        while used > 0 and size[used - 1] == 0:
+            used -= 1
+
+    def candidates(i: int) -> list[int]:
+        feas = np.flatnonzero(~blocked(np.array([i]), used)[0])
+        mean = asum[i, feas] / size[feas]
+        srt = np.argsort(-mean, kind="stable")
+        feas, mean = feas[srt], mean[srt]
+        if used >= k:
+            return [int(c) for c in feas]
+        if new_first:
+            close = mean > threshold
+            return [int(c) for c in feas[close]] + [used] + [int(c) for c in feas[~close]]
+        return [int(c) for c in feas] + [used]
+
+    stack: list[tuple[int, list[int], int]] = []
+    nodes = backtracks = 0
+    limit: str | None = None
+    exhausted = False
+    remaining = n
+    while remaining:
+        if nodes >= node_limit:
+            limit = "nodes"
+            break
+        if (nodes & 63) == 0 and time.perf_counter() > deadline:
+            limit = "time"
+            break
+        idx = np.flatnonzero(colour < 0)
+        sat = blocked(idx, used).sum(axis=1)
+        i = int(idx[np.argmax(sat * n + rank[idx])])
+        cands = candidates(i)
+        if cands:
+            stack.append((i, cands, 0))
+            assign(i, cands[0])
+            nodes += 1
+            remaining -= 1
+            continue
+        # no colour fits: undo the most recent decision that has another candidate
+        backtracks += 1
+        while stack:
+            j, cj, pos = stack.pop()
+            unassign(j, cj[pos])
+            remaining += 1
+            if pos + 1 < len(cj):
+                stack.append((j, cj, pos + 1))
+                assign(j, cj[pos + 1])
+                nodes += 1
+                remaining -= 1
+                break
+        else:
+            exhausted = True
+            break
+    found = remaining == 0 and limit is None and not exhausted
+    return SideResult(colour.copy() if found else None, nodes, backtracks, limit, exhausted,
+                      clique, time.perf_counter() - t0)
+
+
+@register_solver
+class GreedySolver(Solver):
+    """The paper's three-stage vision-guided DSATUR (registered as ``"greedy"``).
+
+    Parameters
+    ----------
+    tau : float or None
+        K_vis temperature for both roles; None: per role, :func:`default_tau`.
+    affinity_threshold : float
+        Mean K_vis above which an observation counts as visually close to a cluster
+        (stage-1 growth; preferring an existing colour over a new one). Default ``exp(-1)``.
+    open_when : {"dissimilar", "stuck"}
+        When stages 2-3 open a new colour (while fewer than k are used): ``"dissimilar"`` tries
+        it before the existing colours whose mean affinity is not above the threshold; ``"stuck"``
+        only after every feasible existing colour (plain DSATUR).
+    node_limit : int
+        Most search nodes (colour assignments) per stage.
+    time_limit : float
+        Seconds per cell (stages 2 and 3 together).
+    """
+
+    name = "greedy"
+
+    def __init__(self, tau: float | None = None,
+                 affinity_threshold: float = DEFAULT_AFFINITY_THRESHOLD,
+                 open_when: str = "dissimilar", node_limit: int = DEFAULT_NODE_LIMIT,
+                 time_limit: float = DEFAULT_TIME_LIMIT):
+        if tau is not None and not tau > 0:
+            raise ValueError("tau must be positive")
+        lookup({w: w for w in OPEN_WHEN}, open_when, "open_when policy")
+        self.tau = tau
+        self.affinity_threshold = float(affinity_threshold)
+        self.open_when = open_when
+        self.node_limit = int(node_limit)
+        self.time_limit = float(time_limit)
+
+    def options(self) -> dict:
+        """The constructor arguments (so a sweep can rebuild the solver in a worker)."""
+        return {"tau": self.tau, "affinity_threshold": self.affinity_threshold,
+                "open_when": self.open_when, "node_limit": self.node_limit,
+                "time_limit": self.time_limit}
+
+    def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
+        if k_pick < 1 or k_place < 1:
+            raise ValueError("k_pick and k_place must be at least 1")
+        t_start = time.perf_counter()
+        deadline = t_start + self.time_limit
+        tau_pick = self.tau or default_tau(problem.dist_pick)
+        tau_place = self.tau or default_tau(problem.dist_place)
+        aff_pick = affinity(problem.dist_pick, tau_pick)
+        aff_place = affinity(problem.dist_place, tau_place)
+        pick_links = SideLinks.of(problem, PICK)
+        place_links = SideLinks.of(problem, PLACE)
+        opts = dict(threshold=self.affinity_threshold, open_when=self.open_when,
+                    node_limit=self.node_limit, deadline=deadline)
+
+        t0 = time.perf_counter()
+        seeds = seed_colours(aff_pick, k_pick, self.affinity_threshold)
+        t1 = time.perf_counter()
+        place = colour_side(place_links, seeds, k_pick, aff_place, k_place, **opts)
+        stats = {"tau_pick": tau_pick, "tau_place": tau_place,
+                 "stage1_seconds": round(t1 - t0, 6),
+                 "stage1_colours": int(len(np.unique(seeds))), "stage2": place.stats()}
+        picks = None
+        if place.colour is not None:
+            pick = colour_side(pick_links, place.colour, k_place, aff_pick, k_pick, **opts)
+            stats["stage3"] = pick.stats()
+            picks = pick.colour if pick.colour is not None else seeds
+            stats["stage3_fallback"] = pick.colour is None
+        stages = [stats["stage2"]] + ([stats["stage3"]] if "stage3" in stats else [])
+        stats["nodes"] = sum(s["nodes"] for s in stages)
+        stats["backtracks"] = sum(s["backtracks"] for s in stages)
+        stats["limit_hit"] = next((s["limit"] for s in stages if s["limit"]), None)
+        if picks is None:
+            return SolveResult(None, k_pick, k_place, float("nan"), UNKNOWN, self.name,
+                               stats=stats)
+        labels = problem.labels_from_colours(picks, place.colour)
+        stats["colours_pick"] = int(len(np.unique(picks)))
+        stats["colours_place"] = int(len(np.unique(place.colour)))
+        return SolveResult(labels, k_pick, k_place, problem.visual_score(labels), FEASIBLE,
+                           self.name, stats=stats)
