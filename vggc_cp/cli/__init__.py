@@ -15,6 +15,7 @@ from vggc_cp.errors import VggcError
 
 COMMAND_MODULES = [
     "vggc_cp.cli.trace_cmds",
+    "vggc_cp.cli.sim_cmds",
 ]
 
 

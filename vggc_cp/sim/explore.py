@@ -1,0 +1,200 @@
+"""Exploration: random valid pick/place episodes from random valid starts, rendered to a trace.
+
+One seed drives everything through :class:`numpy.random.SeedSequence` children: the
+discrete walk, the continuous placement noise of the trace, and that of the novel renders.
+The same seed gives the same bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp import __version__
+from vggc_cp.errors import VggcError
+from vggc_cp.sim.arrange import arrangement_after, fresh_arrangement
+from vggc_cp.sim.dynamics import Benchmark, get_benchmark
+from vggc_cp.trace import Trace
+
+#: Smallest and largest image side accepted by :func:`generate` (pixels).
+MIN_SIZE = 16
+MAX_SIZE = 1024
+
+#: How to read a state key, stored in a trace's ``meta``.
+STATE_KEY_DOC = {
+    "fruit": "per region the class letter on it or '-', then '|' and the held class or '-'",
+    "blocks": "per base region its stack height, then '|' and 'b' if a block is held or '-'",
+}
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A discrete exploration: ground-truth states and action indices, no images.
+
+    Attributes
+    ----------
+    states : tuple of str, length N
+        State key of every observation.
+    actions : ndarray, int64, shape (N-1,)
+        Index into the benchmark's ``action_names``; -1 where a new episode starts.
+    """
+
+    states: tuple[str, ...]
+    actions: np.ndarray
+
+    @property
+    def n_transitions(self) -> int:
+        return int(np.count_nonzero(self.actions >= 0))
+
+    def distinct_states(self) -> int:
+        """``|V*|``: the number of distinct states visited."""
+        return len(set(self.states))
+
+
+def seed_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator,
+                                     np.random.Generator]:
+    """Three independent generators from one seed: ``(walk, trace noise, novel noise)``."""
+    children = np.random.SeedSequence(int(seed)).spawn(3)
+    return tuple(np.random.default_rng(c) for c in children)  # type: ignore[return-value]
+
+
+def random_walk(bench: Benchmark, n_transitions: int, rng: np.random.Generator) -> Walk:
+    """Random valid pick/place episodes with exactly ``n_transitions`` transitions.
+
+    Each episode starts from a state drawn uniformly from :meth:`Benchmark.all_states`
+    (pick or place state), has a length drawn uniformly from ``spec.episode_length``
+    (the last one is cut to fit), and takes a uniformly random valid action at every step;
+    picks and places alternate by construction.
+    """
+    if n_transitions < 1:
+        raise ValueError("n_transitions must be >= 1")
+    starts = bench.all_states()
+    index = {name: i for i, name in enumerate(bench.action_names)}
+    lo, hi = bench.spec.episode_length
+    states: list[str] = []
+    actions: list[int] = []
+    remaining = n_transitions
+    while remaining > 0:
+        length = min(int(rng.integers(lo, hi + 1)), remaining)
+        if states:
+            actions.append(-1)
+        cur = starts[int(rng.integers(len(starts)))]
+        states.append(cur)
+        for _ in range(length):
+            valid = bench.valid_actions(cur)
+            name = valid[int(rng.integers(len(valid)))]
+            cur = bench.step(cur, name)
+            actions.append(index[name])
+            states.append(cur)
+        remaining -= length
+    return Walk(tuple(states), np.array(actions, dtype=np.int64))
+
+
+@dataclass(frozen=True, eq=False)
+class Generated:
+    """What :func:`generate` returns.
+
+    Attributes
+    ----------
+    trace : Trace
+        Observations, actions, action names, ground-truth ``states`` and ``meta``.
+    novel_observations : ndarray, uint8, shape (K, H, W, 3)
+        Fresh renders of visited states (K may be 0).
+    novel_states : ndarray of str, shape (K,)
+    """
+
+    trace: Trace
+    novel_observations: np.ndarray
+    novel_states: np.ndarray
+
+
+def novel_order(states: tuple[str, ...], k: int, rng: np.random.Generator) -> list[str]:
+    """``k`` states to render afresh: the distinct visited states in random order, again and
+    again, so that every visited state appears before any appears twice."""
+    distinct = sorted(set(states))
+    out: list[str] = []
+    while len(out) < k:
+        out += [distinct[i] for i in rng.permutation(len(distinct))]
+    return out[:k]
+
+
+def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: int = 64,
+             novel: int = 0, on_frame: Callable[[], None] | None = None) -> Generated:
+    """Explore benchmark ``name`` and render the trace (and ``novel`` fresh renders).
+
+    Parameters
+    ----------
+    name : str
+        A benchmark name (:func:`vggc_cp.sim.benchmark_names`).
+    n_transitions : int, optional
+        ``|D|``; the paper's value when None.
+    seed : int
+        Drives the walk and all noise (same seed, same observations).
+    size : int
+        Image side in pixels.
+    novel : int
+        Number of novel renders ``K``.
+    on_frame : callable, optional
+        Called once after every rendered frame (progress bars).
+
+    Raises
+    ------
+    VggcError
+        Unknown benchmark, a size outside ``[MIN_SIZE, MAX_SIZE]``, ``n_transitions < 1``
+        or ``novel < 0``.
+    """
+    bench = get_benchmark(name)
+    spec = bench.spec
+    d = spec.default_transitions if n_transitions is None else int(n_transitions)
+    if d < 1:
+        raise VggcError(f"--transitions must be at least 1, got {d}")
+    if not MIN_SIZE <= int(size) <= MAX_SIZE:
+        raise VggcError(f"--size must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {size}")
+    if novel < 0:
+        raise VggcError(f"--novel must be at least 0, got {novel}")
+    walk_rng, noise_rng, novel_rng = seed_streams(seed)
+    walk = random_walk(bench, d, walk_rng)
+    tick = on_frame or (lambda: None)
+    from vggc_cp.sim.render import Scene
+
+    frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)
+    with Scene(bench, size) as scene:
+        arr = None
+        for t, state in enumerate(walk.states):
+            if t == 0 or walk.actions[t - 1] < 0:
+                arr = fresh_arrangement(bench, state, noise_rng)
+            else:
+                arr = arrangement_after(bench, arr, bench.action_names[walk.actions[t - 1]],
+                                        noise_rng)
+            frames[t] = scene.render(arr)
+            tick()
+        novel_states = novel_order(walk.states, novel, novel_rng)
+        novel_frames = np.empty((novel, size, size, 3), dtype=np.uint8)
+        for k, state in enumerate(novel_states):
+            novel_frames[k] = scene.render(fresh_arrangement(bench, state, novel_rng))
+            tick()
+        camera = scene.layout.camera.as_dict()
+    meta = {
+        "benchmark": spec.name,
+        "family": spec.family,
+        "m": spec.m,
+        "n": spec.n,
+        "R": spec.R,
+        "n_actions": spec.n_actions,
+        "classes": list(spec.classes),
+        "objects": list(spec.objects),
+        "max_height": spec.max_height,
+        "transitions": d,
+        "episode_length": list(spec.episode_length),
+        "seed": int(seed),
+        "image_size": [int(size), int(size)],
+        "renderer": "pybullet ER_TINY_RENDERER (DIRECT)",
+        "camera": camera,
+        "state_key": STATE_KEY_DOC[spec.family],
+        "generator": f"vggc-cp {__version__}",
+    }
+    trace = Trace(frames, walk.actions.copy(), bench.action_names,
+                  np.array(walk.states, dtype=str), meta)
+    return Generated(trace, novel_frames, np.array(novel_states, dtype=str).reshape(-1))

@@ -1,0 +1,65 @@
+"""Novel images for localization (``FORMATS.md``, "Novel images"): fresh renders of states a
+trace visited, written beside the trace as ``<trace stem>.novel.npz``.
+
+Keys: ``observations`` uint8 ``[M, H, W, 3]`` and ``states`` unicode ``[M]``. The file is
+written with fixed zip timestamps, so the same arrays give the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.atomic import write_bytes
+from vggc_cp.errors import VggcError
+
+
+def novel_path(trace_path: str | Path) -> Path:
+    """``dir/name.npz`` -> ``dir/name.novel.npz`` (the suffix ``.npz`` is dropped if present)."""
+    p = Path(trace_path)
+    stem = p.name[:-4] if p.name.endswith(".npz") else p.name
+    return p.with_name(f"{stem}.novel.npz")
+
+
+def novel_bytes(observations: np.ndarray, states: np.ndarray) -> bytes:
+    """Serialize novel images to npz bytes (deterministic)."""
+    arrays = {"observations": np.ascontiguousarray(observations, dtype=np.uint8),
+              "states": np.asarray(states, dtype=str).reshape(-1)}
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key, arr in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            member = io.BytesIO()
+            np.lib.format.write_array(member, arr, allow_pickle=False)
+            zf.writestr(info, member.getvalue())
+    return buf.getvalue()
+
+
+def save_novel(path: str | Path, observations: np.ndarray, states: np.ndarray) -> None:
+    """Atomically write a novel-images file."""
+    if observations.ndim != 4 or observations.shape[3] != 3 or observations.dtype != np.uint8:
+        raise VggcError(f"{path}: novel observations must be uint8 [M, H, W, 3]")
+    if len(states) != observations.shape[0]:
+        raise VggcError(f"{path}: {len(states)} states for {observations.shape[0]} images")
+    write_bytes(path, novel_bytes(observations, states))
+
+
+def load_novel(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a novel-images file: ``(observations [M, H, W, 3] uint8, states [M] str)``."""
+    p = Path(path)
+    if not p.is_file():
+        raise VggcError(f"{p}: no such file")
+    try:
+        with np.load(p, allow_pickle=False) as data:
+            obs, states = data["observations"], data["states"]
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile) as exc:
+        raise VggcError(f"{p}: not a novel-images file ({type(exc).__name__}: {exc})") from None
+    if obs.dtype != np.uint8 or obs.ndim != 4 or obs.shape[3] != 3:
+        raise VggcError(f"{p}: field 'observations' must be uint8 [M, H, W, 3]")
+    if states.dtype.kind != "U" or states.shape != (obs.shape[0],):
+        raise VggcError(f"{p}: field 'states' must be unicode [M]")
+    return obs, states

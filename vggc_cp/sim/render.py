@@ -1,0 +1,387 @@
+"""PyBullet scenes: a table with marked regions, fruit or cubes, a gripper, one fixed camera.
+
+A :class:`Scene` owns one PyBullet connection in DIRECT mode (no window) and renders with the
+CPU tiny renderer, so it runs headless and gives the same pixels on every machine. Bodies are
+built once and moved with ``resetBasePositionAndOrientation`` for every frame; cubes are
+settled with a few physics steps so that stacks rest on each other.
+
+Objects (primitive shapes, coloured): apple a red sphere with a stem, strawberry a red
+cone-like mesh with a green cap, lemon a yellow ellipsoid, banana a yellow capsule; blocks
+are blue cubes. The held object hangs between the two fingers of a gripper behind the table.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from vggc_cp.errors import VggcError
+from vggc_cp.sim.arrange import Arrangement
+from vggc_cp.sim.dynamics import Benchmark
+
+#: Centre-to-centre distance of neighbouring regions (m).
+PITCH = 0.16
+#: Side of a region's square marker (m).
+REGION_SIDE = 0.13
+#: Cube side (m).
+CUBE = 0.05
+#: Physics steps (at 240 Hz) that settle the cubes of a frame.
+SETTLE_STEPS = 24
+#: Margin of the table around the regions (m).
+MARGIN = 0.05
+#: Height of the held object's centre above the table (m).
+HELD_Z = 0.14
+#: Distance of the gripper behind the table's back edge (m).
+GRIPPER_BACK = -0.01
+
+TABLE_RGBA = (0.62, 0.47, 0.32, 1.0)
+REGION_RGBA = (0.22, 0.23, 0.26, 1.0)
+BORDER_RGBA = (0.92, 0.92, 0.88, 1.0)
+GRIPPER_RGBA = (0.55, 0.57, 0.62, 1.0)
+CUBE_RGBA = (0.15, 0.45, 0.95, 1.0)
+
+# (colour, rest height of the centre above the table)
+_RED = (0.86, 0.08, 0.08, 1.0)
+_YELLOW = (0.97, 0.85, 0.12, 1.0)
+_GREEN = (0.15, 0.6, 0.15, 1.0)
+_BROWN = (0.4, 0.25, 0.1, 1.0)
+
+
+def import_pybullet():
+    """Import PyBullet without its build-time banner on stderr.
+
+    Raises
+    ------
+    VggcError
+        When PyBullet is not installed.
+    """
+    if "pybullet" in sys.modules:
+        return sys.modules["pybullet"]
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 2)
+        os.close(devnull)
+        import pybullet
+    except ImportError as exc:
+        raise VggcError(f"rendering needs PyBullet (pip install pybullet): {exc}") from None
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return pybullet
+
+
+@dataclass(frozen=True)
+class Camera:
+    """The fixed camera of a benchmark (PyBullet conventions; metres and degrees)."""
+
+    eye: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float]
+    fov: float
+    near: float
+    far: float
+    light_direction: tuple[float, float, float]
+
+    def as_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Geometry of a benchmark's scene.
+
+    Attributes
+    ----------
+    centres : ndarray, float, shape (R, 2)
+        Region centres (x to the right, y away from the camera), table top at z = 0.
+    half_extent : tuple of float
+        Half size of the table top (x, y).
+    gripper : tuple of float
+        Centre of the held object (x, y, z).
+    camera : Camera
+    """
+
+    centres: np.ndarray
+    half_extent: tuple[float, float]
+    gripper: tuple[float, float, float]
+    camera: Camera
+
+
+def scene_layout(bench: Benchmark) -> Layout:
+    """Region centres, table, gripper and camera of ``bench`` (row 0 is the back row)."""
+    rows, cols = bench.spec.grid
+    r = np.arange(bench.spec.R)
+    cx = (r % cols - (cols - 1) / 2) * PITCH
+    cy = ((rows - 1) / 2 - r // cols) * PITCH
+    centres = np.stack([cx, cy], axis=1)
+    hx = cols * PITCH / 2 + MARGIN
+    hy = rows * PITCH / 2 + MARGIN
+    gripper = (0.0, hy + GRIPPER_BACK, HELD_Z)
+    # camera in front of and above the table, looking at its centre
+    span = max(2 * hx, 2 * hy + 0.2)
+    fov = 45.0
+    dist = 0.5 * span / math.tan(math.radians(fov / 2)) + 0.04
+    pitch = math.radians(58.0)
+    target = (0.0, 0.03, 0.07)
+    eye = (0.0, target[1] - dist * math.cos(pitch), target[2] + dist * math.sin(pitch))
+    cam = Camera(tuple(round(v, 6) for v in eye), target, (0.0, 0.0, 1.0), fov, 0.05, 5.0,
+                 (0.4, -0.6, 1.0))
+    return Layout(centres, (hx, hy), gripper, cam)
+
+
+def _ellipsoid(a: float, b: float, c: float, nu: int = 14, nv: int = 9):
+    verts, idx = [], []
+    for i in range(nv + 1):
+        th = math.pi * i / nv
+        for j in range(nu):
+            ph = 2 * math.pi * j / nu
+            verts.append([a * math.sin(th) * math.cos(ph), b * math.sin(th) * math.sin(ph),
+                          c * math.cos(th)])
+    for i in range(nv):
+        for j in range(nu):
+            a0, a1 = i * nu + j, i * nu + (j + 1) % nu
+            idx += [a0, a0 + nu, a1, a1, a0 + nu, a1 + nu]
+    return verts, idx
+
+
+def _strawberry(radius: float, top: float, bottom: float, nu: int = 14, nv: int = 8):
+    """A cone-like body: a rounded shoulder at ``top`` tapering to a blunt tip at ``bottom``."""
+    verts, idx = [[0.0, 0.0, top + 0.2 * radius]], []
+    rings = []
+    for i in range(1, nv + 1):
+        t = i / nv  # 0 at the top, 1 at the tip
+        z = top - (top - bottom) * t
+        rad = radius * (math.sin(math.pi / 2 * min(1.0, 3 * t)) * (1 - 0.85 * t ** 1.3))
+        ring = []
+        for j in range(nu):
+            ph = 2 * math.pi * j / nu
+            ring.append(len(verts))
+            verts.append([rad * math.cos(ph), rad * math.sin(ph), z])
+        rings.append(ring)
+    for j in range(nu):
+        idx += [0, rings[0][j], rings[0][(j + 1) % nu]]
+    for r0, r1 in zip(rings[:-1], rings[1:]):
+        for j in range(nu):
+            k = (j + 1) % nu
+            idx += [r0[j], r1[j], r0[k], r0[k], r1[j], r1[k]]
+    tip = len(verts)
+    verts.append([0.0, 0.0, bottom - 0.004])
+    for j in range(nu):
+        idx += [rings[-1][j], tip, rings[-1][(j + 1) % nu]]
+    return verts, idx
+
+
+class Scene:
+    """One benchmark's PyBullet scene; renders :class:`Arrangement` values to RGB arrays.
+
+    Parameters
+    ----------
+    bench : Benchmark
+    size : int
+        Image side in pixels (square images).
+
+    Use as a context manager, or call :meth:`close`, to release the connection.
+    """
+
+    def __init__(self, bench: Benchmark, size: int = 64) -> None:
+        p = import_pybullet()
+        self._p = p
+        self.bench = bench
+        self.size = int(size)
+        self.layout = scene_layout(bench)
+        self._cid = p.connect(p.DIRECT)
+        try:
+            self._build()
+        except Exception:
+            p.disconnect(self._cid)
+            raise
+        cam = self.layout.camera
+        self._view = p.computeViewMatrix(cam.eye, cam.target, cam.up)
+        self._proj = p.computeProjectionMatrixFOV(cam.fov, 1.0, cam.near, cam.far)
+
+    # --------------------------------------------------------------- building
+    def _visual(self, shape, rgba, **kw) -> int:
+        return self._p.createVisualShape(shape, rgbaColor=list(rgba), physicsClientId=self._cid,
+                                         **kw)
+
+    def _multibody(self, parts, mass: float = 0.0, collision: int = -1,
+                   position=(0.0, 0.0, -10.0)) -> int:
+        """A body from visual parts ``[(visual id, local position), ...]``; the first is the base."""
+        p = self._p
+        base, rest = parts[0], parts[1:]
+        n = len(rest)
+        return p.createMultiBody(
+            baseMass=mass, baseCollisionShapeIndex=collision, baseVisualShapeIndex=base[0],
+            basePosition=list(position),
+            linkMasses=[0.0] * n, linkCollisionShapeIndices=[-1] * n,
+            linkVisualShapeIndices=[v for v, _ in rest],
+            linkPositions=[list(pos) for _, pos in rest],
+            linkOrientations=[[0, 0, 0, 1]] * n, linkInertialFramePositions=[[0, 0, 0]] * n,
+            linkInertialFrameOrientations=[[0, 0, 0, 1]] * n, linkParentIndices=[0] * n,
+            linkJointTypes=[p.JOINT_FIXED] * n, linkJointAxis=[[0, 0, 1]] * n,
+            physicsClientId=self._cid)
+
+    def _fruit(self, kind: str) -> tuple[int, float]:
+        p = self._p
+        if kind == "apple":
+            r = 0.032
+            parts = [(self._visual(p.GEOM_SPHERE, _RED, radius=r), None),
+                     (self._visual(p.GEOM_CYLINDER, _BROWN, radius=0.004, length=0.018),
+                      (0, 0, r + 0.006)),
+                     (self._visual(p.GEOM_BOX, _GREEN, halfExtents=[0.012, 0.005, 0.002]),
+                      (0.01, 0, r + 0.008))]
+            return self._multibody(parts), r
+        if kind == "strawberry":
+            verts, idx = _strawberry(0.033, 0.012, -0.036)
+            parts = [(self._visual(p.GEOM_MESH, _RED, vertices=verts, indices=idx), None),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.026, length=0.006),
+                      (0, 0, 0.02))]
+            return self._multibody(parts), 0.04
+        if kind == "lemon":
+            verts, idx = _ellipsoid(0.045, 0.03, 0.03)
+            parts = [(self._visual(p.GEOM_MESH, _YELLOW, vertices=verts, indices=idx), None),
+                     (self._visual(p.GEOM_SPHERE, (0.7, 0.75, 0.1, 1.0), radius=0.008),
+                      (0.043, 0, 0))]
+            return self._multibody(parts), 0.03
+        if kind == "banana":
+            r, length = 0.017, 0.075
+            lying = p.getQuaternionFromEuler([0, math.pi / 2, 0])
+            parts = [(self._visual(p.GEOM_CAPSULE, _YELLOW, radius=r, length=length,
+                                   visualFrameOrientation=lying), None),
+                     (self._visual(p.GEOM_SPHERE, _BROWN, radius=0.007),
+                      (length / 2 + r - 0.003, 0, 0.003))]
+            return self._multibody(parts), r
+        raise ValueError(f"unknown fruit kind {kind!r}")
+
+    def _build(self) -> None:
+        p, cid, lay = self._p, self._cid, self.layout
+        p.setGravity(0, 0, -9.81, physicsClientId=cid)
+        hx, hy = lay.half_extent
+        thick = 0.02
+        table_col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, thick],
+                                           physicsClientId=cid)
+        table_vis = self._visual(p.GEOM_BOX, TABLE_RGBA, halfExtents=[hx, hy, thick])
+        p.createMultiBody(0, table_col, table_vis, [0, 0, -thick], physicsClientId=cid)
+        half = REGION_SIDE / 2
+        border = self._visual(p.GEOM_BOX, BORDER_RGBA, halfExtents=[half + 0.006,
+                                                                   half + 0.006, 0.0005])
+        inner = self._visual(p.GEOM_BOX, REGION_RGBA, halfExtents=[half, half, 0.0005])
+        for cx, cy in lay.centres:
+            p.createMultiBody(0, -1, border, [cx, cy, 0.0003], physicsClientId=cid)
+            p.createMultiBody(0, -1, inner, [cx, cy, 0.0008], physicsClientId=cid)
+        # gripper: a wrist, a palm and two fingers around the held object's centre
+        gx, gy, gz = lay.gripper
+        wrist = self._visual(p.GEOM_CYLINDER, GRIPPER_RGBA, radius=0.012, length=0.12)
+        palm = self._visual(p.GEOM_BOX, GRIPPER_RGBA, halfExtents=[0.066, 0.014, 0.01])
+        finger = self._visual(p.GEOM_BOX, GRIPPER_RGBA, halfExtents=[0.006, 0.012, 0.04])
+        self._gripper = self._multibody(
+            [(palm, None), (wrist, (0, 0, 0.07)), (finger, (-0.06, 0, -0.035)),
+             (finger, (0.06, 0, -0.035))], position=(gx, gy, gz + 0.06))
+        self._bodies: list[int] = []
+        self._rest: list[float] = []
+        if self.bench.blocks:
+            h = CUBE / 2
+            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[h, h, h], physicsClientId=cid)
+            vis = self._visual(p.GEOM_BOX, CUBE_RGBA, halfExtents=[h, h, h])
+            for _ in range(self.bench.spec.m):
+                body = p.createMultiBody(0.1, col, vis, [0, 0, -10], physicsClientId=cid)
+                p.changeDynamics(body, -1, lateralFriction=0.9, physicsClientId=cid)
+                self._bodies.append(body)
+                self._rest.append(h)
+        else:
+            for kind in self.bench.spec.objects:
+                body, rest = self._fruit(kind)
+                self._bodies.append(body)
+                self._rest.append(rest)
+
+    # -------------------------------------------------------------- rendering
+    def _put(self, body: int, xyz, yaw: float) -> None:
+        p = self._p
+        q = p.getQuaternionFromEuler([0.0, 0.0, yaw])
+        p.resetBasePositionAndOrientation(body, list(xyz), q, physicsClientId=self._cid)
+        p.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=self._cid)
+
+    def pose(self, arr: Arrangement) -> None:
+        """Move the bodies to ``arr`` (and settle cubes)."""
+        lay = self.layout
+        gx, gy, gz = lay.gripper
+        for r, stack in enumerate(arr.stacks):
+            cx, cy = lay.centres[r]
+            for level, b in enumerate(stack):
+                dx, dy, yaw = arr.offsets[b]
+                z = self._rest[b] + (level * CUBE + 0.0005 * (level + 1) if self.bench.blocks
+                                     else 0.0)
+                self._put(self._bodies[b], (cx + dx, cy + dy, z), yaw)
+        if arr.held >= 0 and self.bench.blocks:
+            self._put(self._bodies[arr.held], (10.0, 10.0, 1.0), 0.0)
+        if self.bench.blocks:
+            for _ in range(SETTLE_STEPS):
+                self._p.stepSimulation(physicsClientId=self._cid)
+        jx = jy = 0.0
+        if arr.held >= 0:
+            jx, jy, jyaw = arr.offsets[arr.held]
+            self._put(self._bodies[arr.held], (gx + jx, gy + jy, gz), math.pi / 2 + jyaw)
+        self._p.resetBasePositionAndOrientation(self._gripper, [gx + jx, gy + jy, gz + 0.06],
+                                                [0, 0, 0, 1], physicsClientId=self._cid)
+
+    def snapshot(self) -> np.ndarray:
+        """Render the current scene: uint8 array of shape (size, size, 3)."""
+        p = self._p
+        _, _, rgba, _, _ = p.getCameraImage(
+            self.size, self.size, self._view, self._proj, renderer=p.ER_TINY_RENDERER,
+            flags=p.ER_NO_SEGMENTATION_MASK, shadow=1,
+            lightDirection=list(self.layout.camera.light_direction), physicsClientId=self._cid)
+        img = np.asarray(rgba, dtype=np.uint8).reshape(self.size, self.size, 4)
+        return np.ascontiguousarray(img[:, :, :3])
+
+    def render(self, arr: Arrangement) -> np.ndarray:
+        """Pose the bodies as ``arr`` and render: uint8 array of shape (size, size, 3)."""
+        self.pose(arr)
+        return self.snapshot()
+
+    def frame_seconds(self, frames: int) -> float:
+        """Seconds per :meth:`snapshot` of the current pose, over ``frames`` renders (a
+        baseline: the bare render cost of this scene)."""
+        import time
+
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            self.snapshot()
+        return (time.perf_counter() - t0) / frames
+
+    def close(self) -> None:
+        """Release the PyBullet connection (idempotent)."""
+        if self._cid >= 0:
+            self._p.disconnect(self._cid)
+            self._cid = -1
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def empty_scene_frame_seconds(size: int, frames: int) -> float:
+    """Seconds per frame of a bare PyBullet tiny-renderer render of an empty scene (a
+    baseline for ``vggc-cp bench generate``)."""
+    import time
+
+    p = import_pybullet()
+    cid = p.connect(p.DIRECT)
+    try:
+        view = p.computeViewMatrix([0, -0.6, 0.6], [0, 0, 0], [0, 0, 1])
+        proj = p.computeProjectionMatrixFOV(45.0, 1.0, 0.05, 5.0)
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            p.getCameraImage(size, size, view, proj, renderer=p.ER_TINY_RENDERER,
+                             flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=cid)
+        return (time.perf_counter() - t0) / frames
+    finally:
+        p.disconnect(cid)

@@ -1,0 +1,70 @@
+"""Contact sheets: a trace's observations in a grid, each with its index and action label."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.atomic import atomic_path
+from vggc_cp.errors import VggcError
+from vggc_cp.trace import Trace
+
+
+def tile_labels(trace: Trace, count: int, show_states: bool = True) -> list[str]:
+    """Label of each of the first ``count`` observations: ``"i: action"`` (the action taken
+    after it; ``new episode`` before a break, ``end`` for the last), and its state key."""
+    n = trace.n_obs
+    out = []
+    for i in range(count):
+        if i == n - 1:
+            act = "end"
+        elif trace.actions[i] < 0:
+            act = "| new episode"
+        else:
+            act = f"-> {trace.action_names[int(trace.actions[i])]}"
+        label = f"{i} {act}"
+        if show_states and trace.states is not None:
+            label += f"\n{trace.states[i]}"
+        out.append(label)
+    return out
+
+
+def contact_sheet(trace: Trace, path: str | Path, max_images: int = 48, columns: int = 8,
+                  show_states: bool = True) -> int:
+    """Draw the first ``max_images`` observations of ``trace`` to an image file (PNG, ...).
+
+    Returns
+    -------
+    int
+        Number of observations drawn.
+    """
+    if max_images < 1:
+        raise VggcError(f"--max must be at least 1, got {max_images}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    count = min(max_images, trace.n_obs)
+    cols = min(columns, count)
+    rows = int(np.ceil(count / cols))
+    labels = tile_labels(trace, count, show_states)
+    fig, axes = plt.subplots(rows, cols, figsize=(1.9 * cols, 2.2 * rows), squeeze=False)
+    for k, ax in enumerate(axes.flat):
+        ax.axis("off")
+        if k < count:
+            ax.imshow(trace.observations[k], interpolation="nearest")
+            ax.set_title(labels[k], fontsize=7)
+    title = trace.meta.get("benchmark", "") if trace.meta else ""
+    fig.suptitle(f"{title}  ({count} of {trace.n_obs} observations)".strip(), fontsize=10)
+    fig.tight_layout()
+    target = Path(path)
+    try:
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, dpi=80, format=target.suffix.lstrip(".") or "png")
+    except ValueError as exc:
+        raise VggcError(f"{target}: cannot write an image ({exc})") from None
+    finally:
+        plt.close(fig)
+    return count

@@ -1,0 +1,124 @@
+"""The seven benchmarks of the paper: parameters as frozen values, and a registry.
+
+Parameters follow the paper's table (Ajith & Chamzas, arXiv 2509.14460): ``m`` objects,
+``n`` task-distinct classes, ``R`` regions, ``|A|`` actions, ``|V*|`` the number of states a
+trace at the paper's ``|D|`` visits, and the default number of transitions ``|D|``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from vggc_cp.errors import lookup
+
+FRUIT = "fruit"
+BLOCKS = "blocks"
+
+#: Fruit kinds: name -> task class. Kinds of one class are interchangeable for the task.
+FRUIT_CLASS = {"apple": "red", "strawberry": "red", "lemon": "yellow", "banana": "yellow"}
+
+
+@dataclass(frozen=True)
+class BenchmarkSpec:
+    """One benchmark's parameters (immutable).
+
+    Attributes
+    ----------
+    name : str
+        Registry name, e.g. ``"fruit-4x6"``.
+    family : str
+        :data:`FRUIT` (one object per region) or :data:`BLOCKS` (stacks on base regions).
+    m : int
+        Number of objects.
+    n : int
+        Number of task-distinct classes.
+    R : int
+        Number of (base) regions.
+    n_actions : int
+        ``|A|``: fruit ``2 n R`` (pick/place per class and region), blocks ``2 R h``
+        (pick/place per region and level).
+    paper_states : int
+        ``|V*|`` in the paper: distinct states visited at the paper's ``|D|``.
+    default_transitions : int
+        The paper's ``|D|``.
+    classes : tuple of str
+        Task classes (fruit: ``"red"``, ``"yellow"``; blocks: ``"block"``).
+    objects : tuple of str
+        Kind of every object (fruit kinds of :data:`FRUIT_CLASS`, or ``"cube"``).
+    max_height : int
+        Highest stack (1 for fruit, one object per region).
+    grid : tuple of int
+        ``(rows, cols)`` of the regions on the table; ``rows * cols == R``.
+    episode_length : tuple of int
+        ``(lo, hi)``: exploration draws each episode's number of transitions uniformly in it.
+    """
+
+    name: str
+    family: str
+    m: int
+    n: int
+    R: int
+    n_actions: int
+    paper_states: int
+    default_transitions: int
+    classes: tuple[str, ...]
+    objects: tuple[str, ...]
+    max_height: int
+    grid: tuple[int, int]
+    episode_length: tuple[int, int]
+
+    def __post_init__(self) -> None:
+        if len(self.objects) != self.m or len(self.classes) != self.n:
+            raise ValueError(f"{self.name}: objects/classes disagree with m={self.m}, n={self.n}")
+        if self.grid[0] * self.grid[1] != self.R:
+            raise ValueError(f"{self.name}: grid {self.grid} does not hold R={self.R} regions")
+        levels = self.max_height if self.family == BLOCKS else self.n
+        if 2 * self.R * levels != self.n_actions:
+            raise ValueError(f"{self.name}: |A|={self.n_actions} disagrees with the action set")
+
+    def object_class(self, i: int) -> str:
+        """Task class of object ``i``."""
+        kind = self.objects[i]
+        return FRUIT_CLASS.get(kind, "block")
+
+
+def _fruit(name, m, n, R, paper, d, objects, grid, episode) -> BenchmarkSpec:
+    classes = tuple(c for c in ("red", "yellow") if any(FRUIT_CLASS[o] == c for o in objects))
+    return BenchmarkSpec(name, FRUIT, m, n, R, 2 * n * R, paper, d, classes, tuple(objects), 1,
+                         grid, episode)
+
+
+def _blocks(name, m, paper, d, episode) -> BenchmarkSpec:
+    return BenchmarkSpec(name, BLOCKS, m, 1, 3, 2 * 3 * m, paper, d, ("block",), ("cube",) * m,
+                         m, (1, 3), episode)
+
+
+SPECS: dict[str, BenchmarkSpec] = {
+    s.name: s
+    for s in (
+        _fruit("fruit-2x3", 2, 1, 3, 6, 50, ["apple"] * 2, (1, 3), (4, 12)),
+        _fruit("multifruit-2x3", 2, 2, 3, 12, 95, ["apple", "banana"], (1, 3), (4, 12)),
+        _fruit("fruit-4x6", 4, 1, 6, 35, 700, ["apple"] * 4, (2, 3), (4, 16)),
+        _fruit("multifruit-4x6", 4, 2, 6, 58, 400, ["strawberry", "apple", "lemon", "banana"],
+               (2, 3), (4, 16)),
+        _fruit("fruit-6x8", 6, 1, 8, 84, 1500, ["apple"] * 6, (2, 4), (4, 20)),
+        _blocks("blocks-2", 2, 9, 95, (4, 12)),
+        _blocks("blocks-3", 3, 16, 200, (4, 12)),
+    )
+}
+
+
+def benchmark_names() -> tuple[str, ...]:
+    """Names of the registered benchmarks, in the paper's order."""
+    return tuple(SPECS)
+
+
+def get_spec(name: str) -> BenchmarkSpec:
+    """Return the spec called ``name``.
+
+    Raises
+    ------
+    UnknownNameError
+        (a :class:`~vggc_cp.errors.VggcError`) listing the known names.
+    """
+    return lookup(SPECS, name, "benchmark")
