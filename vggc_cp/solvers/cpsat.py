@@ -1,0 +1,785 @@
+r"""Exact CP-SAT model of one ``(k_pick, k_place)`` cell, warm-started by the greedy solver.
+
+The model
+---------
+Let :math:`P` be the pick observations, :math:`Q` the place observations, and
+:math:`K_P = \min(k_{pick}, |P|)`, :math:`K_Q = \min(k_{place}, |Q|)` the colours each role may
+use (more colours than observations are never needed). Transitions are split by direction:
+pick transitions :math:`(o, a, o') \in P \times A_{pick} \times Q` and place transitions
+:math:`(o, a, o') \in Q \times A_{place} \times P`.
+
+*Colours.* One Boolean :math:`x_{o,c}` per observation and colour of its role, with
+``add_exactly_one`` over :math:`c`. A node of the task graph is a (role, colour) pair, so the
+graph is bipartite by construction.
+
+*Pair-action table.* For every direction, ordered colour pair :math:`(c, c')` and action
+:math:`a` of that direction that occurs in the trace, a Boolean :math:`y_{c,c',a}` ("the
+edge :math:`c \xrightarrow{a} c'` exists"), with **Exactly-One**
+:math:`\sum_a y_{c,c',a} \le 1` and, for every transition :math:`(o, a, o')`, the clauses
+:math:`x_{o,c} \wedge x_{o',c'} \Rightarrow y_{c,c',a}` for all :math:`c, c'`. Only the lower
+bound of :math:`y` is forced; since every constraint on :math:`y` is downward closed, a
+colouring is feasible in the model iff its *induced* edges satisfy the constraints — the
+model is exact.
+
+*Deterministic* (option): :math:`\sum_{c'} y_{c,c',a} \le 1` for every source colour and
+action (one node and one action lead to one node).
+
+*Action variety.* :math:`u_{c,a}` ("colour :math:`c` has an outgoing :math:`a`-edge") with
+:math:`x_{o,c} \Rightarrow u_{c,a}` for each observation :math:`o` whose outgoing action is
+:math:`a`, and symmetrically :math:`v_{c',a}` for incoming actions. Distinct outgoing actions of
+one node must reach distinct nodes (Exactly-One), so :math:`\sum_a u_{c,a} \le K_{other}` and
+:math:`\sum_a v_{c',a} \le K_{other}`; every action occurs, so :math:`\sum_c u_{c,a} \ge 1`.
+These are *implied* cuts (valid for every valid colouring) that give the LP relaxation the
+pigeonhole bound :math:`|A_{dir}| \le K_P K_Q`. The option ``max_actions = K`` tightens
+:math:`\sum_a u_{c,a} \le K`: at most ``K`` distinct action labels leave a node.
+
+*Symmetry breaking* (value precedence, Law & Lee 2004). Colours of one role are
+interchangeable. Order the observations of a role :math:`\pi_0, \pi_1, \dots` and require that
+colour :math:`c \ge 1` is used by :math:`\pi_r` only if colour :math:`c-1` is used by some
+:math:`\pi_s`, :math:`s < r`; encoded with prefix Booleans
+:math:`p_{r,c} \Leftrightarrow p_{r-1,c} \vee x_{\pi_r,c}` and
+:math:`x_{\pi_r,c} \Rightarrow p_{r-1,c-1}` (so :math:`x_{\pi_r,c}` does not exist for
+:math:`c > r`). Every colouring has exactly one representative (rename colours by first
+appearance along :math:`\pi`), so this removes all :math:`K!` symmetric copies and keeps
+exactness. When the *other* role has a single colour, two observations whose outgoing (or
+incoming) actions differ can never share a colour — sound because every transition then ends
+in the same node; a greedy clique of that conflict graph is put first in :math:`\pi` and fixed
+to colours ``0, 1, ...`` (the Heule–Verwer clique of exact DFA identification) and a clique
+larger than :math:`K` proves infeasibility. With two or more colours on the other side no pair
+of observations is conflicting or forced equal in every valid colouring: each observation has
+at most one predecessor and one successor, and the all-singletons colouring is always valid.
+
+*Presolve* (exact): cap :math:`K` at the number of observations; drop actions absent from the
+trace; skip the pair table of a direction with one action and no ``deterministic`` /
+``max_actions``; prove infeasibility without search when :math:`|A_{dir}| > K_P K_Q`
+(each ordered colour pair carries one action) or, with ``max_actions = K``, when
+:math:`|A_{dir}| > K_{src} K`; or when the conflict clique above exceeds :math:`K`.
+
+Objective (quantized visual score)
+----------------------------------
+Distances are symmetrized, :math:`\bar d_{ij} = (d_{ij} + d_{ji}) / 2`, and scaled to integers
+:math:`\hat d_{ij} = \mathrm{round}(s\,\bar d_{ij})` with :math:`s = R / \max \bar d` (one
+:math:`s` for both roles; ``resolution`` :math:`R`, default 1000: the largest distance
+becomes :math:`R`). For each colour :math:`c`: :math:`w_{ijc} \ge x_{ic} \wedge x_{jc}` (only
+pairs with :math:`\hat d_{ij} > 0`), :math:`S_c = \sum_{i<j} \hat d_{ij} w_{ijc}`, size
+:math:`n_c = \sum_i x_{ic}`, :math:`q_c = n_c (n_c - 1)` and an integer mean :math:`m_c` with
+:math:`m_c \cdot q_c \ge 2 S_c` (``add_multiplication_equality``). Minimizing
+:math:`\sum_c m_c` makes :math:`m_c = \lceil 2 S_c / q_c \rceil` (0 for clusters of at most
+one observation), so **the integer objective equals**
+
+.. math:: \hat J = \sum_c \left\lceil \frac{\sum_{i<j \in c} \hat d_{ij}}{|c|(|c|-1)/2}
+          \right\rceil ,
+
+the visual score J of the paper on the quantized distances with each cluster's mean rounded
+up. For any colouring, :math:`s J - K/2 \le \hat J < s J + 3K/2` with :math:`K` the number
+of clusters of two or more observations; the solution's true float J is recomputed from its
+labels and reported beside :math:`\hat J`. *Optimal* means optimal for :math:`\hat J`, hence
+within ``quantization_margin`` :math:`= 2 (K_P + K_Q) / s` of the true optimum of J.
+``bound`` is the proved lower bound on :math:`\hat J / s`.
+
+The pair variables grow as :math:`O(n^2 K)`. When their number exceeds ``max_pair_terms``
+the model drops the objective (a documented relaxation: feasibility only, the colouring with
+the lower J of the CP-SAT solution and its hint is kept), and the status is at most
+*feasible* with no bound.
+
+Warm start
+----------
+The greedy (DSATUR) colouring of the same cell, renamed to satisfy value precedence, is given
+as a complete hint (every variable, auxiliary ones included). The result is never worse than
+the hint: when CP-SAT returns a colouring with a larger float J than its hint (or none), the
+hint is returned instead and ``stats['fell_back_to_hint']`` says so.
+
+References
+----------
+M. Heule, S. Verwer. *Exact DFA identification using SAT solvers*, ICGI 2010.
+Y. C. Law, J. H. M. Lee. *Global constraints for integer and set value precedence*, CP 2004.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from google.protobuf import text_format
+from ortools.sat import sat_parameters_pb2
+from ortools.sat.python import cp_model
+
+from vggc_cp.errors import VggcError
+from vggc_cp.solvers.base import (
+    FEASIBLE,
+    INFEASIBLE,
+    OPTIMAL,
+    SOLVERS,
+    UNKNOWN,
+    Problem,
+    Solver,
+    SolveResult,
+    register_solver,
+)
+from vggc_cp.solvers.brute import CellConstraints, split_colours, violations
+from vggc_cp.trace import PICK, PLACE
+
+OBJECTIVES = ("J", "none")
+HINTS = ("greedy", "none")
+DEFAULT_PARAMS = "max_time_in_seconds:10,num_workers:2"
+
+
+# ---------------------------------------------------------------- parameters
+
+
+def parse_cpsat_params(text: str | None) -> str:
+    """Validate a ``--cpsat-params`` string and return it as protobuf text format.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma- or newline-separated ``field:value`` items of OR-Tools' ``SatParameters``,
+        e.g. ``"max_time_in_seconds:30,num_workers:2"``.
+
+    Raises
+    ------
+    VggcError
+        Naming the offending item (unknown field, bad value).
+    """
+    if not text or not text.strip():
+        return ""
+    msg = sat_parameters_pb2.SatParameters()
+    items = [s.strip() for chunk in text.split("\n") for s in chunk.split(",")]
+    for item in items:
+        if not item:
+            continue
+        try:
+            text_format.Merge(item, msg)
+        except text_format.ParseError as exc:
+            raise VggcError(f"--cpsat-params: cannot parse {item!r}: {exc}") from None
+    return text_format.MessageToString(msg)
+
+
+@dataclass(frozen=True)
+class CpSatOptions:
+    """Everything that shapes the CP-SAT model of a cell and its solve.
+
+    Attributes
+    ----------
+    objective : {'J', 'none'}
+        Minimize the quantized visual score, or decide feasibility only.
+    deterministic : bool
+    max_actions : int or None
+    params : str
+        CP-SAT parameters (``--cpsat-params`` syntax), merged over :data:`DEFAULT_PARAMS`.
+    resolution : int
+        The largest distance is scaled to this integer (see the module docstring).
+    max_pair_terms : int
+        Above this many pair variables the objective is dropped (feasibility only).
+    hint : {'greedy', 'none'}
+        Warm start from the greedy solver of the same cell.
+    symmetry : bool
+        Value-precedence symmetry breaking (and the conflict clique).
+    """
+
+    objective: str = "J"
+    deterministic: bool = False
+    max_actions: int | None = None
+    params: str = ""
+    resolution: int = 1000
+    max_pair_terms: int = 300_000
+    hint: str = "greedy"
+    symmetry: bool = True
+
+    def __post_init__(self):
+        if self.objective not in OBJECTIVES:
+            raise VggcError(f"unknown objective {self.objective!r}; known: {', '.join(OBJECTIVES)}")
+        if self.hint not in HINTS:
+            raise VggcError(f"unknown hint {self.hint!r}; known: {', '.join(HINTS)}")
+        if self.resolution < 1:
+            raise VggcError(f"resolution must be a positive integer, got {self.resolution}")
+        CellConstraints(self.deterministic, self.max_actions)  # validates max_actions
+
+    @property
+    def constraints(self) -> CellConstraints:
+        return CellConstraints(self.deterministic, self.max_actions)
+
+    def sat_parameters_text(self) -> str:
+        """Default parameters with the user's merged over them, as protobuf text."""
+        msg = sat_parameters_pb2.SatParameters()
+        text_format.Merge(parse_cpsat_params(DEFAULT_PARAMS), msg)
+        text_format.Merge(parse_cpsat_params(self.params), msg)
+        return text_format.MessageToString(msg)
+
+
+# ---------------------------------------------------------------- model
+
+
+@dataclass(frozen=True)
+class _Role:
+    """One role's side of the model: its observations, order and colour variables."""
+
+    role: int
+    obs: np.ndarray                 # global observation ids, local order
+    k: int                          # colours available (capped at len(obs))
+    order: np.ndarray               # precedence order, local ids
+    x: list                         # x[i][c]: BoolVar or None (fixed false)
+    prefix: dict                    # (rank, c) -> literal: colour c used among order[:rank+1]
+
+
+@dataclass(frozen=True, eq=False)
+class CellModel:
+    """A built CP-SAT model of one cell plus what is needed to hint and decode it.
+
+    Attributes
+    ----------
+    model : cp_model.CpModel or None
+        None when presolve already proved the cell infeasible.
+    infeasible_reason : str or None
+    objective_mode : {'J', 'none'}
+        The objective actually in the model.
+    scale : float
+        :math:`s`, integer units per unit of distance.
+    notes : tuple of str
+        Presolve and relaxation decisions.
+    """
+
+    problem: Problem
+    k_pick: int
+    k_place: int
+    options: CpSatOptions
+    model: cp_model.CpModel | None
+    infeasible_reason: str | None
+    objective_mode: str
+    scale: float
+    roles: tuple = ()
+    y: dict = field(default_factory=dict)
+    out_used: dict = field(default_factory=dict)
+    in_used: dict = field(default_factory=dict)
+    pairs: dict = field(default_factory=dict)       # (role, i, j, c) -> (BoolVar, dhat)
+    means: dict = field(default_factory=dict)       # (role, c) -> (q, prod, m, members)
+    dhat: tuple = ()
+    notes: tuple = ()
+
+    @property
+    def n_variables(self) -> int:
+        return 0 if self.model is None else len(self.model.proto.variables)
+
+    @property
+    def n_constraints(self) -> int:
+        return 0 if self.model is None else len(self.model.proto.constraints)
+
+    @property
+    def n_clusters_max(self) -> int:
+        return sum(r.k for r in self.roles)
+
+    @property
+    def quantization_margin(self) -> float:
+        """Upper bound on ``|J_true - J_hat / s|`` differences that optimality allows."""
+        return 2.0 * (self.k_pick + self.k_place) / self.scale
+
+    # ------------------------------------------------------------ decode / hint
+
+    def colours_of(self, solver: cp_model.CpSolver) -> tuple[np.ndarray, np.ndarray]:
+        """Per-role colours of the solver's solution: shapes (n_pick,), (n_place,)."""
+        out = []
+        for r in self.roles:
+            col = np.empty(len(r.obs), dtype=np.int64)
+            for i, row in enumerate(r.x):
+                col[i] = next(c for c, v in enumerate(row) if v is not None and solver.boolean_value(v))
+            out.append(col)
+        return out[0], out[1]
+
+    def canonical(self, pick_colour: np.ndarray, place_colour: np.ndarray) -> tuple:
+        """Rename colours by first appearance along each role's precedence order."""
+        out = []
+        for r, col in zip(self.roles, (pick_colour, place_colour)):
+            col = np.asarray(col, dtype=np.int64)
+            rename: dict[int, int] = {}
+            for i in r.order.tolist():
+                rename.setdefault(int(col[i]), len(rename))
+            out.append(np.array([rename[int(c)] for c in col], dtype=np.int64))
+        return out[0], out[1]
+
+    def integer_objective(self, pick_colour: np.ndarray, place_colour: np.ndarray) -> int:
+        """:math:`\\hat J` of a colouring (the model's objective, see the module docstring)."""
+        total = 0
+        for dq, col in zip(self.dhat, (pick_colour, place_colour)):
+            for c in np.unique(col):
+                mem = np.flatnonzero(col == c)
+                n = len(mem)
+                if n < 2:
+                    continue
+                s2 = int(dq[np.ix_(mem, mem)].sum())  # = 2 * S_c
+                total += -(-s2 // (n * (n - 1)))
+        return total
+
+    def hint_assignment(self, pick_colour: np.ndarray, place_colour: np.ndarray) -> dict:
+        """Values of every model variable for a valid colouring: ``{index: (var, value)}``.
+
+        The colouring is first renamed by :meth:`canonical` so that it satisfies the
+        symmetry breaking; returns ``{}`` when it uses more colours than the cell allows.
+        """
+        cols = self.canonical(pick_colour, place_colour)
+        vals: dict[int, tuple] = {}
+
+        def put(var, value):
+            if var is None or isinstance(var, (int, bool)):
+                return
+            vals[var.index] = (var, int(value))
+
+        for r, col in zip(self.roles, cols):
+            if len(col) and col.max() >= r.k:
+                return {}
+            for i, row in enumerate(r.x):
+                for c, v in enumerate(row):
+                    put(v, col[i] == c)
+            seen: set[int] = set()
+            for rank, i in enumerate(r.order.tolist()):
+                seen.add(int(col[i]))
+                for c in range(r.k):
+                    lit = r.prefix.get((rank, c))
+                    if lit is not None:
+                        put(lit, c in seen)
+        colour = np.empty(self.problem.n_obs, dtype=np.int64)
+        colour[self.problem.pick_obs] = cols[0]
+        colour[self.problem.place_obs] = cols[1]
+        roles = self.problem.roles
+        edges, outs, ins = set(), set(), set()
+        for s, a, d in zip(self.problem.src.tolist(), self.problem.act.tolist(),
+                           self.problem.dst.tolist()):
+            r = int(roles[s])
+            edges.add((r, int(colour[s]), int(colour[d]), a))
+            outs.add((r, int(colour[s]), a))
+            ins.add((1 - r, int(colour[d]), a))
+        for key, v in self.y.items():
+            put(v, key in edges)
+        for key, v in self.out_used.items():
+            put(v, key in outs)
+        for key, v in self.in_used.items():
+            put(v, key in ins)
+        for (role, i, j, c), (w, _) in self.pairs.items():
+            col = cols[role]
+            put(w, col[i] == c and col[j] == c)
+        for (role, c), (q, prod, m, _) in self.means.items():
+            col = cols[role]
+            mem = np.flatnonzero(col == c)
+            n = len(mem)
+            mval = 0
+            if n >= 2:
+                s2 = int(self.dhat[role][np.ix_(mem, mem)].sum())
+                mval = -(-s2 // (n * (n - 1)))
+            put(q, n * (n - 1))
+            put(m, mval)
+            put(prod, mval * n * (n - 1))
+        return vals
+
+
+def _greedy_clique(adj: list[set[int]]) -> list[int]:
+    """A clique of the graph ``adj`` (vertex -> neighbours), grown by largest degree."""
+    cand = set(range(len(adj)))
+    clique: list[int] = []
+    while cand:
+        v = max(sorted(cand), key=lambda u: len(adj[u] & cand))
+        clique.append(v)
+        cand &= adj[v]
+    return clique
+
+
+def _conflict_graph(problem: Problem, role: int) -> list[set[int]]:
+    """Observations of ``role`` that cannot share a colour when the other role has one colour.
+
+    Two observations conflict when both have an outgoing transition with different actions,
+    or both an incoming one with different actions (both would put two labels on the pair
+    (c, the other role's only node)).
+    """
+    obs = problem.pick_obs if role == PICK else problem.place_obs
+    out_a = {int(s): int(a) for s, a in zip(problem.src, problem.act)}
+    in_a = {int(d): int(a) for d, a in zip(problem.dst, problem.act)}
+    n = len(obs)
+    adj: list[set[int]] = [set() for _ in range(n)]
+    for key in (out_a, in_a):
+        groups: dict[int, list[int]] = {}
+        for i, o in enumerate(obs.tolist()):
+            if o in key:
+                groups.setdefault(key[o], []).append(i)
+        members = list(groups.values())
+        for gi, g in enumerate(members):
+            other = [j for h in members[gi + 1:] for j in h]
+            for i in g:
+                for j in other:
+                    adj[i].add(j)
+                    adj[j].add(i)
+    return adj
+
+
+def _time_order(n: int) -> np.ndarray:
+    return np.arange(n, dtype=np.int64)
+
+
+def build_cell_model(problem: Problem, k_pick: int, k_place: int,
+                     options: CpSatOptions = CpSatOptions()) -> CellModel:
+    """Build the CP-SAT model of one cell (see the module docstring for the mathematics)."""
+    notes: list[str] = []
+    n_role = (problem.n_pick, problem.n_place)
+    kk = (min(k_pick, n_role[0]), min(k_place, n_role[1]))
+    if kk != (k_pick, k_place):
+        notes.append(f"colours capped at the observation counts: {kk[0]} pick, {kk[1]} place")
+    dmax = max(float(np.max(problem.dist_pick, initial=0.0)),
+               float(np.max(problem.dist_place, initial=0.0)))
+    scale = options.resolution / dmax if dmax > 0 else 1.0
+    dhat = tuple(np.rint((d + d.T) / 2.0 * scale).astype(np.int64)
+                 for d in (problem.dist_pick, problem.dist_place))
+    for d in dhat:
+        np.fill_diagonal(d, 0)
+
+    def infeasible(reason: str) -> CellModel:
+        return CellModel(problem, k_pick, k_place, options, None, reason, "none", scale,
+                         dhat=dhat, notes=tuple(notes + [reason]))
+
+    roles_arr = problem.roles
+    src, act, dst = problem.src, problem.act, problem.dst
+    for r in (PICK, PLACE):
+        if n_role[r] > 0 and kk[r] < 1:
+            return infeasible(f"{('pick', 'place')[r]} side has observations but no colour")
+    dir_actions = [sorted({int(a) for s, a in zip(src, act) if roles_arr[s] == r})
+                   for r in (PICK, PLACE)]
+    for r in (PICK, PLACE):
+        n_a = len(dir_actions[r])
+        if n_a > kk[0] * kk[1]:
+            return infeasible(f"{n_a} distinct {('pick', 'place')[r]} actions > "
+                              f"k_pick*k_place = {kk[0] * kk[1]} ordered colour pairs")
+        if options.max_actions is not None and n_a > kk[r] * options.max_actions:
+            return infeasible(f"{n_a} distinct {('pick', 'place')[r]} actions > "
+                              f"{kk[r]} nodes x max_actions {options.max_actions}")
+
+    # ---- orders and fixed clique
+    orders, fixed = [], []
+    for r in (PICK, PLACE):
+        order = _time_order(n_role[r])
+        clique: list[int] = []
+        if options.symmetry and kk[1 - r] == 1:
+            clique = _greedy_clique(_conflict_graph(problem, r))
+            if len(clique) > kk[r]:
+                return infeasible(f"{len(clique)} {('pick', 'place')[r]} observations pairwise "
+                                  f"conflict (other side has one colour) > {kk[r]} colours")
+            if len(clique) > 1:
+                notes.append(f"{('pick', 'place')[r]}: clique of {len(clique)} conflicting "
+                             f"observations fixed to distinct colours")
+                rest = np.setdiff1d(order, clique, assume_unique=True)
+                order = np.concatenate([np.array(clique, dtype=np.int64), rest])
+        orders.append(order)
+        fixed.append(clique if len(clique) > 1 else [])
+
+    model = cp_model.CpModel()
+    roles: list[_Role] = []
+    for r in (PICK, PLACE):
+        n, k, order = n_role[r], kk[r], orders[r]
+        rank = np.empty(n, dtype=np.int64)
+        rank[order] = np.arange(n)
+        x: list[list] = []
+        for i in range(n):
+            top = min(int(rank[i]), k - 1) if options.symmetry else k - 1
+            row = [model.new_bool_var(f"x{r}_{i}_{c}") for c in range(top + 1)]
+            row += [None] * (k - 1 - top)
+            model.add_exactly_one([v for v in row if v is not None])
+            x.append(row)
+        for pos, i in enumerate(fixed[r]):
+            model.add(x[i][pos] == 1)
+        prefix: dict = {}
+        if options.symmetry:
+            for pos, i in enumerate(order.tolist()):
+                for c in range(k - 1):  # colour k-1 is never a predecessor colour
+                    prev = prefix.get((pos - 1, c))
+                    cur = x[i][c]
+                    if prev is None and cur is None:
+                        continue
+                    if prev is None or cur is None:
+                        prefix[(pos, c)] = cur if prev is None else prev
+                        continue
+                    p = model.new_bool_var(f"p{r}_{pos}_{c}")
+                    model.add_implication(prev, p)
+                    model.add_implication(cur, p)
+                    model.add_bool_or([~p, prev, cur])
+                    prefix[(pos, c)] = p
+                for c in range(1, k):
+                    cur = x[i][c]
+                    if cur is None:
+                        continue
+                    prev = prefix.get((pos - 1, c - 1))
+                    if prev is None:
+                        model.add(cur == 0)
+                    else:
+                        model.add_implication(cur, prev)
+        roles.append(_Role(r, problem.pick_obs if r == PICK else problem.place_obs, k, order,
+                           x, prefix))
+
+    local = problem.local
+    trans = [(int(s), int(a), int(d)) for s, a, d in zip(src, act, dst)]
+
+    # ---- pair-action table (Exactly-One), determinism
+    y: dict = {}
+    for r in (PICK, PLACE):
+        needs_table = (len(dir_actions[r]) > 1 or options.deterministic)
+        if not needs_table:
+            notes.append(f"{('pick', 'place')[r]} direction has one action: no pair table")
+            continue
+        xs, xd = roles[r].x, roles[1 - r].x
+        for s, a, d in trans:
+            if roles_arr[s] != r:
+                continue
+            for c, vs in enumerate(xs[local[s]]):
+                if vs is None:
+                    continue
+                for c2, vd in enumerate(xd[local[d]]):
+                    if vd is None:
+                        continue
+                    key = (r, c, c2, a)
+                    if key not in y:
+                        y[key] = model.new_bool_var(f"y{r}_{c}_{c2}_{a}")
+                    model.add_bool_or([~vs, ~vd, y[key]])
+    by_pair: dict = {}
+    by_succ: dict = {}
+    for (r, c, c2, a), v in y.items():
+        by_pair.setdefault((r, c, c2), []).append(v)
+        by_succ.setdefault((r, c, a), []).append(v)
+    for vs in by_pair.values():
+        if len(vs) > 1:
+            model.add_at_most_one(vs)
+    if options.deterministic:
+        for vs in by_succ.values():
+            if len(vs) > 1:
+                model.add_at_most_one(vs)
+
+    # ---- action variety: implied cuts, max_actions
+    out_used: dict = {}
+    in_used: dict = {}
+    for r in (PICK, PLACE):
+        n_a = len(dir_actions[r])
+        cap_out = kk[1 - r] if options.max_actions is None else min(kk[1 - r], options.max_actions)
+        cap_in = kk[r]
+        for table, side, cap, end in ((out_used, r, cap_out, 0), (in_used, 1 - r, cap_in, 2)):
+            if n_a <= cap:
+                continue  # the cut cannot bind
+            xsd = roles[side].x
+            for tr in trans:
+                if roles_arr[tr[0]] != r:
+                    continue
+                o, a = tr[end], tr[1]
+                for c, v in enumerate(xsd[local[o]]):
+                    if v is None:
+                        continue
+                    key = (side, c, a)
+                    if key not in table:
+                        table[key] = model.new_bool_var(f"{'uv'[end // 2]}{side}_{c}_{a}")
+                    model.add_implication(v, table[key])
+            per_c: dict = {}
+            per_a: dict = {}
+            for (sd, c, a), v in table.items():
+                if sd == side and a in dir_actions[r]:
+                    per_c.setdefault(c, []).append(v)
+                    per_a.setdefault(a, []).append(v)
+            for vs in per_c.values():
+                if len(vs) > cap:
+                    model.add(sum(vs) <= cap)
+            for vs in per_a.values():
+                model.add_bool_or(vs)
+
+    # ---- objective
+    pairs: dict = {}
+    means: dict = {}
+    objective_mode = options.objective
+    if objective_mode == "J":
+        n_terms = sum(int(np.count_nonzero(np.triu(dhat[r], 1))) * kk[r] for r in (PICK, PLACE))
+        if n_terms > options.max_pair_terms:
+            objective_mode = "none"
+            notes.append(f"objective dropped: {n_terms} pair terms > max_pair_terms "
+                         f"{options.max_pair_terms} (feasibility only)")
+    if objective_mode == "J":
+        terms = []
+        for r in (PICK, PLACE):
+            n, k, x, dq = n_role[r], kk[r], roles[r].x, dhat[r]
+            dmax_i = int(dq.max(initial=0))
+            iu, ju = np.nonzero(np.triu(dq, 1))
+            for c in range(k):
+                members = [x[i][c] for i in range(n) if x[i][c] is not None]
+                if len(members) < 2:
+                    continue
+                s_terms = []
+                for i, j in zip(iu.tolist(), ju.tolist()):
+                    xi, xj = x[i][c], x[j][c]
+                    if xi is None or xj is None:
+                        continue
+                    w = model.new_bool_var(f"w{r}_{i}_{j}_{c}")
+                    model.add_bool_or([~xi, ~xj, w])
+                    pairs[(r, i, j, c)] = (w, int(dq[i, j]))
+                    s_terms.append(int(dq[i, j]) * w)
+                nm = len(members)
+                size = sum(members)
+                q = model.new_int_var(0, nm * (nm - 1), f"q{r}_{c}")
+                model.add_multiplication_equality(q, [size, size - 1])
+                m = model.new_int_var(0, dmax_i, f"m{r}_{c}")
+                prod = model.new_int_var(0, dmax_i * nm * (nm - 1), f"mq{r}_{c}")
+                model.add_multiplication_equality(prod, [m, q])
+                if s_terms:
+                    model.add(prod >= 2 * sum(s_terms))
+                means[(r, c)] = (q, prod, m, nm)
+                terms.append(m)
+        model.minimize(sum(terms))
+    return CellModel(problem, k_pick, k_place, options, model, None, objective_mode, scale,
+                     tuple(roles), y, out_used, in_used, pairs, means, dhat, tuple(notes))
+
+
+# ---------------------------------------------------------------- solver
+
+
+def greedy_result(problem: Problem, k_pick: int, k_place: int,
+                  options: dict | None = None) -> SolveResult | None:
+    """The registered greedy solver's result on the cell, or None when it is not installed."""
+    if "greedy" not in SOLVERS:
+        try:
+            importlib.import_module("vggc_cp.solvers.greedy")
+        except ImportError:
+            return None
+    if "greedy" not in SOLVERS:
+        return None
+    return SOLVERS["greedy"](**(options or {})).solve(problem, k_pick, k_place)
+
+
+_CP_STATUS = {cp_model.OPTIMAL: OPTIMAL, cp_model.FEASIBLE: FEASIBLE,
+              cp_model.INFEASIBLE: INFEASIBLE, cp_model.UNKNOWN: UNKNOWN}
+
+
+@register_solver
+class CpSatSolver(Solver):
+    """Exact colouring of one cell with OR-Tools CP-SAT (model: see the module docstring).
+
+    Parameters
+    ----------
+    objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry :
+        See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
+    greedy_options : dict, optional
+        Keyword arguments of the greedy solver that computes the hint.
+    """
+
+    name = "cpsat"
+
+    def __init__(self, objective: str = "J", deterministic: bool = False,
+                 max_actions: int | None = None, params: str = "", resolution: int = 1000,
+                 max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
+                 greedy_options: dict | None = None):
+        self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
+                                    max_pair_terms, hint, symmetry)
+        self.params_text = self.options.sat_parameters_text()
+        self.greedy_options = dict(greedy_options or {})
+
+    def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
+        hints: list[tuple[str, np.ndarray]] = []
+        if self.options.hint == "greedy":
+            g = greedy_result(problem, k_pick, k_place, self.greedy_options)
+            if g is not None and g.found:
+                hints.append(("greedy", g.labels))
+        return self._solve_hinted(problem, k_pick, k_place, hints)
+
+    def solve_hinted(self, problem: Problem, k_pick: int, k_place: int,
+                     hints: list[tuple[str, np.ndarray]]) -> SolveResult:
+        """Solve with given hint colourings ``[(source, labels (N,)), ...]`` (greedy not run).
+
+        The valid hint with the lowest float J becomes the complete CP-SAT hint and the floor
+        of the result.
+        """
+        t0 = time.perf_counter()
+        res = self._solve_hinted(problem, k_pick, k_place, hints)
+        return SolveResult(res.labels, res.k_pick, res.k_place, res.J, res.status, res.solver,
+                           time.perf_counter() - t0, res.bound, res.stats)
+
+    def _solve_hinted(self, problem: Problem, k_pick: int, k_place: int,
+                      hints: list[tuple[str, np.ndarray]]) -> SolveResult:
+        cm = build_cell_model(problem, k_pick, k_place, self.options)
+        stats: dict = {"objective_mode": cm.objective_mode, "scale": cm.scale,
+                       "quantization_margin": cm.quantization_margin, "notes": list(cm.notes),
+                       "fell_back_to_hint": False, "hint_source": None, "hint_J": None}
+        best_hint = self._pick_hint(problem, k_pick, k_place, hints, stats)
+        if cm.model is None:
+            stats.update(status_name="PRESOLVE_INFEASIBLE", variables=0, constraints=0,
+                         wall_time=0.0, conflicts=0, branches=0)
+            if best_hint is not None:  # a valid colouring contradicts the proof: keep it
+                stats["contradiction"] = cm.infeasible_reason
+                return self._result(problem, k_pick, k_place, best_hint[1], FEASIBLE, None, stats)
+            return SolveResult(None, k_pick, k_place, math.nan, INFEASIBLE, self.name,
+                               stats=stats)
+        stats.update(variables=cm.n_variables, constraints=cm.n_constraints)
+        if best_hint is not None:
+            pc, qc = split_colours(problem, best_hint[1])
+            values = cm.hint_assignment(pc, qc)
+            for var, value in values.values():
+                cm.model.add_hint(var, value)
+            stats["hint_objective"] = cm.integer_objective(*cm.canonical(pc, qc)) \
+                if cm.objective_mode == "J" else None
+        solver = cp_model.CpSolver()
+        if not solver.parameters.merge_text_format(self.params_text):
+            raise VggcError(f"--cpsat-params rejected by OR-Tools: {self.params_text!r}")
+        code = solver.solve(cm.model)
+        if code == cp_model.MODEL_INVALID:
+            raise RuntimeError(f"CP-SAT model invalid: {cm.model.validate()}")
+        status = _CP_STATUS[code]
+        stats.update(status_name=solver.status_name(code), wall_time=solver.wall_time,
+                     conflicts=int(solver.num_conflicts), branches=int(solver.num_branches))
+        labels = None
+        bound_int = None
+        if status in (OPTIMAL, FEASIBLE):
+            pc, qc = cm.colours_of(solver)
+            labels = problem.labels_from_colours(pc, qc)
+            if cm.objective_mode == "J":
+                stats["objective"] = int(round(solver.objective_value))
+                bound_int = int(math.ceil(solver.best_objective_bound - 1e-9))
+                stats["objective_bound"] = bound_int
+                obj = stats["objective"]
+                stats["gap"] = 0.0 if obj <= 0 else max(0.0, (obj - bound_int) / obj)
+            else:
+                status = FEASIBLE  # decided, but J was not optimized
+        if status == INFEASIBLE and best_hint is not None:
+            stats["contradiction"] = "CP-SAT proved infeasible but the hint is valid"
+        if best_hint is not None:
+            J_cp = problem.visual_score(labels) if labels is not None else math.inf
+            if best_hint[2] < J_cp - 1e-12:
+                stats["fell_back_to_hint"] = True
+                labels = best_hint[1]
+                if status in (INFEASIBLE, UNKNOWN):
+                    status = FEASIBLE
+        bound = None
+        if labels is not None and bound_int is not None:
+            bound = bound_int / cm.scale
+        return self._result(problem, k_pick, k_place, labels, status, bound, stats)
+
+    def _pick_hint(self, problem, k_pick, k_place, hints, stats):
+        """The valid hint with the lowest float J: ``(source, labels, J)`` or None."""
+        best = None
+        rejected = []
+        for source, labels in hints:
+            pc, qc = split_colours(problem, labels)
+            if pc.max(initial=-1) >= k_pick or qc.max(initial=-1) >= k_place:
+                rejected.append(f"{source}: more colours than the cell allows")
+                continue
+            bad = violations(problem, pc, qc, self.options.constraints)
+            if bad:
+                rejected.append(f"{source}: {bad[0]}")
+                continue
+            J = problem.visual_score(labels)
+            if best is None or J < best[2]:
+                best = (source, np.asarray(labels, dtype=np.int64), J)
+        if rejected:
+            stats["hints_rejected"] = rejected
+        if best is not None:
+            stats["hint_source"], stats["hint_J"] = best[0], best[2]
+        return best
+
+    def _result(self, problem, k_pick, k_place, labels, status, bound, stats) -> SolveResult:
+        if labels is None:
+            return SolveResult(None, k_pick, k_place, math.nan, status, self.name, bound=None,
+                               stats=stats)
+        labels = np.asarray(labels, dtype=np.int64)
+        return SolveResult(labels, k_pick, k_place, problem.visual_score(labels), status,
+                           self.name, bound=bound, stats=stats)
+
+
+__all__ = ["DEFAULT_PARAMS", "CellModel", "CpSatOptions", "CpSatSolver", "build_cell_model",
+           "greedy_result", "parse_cpsat_params"]
