@@ -40,7 +40,6 @@ def test_noise_makes_two_renders_of_one_state_differ(fruit_scene):
 
 
 def test_regions_give_distinct_pixel_positions(fruit_scene):
-    b = fruit_scene.bench
     centroids = []
     for r in range(3):
         stacks = tuple((0,) if k == r else () for k in range(3))

@@ -42,7 +42,7 @@ TABLE_RGBA = (0.62, 0.47, 0.32, 1.0)
 REGION_RGBA = (0.22, 0.23, 0.26, 1.0)
 BORDER_RGBA = (0.92, 0.92, 0.88, 1.0)
 GRIPPER_RGBA = (0.55, 0.57, 0.62, 1.0)
-CUBE_RGBA = (0.15, 0.45, 0.95, 1.0)
+CUBE_RGBA = (0.2, 0.55, 1.0, 1.0)
 
 # (colour, rest height of the centre above the table)
 _RED = (0.86, 0.08, 0.08, 1.0)
@@ -238,10 +238,12 @@ class Scene:
                       (0.01, 0, r + 0.008))]
             return self._multibody(parts), r
         if kind == "strawberry":
-            verts, idx = _strawberry(0.033, 0.012, -0.036)
+            verts, idx = _strawberry(0.034, 0.012, -0.036)
             parts = [(self._visual(p.GEOM_MESH, _RED, vertices=verts, indices=idx), None),
-                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.026, length=0.006),
-                      (0, 0, 0.02))]
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.011, length=0.005),
+                      (0, 0, 0.021)),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.003, length=0.012),
+                      (0, 0, 0.028))]
             return self._multibody(parts), 0.04
         if kind == "lemon":
             verts, idx = _ellipsoid(0.045, 0.03, 0.03)
