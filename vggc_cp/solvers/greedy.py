@@ -13,13 +13,18 @@ Visual affinity (paper, Eq. K_vis) on the within-role distances ``d``:
 ``tau`` defaults, per role, to the median off-diagonal within-role distance, so an affinity of
 ``exp(-1)`` means "as far apart as a typical pair of this role".
 
+"Visually close" is decided *relatively*, without a threshold: an observation is close to a
+cluster when its mean K_vis to the cluster's members exceeds its mean K_vis to the observations
+not yet coloured (the pool from which any new cluster would be drawn). A fixed threshold fails
+as soon as a role has three or more states: most pairs are then between-state pairs, so any
+quantile-based threshold merges the nearest states.
+
 Stages
 ------
-1. **Pick seeding, vision only.** Among the uncoloured pick observations the one with the
-   highest mean affinity to the others seeds a colour; the cluster grows by the observation of
-   highest mean affinity to its members while that mean stays above ``affinity_threshold``
-   (the cluster's mean distance stays low); then the next seed. Once ``k_pick`` colours are
-   open, every remaining observation joins the colour of highest mean affinity.
+1. **Pick seeding, vision only** (:func:`seed_colours`). The pick observation with the highest
+   mean affinity to the rest seeds a colour, further seeds (up to ``k_pick``) are taken
+   farthest-first, and the clusters grow greedily by the observation of highest mean affinity
+   to a cluster, keeping each cluster's mean distance low.
 2. **Place side, picks fixed.** Two place observations *conflict* when sharing a colour would
    give one ordered pair of colours two action labels: both entered from the same pick colour by
    different pick actions, or both leaving to the same pick colour by different place actions.
@@ -28,9 +33,9 @@ Stages
    can be undone). DSATUR order: the uncoloured observation with the most used colours already
    infeasible for it (saturation), ties by conflict degree, then by visual centrality. Among the
    feasible colours the one with highest mean K_vis to its members is tried first; a new colour
-   (while fewer than ``k_place`` are used) is tried before the existing ones whose mean affinity
-   is not above ``affinity_threshold`` (``open_when="dissimilar"``) or only after all of them
-   (``open_when="stuck"``, plain DSATUR). With no candidate left, the search backtracks
+   (while fewer than ``k_place`` are used) is tried before the existing colours the observation
+   is not close to (``open_when="dissimilar"``) or only after all of them (``open_when="stuck"``,
+   plain DSATUR). With no candidate left, the search backtracks
    chronologically: the most recent decision is undone and its next candidate tried, within a
    node limit and a time limit (reported in the statistics when hit).
 3. **Pick side, places frozen.** The seeds are discarded and the pick side is recoloured the
@@ -48,7 +53,6 @@ D. Brelaz. *New methods to color the vertices of a graph*, CACM 22(4), 1979 (DSA
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -62,7 +66,6 @@ from vggc_cp.trace import PICK, PLACE
 OPEN_WHEN = ("dissimilar", "stuck")
 DEFAULT_NODE_LIMIT = 20_000
 DEFAULT_TIME_LIMIT = 10.0
-DEFAULT_AFFINITY_THRESHOLD = math.exp(-1.0)
 
 
 def default_tau(dist: np.ndarray) -> float:
@@ -149,8 +152,14 @@ class SideLinks:
         return in_col, out_col
 
 
-def seed_colours(aff: np.ndarray, k: int, threshold: float) -> np.ndarray:
+def seed_colours(aff: np.ndarray, k: int) -> np.ndarray:
     """Stage 1: vision-only clustering of one role into at most ``k`` colours.
+
+    The observation with the highest mean affinity to the rest seeds the first colour; each
+    further colour (up to ``k``) is seeded by the observation least similar to every seed so far
+    (farthest-first, so seeds land in different visual modes). Then the clusters grow greedily:
+    at every step the uncoloured observation with the highest mean K_vis to some cluster joins
+    that cluster, which keeps each cluster's mean distance low.
 
     Parameters
     ----------
@@ -158,47 +167,39 @@ def seed_colours(aff: np.ndarray, k: int, threshold: float) -> np.ndarray:
         K_vis within the role.
     k : int
         Most colours.
-    threshold : float
-        An observation joins a growing cluster while its mean affinity to the members is
-        above this.
 
     Returns
     -------
     ndarray of int64, shape (n,)
-        Colour of every observation, ``0 .. k-1``.
+        Colour of every observation, ``0 .. min(k, n)-1``.
     """
     n = len(aff)
     colour = np.full(n, -1, dtype=np.int64)
-    free = np.ones(n, dtype=bool)
-    c = 0
-    while free.any() and c < k:
+    if n == 0:
+        return colour
+    k = min(int(k), n)
+    centrality = (aff.sum(axis=1) - np.diag(aff)) / max(n - 1, 1)
+    seeds = [int(np.argmax(centrality))]
+    closest = aff[:, seeds[0]].copy()  # highest affinity of each observation to any seed
+    while len(seeds) < k:
+        masked = closest.copy()
+        masked[seeds] = np.inf
+        s = int(np.argmin(masked))
+        seeds.append(s)
+        np.maximum(closest, aff[:, s], out=closest)
+    colour[seeds] = np.arange(k)
+    total = aff[:, seeds].copy()  # (n, k) sum of K_vis to each cluster's members
+    size = np.ones(k)
+    free = colour < 0
+    while free.any():
         idx = np.flatnonzero(free)
-        sub = aff[np.ix_(idx, idx)]
-        centrality = (sub.sum(axis=1) - np.diag(sub)) / max(len(idx) - 1, 1)
-        seed = int(idx[np.argmax(centrality)])
-        colour[seed] = c
-        free[seed] = False
-        total = aff[:, seed].copy()
-        size = 1
-        while free.any():
-            cand = np.flatnonzero(free)
-            mean = total[cand] / size
-            j = int(np.argmax(mean))
-            if not mean[j] > threshold:
-                break
-            o = int(cand[j])
-            colour[o] = c
-            free[o] = False
-            total += aff[:, o]
-            size += 1
-        c += 1
-    if free.any():
-        rest = np.flatnonzero(free)
-        onehot = np.zeros((n, c))
-        assigned = np.flatnonzero(~free)
-        onehot[assigned, colour[assigned]] = 1.0
-        mean = (aff[rest] @ onehot) / onehot.sum(axis=0)
-        colour[rest] = np.argmax(mean, axis=1)
+        mean = total[idx] / size
+        j, c = np.unravel_index(int(np.argmax(mean)), mean.shape)
+        o = int(idx[j])
+        colour[o] = c
+        free[o] = False
+        total[:, c] += aff[:, o]
+        size[c] += 1
     return colour
 
 
@@ -267,7 +268,7 @@ class SideResult:
 
 
 def colour_side(links: SideLinks, other_colour: np.ndarray, n_other_colours: int,
-                aff: np.ndarray, k: int, *, threshold: float, open_when: str,
+                aff: np.ndarray, k: int, *, open_when: str,
                 node_limit: int, deadline: float) -> SideResult:
     """Stages 2/3: colour one role with at most ``k`` colours, the other role frozen.
 
@@ -283,7 +284,7 @@ def colour_side(links: SideLinks, other_colour: np.ndarray, n_other_colours: int
         K_vis within this role.
     k : int
         Most colours for this role.
-    threshold, open_when
+    open_when : {"dissimilar", "stuck"}
         See the module docstring.
     node_limit : int
         Most colour assignments (search nodes).
@@ -308,70 +309,90 @@ def colour_side(links: SideLinks, other_colour: np.ndarray, n_other_colours: int
     rank = np.empty(n, dtype=np.int64)
     rank[order] = np.arange(n)
     m = max(int(n_other_colours), 1)
-    lam_in = np.full((k, m), -1, dtype=np.int64)
-    cnt_in = np.zeros((k, m), dtype=np.int64)
-    lam_out = np.full((k, m), -1, dtype=np.int64)
-    cnt_out = np.zeros((k, m), dtype=np.int64)
-    asum = np.zeros((n, k))  # sum of K_vis from each observation to each colour's members
+    # Lambda, one table per direction: label fixed for (this colour, other colour), -1 if none,
+    # with the number of members that fix it (so a decision can be undone)
+    lam = [np.full((k, m), -1, dtype=np.int64), np.full((k, m), -1, dtype=np.int64)]
+    cnt = [np.zeros((k, m), dtype=np.int64), np.zeros((k, m), dtype=np.int64)]
+    cols = (in_col, out_col)
+    acts = (in_act, out_act)
+    # observations of this role grouped by the other-role colour they meet, per direction
+    groups = [[np.flatnonzero(col == c) for c in range(m)] for col in cols]
+    hits: dict[tuple[int, int, int], np.ndarray] = {}  # (d, oc, a) -> members of the group
+    # whose action differs from a, i.e. those a Lambda entry (d, oc) = a forbids
+    # blk[c, j]: how many Lambda entries forbid colour c for observation j (0 = feasible);
+    # sat[j]: DSATUR saturation, the number of used colours with blk > 0
+    blk = np.zeros((k, n), dtype=np.int64)
+    sat = np.zeros(n, dtype=np.int64)
+    asum = np.zeros((k, n))  # sum of K_vis from each colour's members to each observation
+    pool = aff.sum(axis=1) - np.diag(aff)  # ... and to the other uncoloured observations
     size = np.zeros(k, dtype=np.int64)
     colour = np.full(n, -1, dtype=np.int64)
+    key = rank.astype(np.float64)  # selection key sat * n + rank; -1 once coloured
     used = 0
     new_first = open_when == "dissimilar"
 
-    def blocked(idx: np.ndarray, used: int) -> np.ndarray:
-        """(len(idx), used) bool: colour infeasible for the observation under Lambda."""
-        out = np.zeros((len(idx), used), dtype=bool)
-        if used == 0:
-            return out
-        for col, act, lam in ((in_col, in_act, lam_in), (out_col, out_act, lam_out)):
-            c = col[idx]
-            has = c >= 0
-            if has.any():
-                lab = lam[:used, c[has]].T  # (h, used)
-                out[has] |= (lab >= 0) & (lab != act[idx][has][:, None])
-        return out
+    def fix(d: int, c: int, oc: int, a: int, step: int) -> None:
+        """Lambda[d][c, oc] becomes ``a`` (step +1) or is released (step -1): update blk/sat."""
+        hit = hits.get((d, oc, a))
+        if hit is None:
+            g = groups[d][oc]
+            hit = hits[(d, oc, a)] = g[acts[d][g] != a]
+        if not len(hit):
+            return
+        row = blk[c]
+        row[hit] += step
+        change = hit[row[hit] == (1 if step > 0 else 0)]
+        if len(change):
+            sat[change] += step
+            key[change] += step * n * (colour[change] < 0)
 
     def assign(i: int, c: int) -> None:
         nonlocal used
-        if in_col[i] >= 0:
-            cnt_in[c, in_col[i]] += 1
-            lam_in[c, in_col[i]] = in_act[i]
-        if out_col[i] >= 0:
-            cnt_out[c, out_col[i]] += 1
-            lam_out[c, out_col[i]] = out_act[i]
-        asum[:, c] += aff[:, i]
+        for d in (0, 1):
+            oc = cols[d][i]
+            if oc >= 0:
+                cnt[d][c, oc] += 1
+                if cnt[d][c, oc] == 1:
+                    lam[d][c, oc] = acts[d][i]
+                    fix(d, c, oc, acts[d][i], +1)
+        asum[c] += aff[i]
+        np.subtract(pool, aff[i], out=pool)
         size[c] += 1
         colour[i] = c
+        key[i] = -1.0
         if c == used:
             used += 1
 
     def unassign(i: int, c: int) -> None:
         nonlocal used
-        if in_col[i] >= 0:
-            cnt_in[c, in_col[i]] -= 1
-            if cnt_in[c, in_col[i]] == 0:
-                lam_in[c, in_col[i]] = -1
-        if out_col[i] >= 0:
-            cnt_out[c, out_col[i]] -= 1
-            if cnt_out[c, out_col[i]] == 0:
-                lam_out[c, out_col[i]] = -1
-        asum[:, c] -= aff[:, i]
+        for d in (0, 1):
+            oc = cols[d][i]
+            if oc >= 0:
+                cnt[d][c, oc] -= 1
+                if cnt[d][c, oc] == 0:
+                    lam[d][c, oc] = -1
+                    fix(d, c, oc, acts[d][i], -1)
+        asum[c] -= aff[i]
+        np.add(pool, aff[i], out=pool)
         size[c] -= 1
         colour[i] = -1
+        key[i] = sat[i] * n + rank[i]
         while used > 0 and size[used - 1] == 0:
             used -= 1
 
     def candidates(i: int) -> list[int]:
-        feas = np.flatnonzero(~blocked(np.array([i]), used)[0])
-        mean = asum[i, feas] / size[feas]
+        feas = np.flatnonzero(blk[:used, i] == 0)
+        mean = asum[feas, i] / size[feas]
         srt = np.argsort(-mean, kind="stable")
         feas, mean = feas[srt], mean[srt]
         if used >= k:
-            return [int(c) for c in feas]
+            return feas.tolist()
         if new_first:
-            close = mean > threshold
-            return [int(c) for c in feas[close]] + [used] + [int(c) for c in feas[~close]]
-        return [int(c) for c in feas] + [used]
+            others = remaining - 1  # uncoloured observations besides i
+            rest = pool[i] / others if others > 0 else 0.0
+            close = mean > rest
+            return feas[close].tolist() + [used] + feas[~close].tolist()
+        return feas.tolist() + [used]
 
     stack: list[tuple[int, list[int], int]] = []
     nodes = backtracks = 0
@@ -385,9 +406,7 @@ def colour_side(links: SideLinks, other_colour: np.ndarray, n_other_colours: int
         if (nodes & 63) == 0 and time.perf_counter() > deadline:
             limit = "time"
             break
-        idx = np.flatnonzero(colour < 0)
-        sat = blocked(idx, used).sum(axis=1)
-        i = int(idx[np.argmax(sat * n + rank[idx])])
+        i = int(np.argmax(key))
         cands = candidates(i)
         if cands:
             stack.append((i, cands, 0))
@@ -423,12 +442,9 @@ class GreedySolver(Solver):
     ----------
     tau : float or None
         K_vis temperature for both roles; None: per role, :func:`default_tau`.
-    affinity_threshold : float
-        Mean K_vis above which an observation counts as visually close to a cluster
-        (stage-1 growth; preferring an existing colour over a new one). Default ``exp(-1)``.
     open_when : {"dissimilar", "stuck"}
         When stages 2-3 open a new colour (while fewer than k are used): ``"dissimilar"`` tries
-        it before the existing colours whose mean affinity is not above the threshold; ``"stuck"``
+        it before the existing colours the observation is not visually close to; ``"stuck"``
         only after every feasible existing colour (plain DSATUR).
     node_limit : int
         Most search nodes (colour assignments) per stage.
@@ -439,22 +455,19 @@ class GreedySolver(Solver):
     name = "greedy"
 
     def __init__(self, tau: float | None = None,
-                 affinity_threshold: float = DEFAULT_AFFINITY_THRESHOLD,
                  open_when: str = "dissimilar", node_limit: int = DEFAULT_NODE_LIMIT,
                  time_limit: float = DEFAULT_TIME_LIMIT):
         if tau is not None and not tau > 0:
             raise ValueError("tau must be positive")
         lookup({w: w for w in OPEN_WHEN}, open_when, "open_when policy")
         self.tau = tau
-        self.affinity_threshold = float(affinity_threshold)
         self.open_when = open_when
         self.node_limit = int(node_limit)
         self.time_limit = float(time_limit)
 
     def options(self) -> dict:
         """The constructor arguments (so a sweep can rebuild the solver in a worker)."""
-        return {"tau": self.tau, "affinity_threshold": self.affinity_threshold,
-                "open_when": self.open_when, "node_limit": self.node_limit,
+        return {"tau": self.tau, "open_when": self.open_when, "node_limit": self.node_limit,
                 "time_limit": self.time_limit}
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
@@ -464,15 +477,15 @@ class GreedySolver(Solver):
         deadline = t_start + self.time_limit
         tau_pick = self.tau or default_tau(problem.dist_pick)
         tau_place = self.tau or default_tau(problem.dist_place)
-        aff_pick = affinity(problem.dist_pick, tau_pick)
-        aff_place = affinity(problem.dist_place, tau_place)
+        aff_pick = affinity((problem.dist_pick + problem.dist_pick.T) / 2, tau_pick)
+        aff_place = affinity((problem.dist_place + problem.dist_place.T) / 2, tau_place)
         pick_links = SideLinks.of(problem, PICK)
         place_links = SideLinks.of(problem, PLACE)
-        opts = dict(threshold=self.affinity_threshold, open_when=self.open_when,
+        opts = dict(open_when=self.open_when,
                     node_limit=self.node_limit, deadline=deadline)
 
         t0 = time.perf_counter()
-        seeds = seed_colours(aff_pick, k_pick, self.affinity_threshold)
+        seeds = seed_colours(aff_pick, k_pick)
         t1 = time.perf_counter()
         place = colour_side(place_links, seeds, k_pick, aff_place, k_place, **opts)
         stats = {"tau_pick": tau_pick, "tau_place": tau_place,

@@ -1,0 +1,259 @@
+"""The ``(k_pick, k_place)`` grid sweep around any solver, and the registry of selection rules.
+
+A sweep solves every cell of a grid (in parallel processes when ``jobs > 1``), keeps each
+cell's :class:`~vggc_cp.solvers.base.SolveResult`, and lets a *selection rule* pick one.
+The paper's rule is ``"fewest"``: the fewest abstract nodes actually used, then the lowest
+visual score J.
+
+Default grid (:func:`default_grid`), from the actions alone. Let ``A_pick`` / ``A_place`` be the
+numbers of distinct pick / place actions in the transitions.
+
+* **Always feasible:** colour every place observation by the pick action that entered it and
+  every pick observation by the place action that entered it (observations that start an
+  episode join any colour). Every edge's label is then fixed by its target node, so
+  Exactly-One holds in both directions: the cell ``(A_place, A_pick)`` has a solution.
+* **Lower bound:** a pick node's distinct outgoing labels need distinct place nodes (and a
+  place node's distinct outgoing labels distinct pick nodes), so
+  ``k_pick * k_place >= max(A_pick, A_place)`` in every feasible cell.
+
+The default grid runs each role from the smallest value that the lower bound allows up to
+twice the always-feasible value (at most the role's number of observations), so the
+feasible corner lies well inside it and the fewest-nodes rule never needs a larger cell.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from vggc_cp.errors import VggcError, lookup
+from vggc_cp.solvers.base import Problem, Solver, SolveResult
+from vggc_cp.trace import PICK, PLACE, action_kind
+
+SelectionRule = Callable[[Sequence[SolveResult], Problem], "int | None"]
+SELECTIONS: dict[str, SelectionRule] = {}
+
+
+def register_selection(name: str) -> Callable[[SelectionRule], SelectionRule]:
+    """Decorator: add a selection rule ``(results, problem) -> index or None`` under ``name``."""
+    def deco(fn: SelectionRule) -> SelectionRule:
+        SELECTIONS[name] = fn
+        return fn
+    return deco
+
+
+def get_selection(name: str) -> SelectionRule:
+    """The selection rule called ``name`` (unknown names list the known ones)."""
+    return lookup(SELECTIONS, name, "selection rule")
+
+
+@register_selection("fewest")
+def select_fewest(results: Sequence[SolveResult], problem: Problem | None = None) -> int | None:
+    """The paper's rule: fewest nodes used, then lowest J, then the smaller cell.
+
+    Returns the index of the chosen result, or None when no cell has a colouring.
+    """
+    best, key = None, None
+    for i, r in enumerate(results):
+        if not r.found:
+            continue
+        k = (r.n_nodes, r.J, r.k_pick + r.k_place, r.k_pick)
+        if key is None or k < key:
+            best, key = i, k
+    return best
+
+
+# ---------------------------------------------------------------- grid
+
+
+def action_counts(problem: Problem) -> tuple[int, int]:
+    """``(A_pick, A_place)``: distinct pick and place actions among the transitions."""
+    acts = np.unique(np.asarray(problem.act))
+    kinds = [action_kind(problem.action_names[a]) for a in acts]
+    return sum(k == PICK for k in kinds), sum(k == PLACE for k in kinds)
+
+
+def default_grid(problem: Problem) -> tuple[range, range]:
+    """The default ``(k_pick values, k_place values)``; see the module docstring."""
+    a_pick, a_place = action_counts(problem)
+    hi_pick = max(1, min(problem.n_pick, 2 * max(a_place, 1)))
+    hi_place = max(1, min(problem.n_place, 2 * max(a_pick, 1)))
+    need = max(a_pick, a_place, 1)
+    lo_pick = min(hi_pick, max(1, math.ceil(need / hi_place)))
+    lo_place = min(hi_place, max(1, math.ceil(need / hi_pick)))
+    return range(lo_pick, hi_pick + 1), range(lo_place, hi_place + 1)
+
+
+def parse_range(text: str, what: str = "range") -> range:
+    """``"A:B"`` (inclusive) or ``"A"`` as a range of positive integers.
+
+    Raises
+    ------
+    VggcError
+        Naming ``what`` and the offending text.
+    """
+    parts = text.split(":")
+    try:
+        if len(parts) == 1:
+            lo = hi = int(parts[0])
+        elif len(parts) == 2:
+            lo, hi = int(parts[0]), int(parts[1])
+        else:
+            raise ValueError
+    except ValueError:
+        raise VggcError(f"{what} {text!r} is not A:B or A (integers)") from None
+    if lo < 1 or hi < lo:
+        raise VggcError(f"{what} {text!r} must satisfy 1 <= A <= B")
+    return range(lo, hi + 1)
+
+
+# ---------------------------------------------------------------- sweep
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """Every cell's result of a grid sweep and the selected one.
+
+    Attributes
+    ----------
+    results : tuple of SolveResult
+        One per cell, ``k_pick``-major then ``k_place``.
+    selected : int or None
+        Index into ``results`` chosen by ``rule``; None when no cell has a colouring.
+    rule : str
+        Selection rule name.
+    solver : str
+    seconds : float
+        Wall time of the whole sweep.
+    jobs : int
+    """
+
+    results: tuple[SolveResult, ...]
+    selected: int | None
+    rule: str
+    solver: str
+    seconds: float
+    jobs: int
+
+    @property
+    def best(self) -> SolveResult | None:
+        return None if self.selected is None else self.results[self.selected]
+
+    @property
+    def k_pick_values(self) -> list[int]:
+        return sorted({r.k_pick for r in self.results})
+
+    @property
+    def k_place_values(self) -> list[int]:
+        return sorted({r.k_place for r in self.results})
+
+    def cell(self, k_pick: int, k_place: int) -> SolveResult:
+        """The result of one cell (KeyError if the cell was not in the grid)."""
+        for r in self.results:
+            if r.k_pick == k_pick and r.k_place == k_place:
+                return r
+        raise KeyError((k_pick, k_place))
+
+    def records(self) -> list[dict]:
+        """Per cell: ``k_pick, k_place, status, J, seconds, nodes`` (+ search statistics).
+
+        ``J`` is None without a colouring; ``nodes`` counts the abstract nodes used (0 without
+        a colouring). This is the solution JSON's ``grid``.
+        """
+        out = []
+        for r in self.results:
+            out.append({
+                "k_pick": int(r.k_pick), "k_place": int(r.k_place), "status": r.status,
+                "J": None if not r.found or math.isnan(r.J) else float(r.J),
+                "seconds": round(float(r.seconds), 4), "nodes": r.n_nodes,
+                "search_nodes": r.stats.get("nodes"), "backtracks": r.stats.get("backtracks"),
+                "limit_hit": r.stats.get("limit_hit"),
+            })
+        return out
+
+    def table(self) -> pd.DataFrame:
+        """The grid as a DataFrame, one row per cell, with a ``selected`` column."""
+        df = pd.DataFrame.from_records(self.records())
+        df.insert(2, "feasible", [r.found for r in self.results])
+        df["selected"] = [i == self.selected for i in range(len(self.results))]
+        return df
+
+    def j_matrix(self) -> tuple[list[int], list[int], np.ndarray]:
+        """``(k_pick values, k_place values, J)`` with J of shape (len(kp), len(kq)), NaN blank."""
+        kp, kq = self.k_pick_values, self.k_place_values
+        mat = np.full((len(kp), len(kq)), np.nan)
+        for r in self.results:
+            if r.found:
+                mat[kp.index(r.k_pick), kq.index(r.k_place)] = r.J
+        return kp, kq, mat
+
+
+def _solve_cell(solver: Solver, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
+    return solver.solve(problem, k_pick, k_place)
+
+
+def _context():
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def run_sweep(problem: Problem, solver: Solver, k_pick: Sequence[int], k_place: Sequence[int],
+              *, jobs: int = 1, select: str = "fewest", progress: bool = False) -> Sweep:
+    """Solve every cell of ``k_pick x k_place`` and select one.
+
+    Parameters
+    ----------
+    problem : Problem
+    solver : Solver
+        Any solver instance; it is pickled into the worker processes.
+    k_pick, k_place : sequences of int
+        Grid values.
+    jobs : int
+        Worker processes; 1 solves inline. Workers are forked where the platform can (no
+        ``if __name__ == "__main__"`` guard needed in scripts or notebooks; workers only run
+        numpy), else spawned.
+    select : str
+        A name in :data:`SELECTIONS`.
+    progress : bool
+        Show a tqdm bar on stderr.
+    """
+    rule = get_selection(select)
+    cells = [(int(a), int(b)) for a in k_pick for b in k_place]
+    if not cells:
+        raise VggcError("the (k_pick, k_place) grid is empty")
+    if jobs < 1:
+        raise VggcError(f"--jobs must be at least 1, got {jobs}")
+    t0 = time.perf_counter()
+    results: list[SolveResult | None] = [None] * len(cells)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(cells), desc=f"{solver.name} sweep", unit="cell", leave=False)
+    try:
+        if jobs == 1:
+            for i, (a, b) in enumerate(cells):
+                results[i] = _solve_cell(solver, problem, a, b)
+                if bar is not None:
+                    bar.update(1)
+        else:
+            with ProcessPoolExecutor(max_workers=min(jobs, len(cells)),
+                                     mp_context=_context()) as pool:
+                futures = {pool.submit(_solve_cell, solver, problem, a, b): i
+                           for i, (a, b) in enumerate(cells)}
+                for fut in as_completed(futures):
+                    results[futures[fut]] = fut.result()
+                    if bar is not None:
+                        bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    done = tuple(r for r in results if r is not None)
+    selected = rule(done, problem)
+    return Sweep(done, selected, select, solver.name, time.perf_counter() - t0, jobs)
