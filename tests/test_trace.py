@@ -219,3 +219,13 @@ def test_console_script_has_no_traceback(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
+
+
+def test_written_files_get_the_usual_mode(tmp_path, toy_trace):
+    import os
+
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
