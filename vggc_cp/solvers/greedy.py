@@ -64,8 +64,8 @@ from vggc_cp.solvers.base import FEASIBLE, UNKNOWN, Problem, Solver, SolveResult
 from vggc_cp.trace import PICK, PLACE
 
 OPEN_WHEN = ("dissimilar", "stuck")
-DEFAULT_NODE_LIMIT = 20_000
-DEFAULT_TIME_LIMIT = 10.0
+DEFAULT_NODE_LIMIT = 5_000
+DEFAULT_TIME_LIMIT = 30.0
 
 
 def default_tau(dist: np.ndarray) -> float:

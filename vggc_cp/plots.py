@@ -1,0 +1,58 @@
+"""Every figure the command line and the notebooks draw (matplotlib, Agg backend, files only)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.atomic import atomic_path
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_sweep_grid(k_pick: list[int], k_place: list[int], J: np.ndarray, path: str | Path, *,
+                    selected: tuple[int, int] | None = None, title: str | None = None) -> None:
+    """Heatmap of the visual score J over a ``(k_pick, k_place)`` grid.
+
+    Parameters
+    ----------
+    k_pick, k_place : list of int
+        Row and column values.
+    J : ndarray, shape (len(k_pick), len(k_place))
+        NaN where the cell has no colouring; those cells stay blank.
+    path : path
+        PNG (or any format matplotlib infers from the suffix), written atomically.
+    selected : (k_pick, k_place), optional
+        The selected cell, outlined.
+    title : str, optional
+    """
+    plt = _pyplot()
+    J = np.asarray(J, dtype=float)
+    fig, ax = plt.subplots(figsize=(1.0 + 0.45 * len(k_place), 0.8 + 0.4 * len(k_pick)),
+                           constrained_layout=True)
+    masked = np.ma.masked_invalid(J)
+    cmap = plt.get_cmap("viridis").copy()
+    cmap.set_bad(alpha=0.0)
+    im = ax.imshow(masked, origin="lower", cmap=cmap, aspect="auto")
+    ax.set_xticks(range(len(k_place)), [str(k) for k in k_place])
+    ax.set_yticks(range(len(k_pick)), [str(k) for k in k_pick])
+    ax.set_xlabel("k_place")
+    ax.set_ylabel("k_pick")
+    if selected is not None and selected[0] in k_pick and selected[1] in k_place:
+        y, x = k_pick.index(selected[0]), k_place.index(selected[1])
+        ax.add_patch(plt.Rectangle((x - 0.5, y - 0.5), 1, 1, fill=False, edgecolor="red",
+                                   linewidth=2))
+    if np.isfinite(J).any():
+        fig.colorbar(im, ax=ax, label="J (blank: no colouring)")
+    ax.set_title(title or "visual score J over the grid")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)
