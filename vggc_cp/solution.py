@@ -49,6 +49,40 @@ class Solution:
         src, act, dst = trace.transitions()
         return TaskGraph.from_labels(self.labels, trace.roles(), src, act, dst, trace.action_names)
 
+    def edge_graph(self) -> TaskGraph:
+        """The task graph of the file alone: nodes from ``labels``/``roles``, edges as listed.
+
+        No trace needed (planning on a solution). Action indices follow the sorted action names
+        found on the edges; edges carry no supporting transitions.
+
+        Raises
+        ------
+        SolutionError
+            An edge names a node that no observation has.
+        """
+        names = tuple(sorted({a for _, a, _ in self.edges}))
+        index = {a: i for i, a in enumerate(names)}
+        order = np.argsort(self.labels, kind="stable")
+        uniq, starts = np.unique(self.labels[order], return_index=True)
+        ends = list(starts[1:]) + [len(order)]
+        members = {int(u): order[s:e] for u, s, e in zip(uniq, starts, ends)}
+        node_role = {}
+        for u, mem in members.items():
+            r = np.unique(self.roles[mem])
+            node_role[u] = int(r[0]) if len(r) == 1 else -1
+        edges: dict = {}
+        out: dict = {u: [] for u in members}
+        inn: dict = {u: [] for u in members}
+        for u, a, v in self.edges:
+            if u not in members or v not in members:
+                raise SolutionError(f"edge [{u}, {a!r}, {v}] names a node without observations")
+            key = (int(u), index[a], int(v))
+            if key not in edges:
+                edges[key] = np.zeros(0, dtype=np.int64)
+                out[key[0]].append((key[1], key[2]))
+                inn[key[2]].append((key[1], key[0]))
+        return TaskGraph(node_role, members, edges, names, out, inn)
+
 
 def _num(x):
     if x is None:
