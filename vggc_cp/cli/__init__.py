@@ -16,6 +16,7 @@ from vggc_cp.errors import VggcError
 COMMAND_MODULES = [
     "vggc_cp.cli.trace_cmds",
     "vggc_cp.cli.sim_cmds",
+    "vggc_cp.cli.localize_cmds",
 ]
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from vggc_cp.cli.localize_cmds import add_i2p_options, i2p_results, print_i2p
 from vggc_cp.errors import VggcError
 from vggc_cp.evaluate import DYNAMICS, evaluate_trace
 from vggc_cp.solution import read_solution, verify_solution
@@ -46,6 +47,7 @@ def register_evaluate(sub) -> None:
                    help="true transitions for Exec: the simulator's (sim), the trace's (trace), "
                         "or sim when the trace names a benchmark (auto)")
     p.add_argument("--json", action="store_true", help="print JSON")
+    add_i2p_options(p)
     p.set_defaults(func=cmd_evaluate)
 
 
@@ -58,6 +60,9 @@ def cmd_evaluate(args) -> int:
     metrics, used = evaluate_trace(trace, graph, solution.labels, n_queries=args.queries,
                                    seed=args.seed, dynamics=args.dynamics)
     out = metrics.as_dict() | {"dynamics": used, "solver": solution.solver}
+    i2p = i2p_results(args, trace, solution)
+    if i2p is not None:
+        out["i2p"] = i2p
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -69,6 +74,8 @@ def cmd_evaluate(args) -> int:
                         ("OptPath", metrics.opt_path), ("AnyPath", metrics.any_path),
                         ("Exec", metrics.exec)):
         print(f"{name:<14} {100 * value:6.2f} %")
+    if i2p is not None:
+        print_i2p(i2p)
     return 0
 
 
