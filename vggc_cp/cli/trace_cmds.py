@@ -7,6 +7,7 @@ import json
 from vggc_cp.cli.localize_cmds import add_i2p_options, i2p_results, print_i2p
 from vggc_cp.errors import VggcError
 from vggc_cp.evaluate import DYNAMICS, evaluate_trace
+from vggc_cp.graph import check
 from vggc_cp.solution import read_solution, verify_solution
 from vggc_cp.trace import load_trace, summarize
 
@@ -60,6 +61,8 @@ def cmd_evaluate(args) -> int:
     metrics, used = evaluate_trace(trace, graph, solution.labels, n_queries=args.queries,
                                    seed=args.seed, dynamics=args.dynamics)
     out = metrics.as_dict() | {"dynamics": used, "solver": solution.solver}
+    if solution.extra.get("constraints") == "none":
+        out["exactly_one_violations"] = len(check(graph).of_kind("exactly_one"))
     i2p = i2p_results(args, trace, solution)
     if i2p is not None:
         out["i2p"] = i2p
@@ -70,6 +73,8 @@ def cmd_evaluate(args) -> int:
           f"k = ({solution.k_pick}, {solution.k_place}), J = {solution.J:.4g})")
     print(f"true graph G*  {metrics.true_states} states, {metrics.true_edges} transitions")
     print(f"queries        Q = {metrics.queries} (seed {args.seed}); Exec on {used} dynamics")
+    if "exactly_one_violations" in out:
+        print(f"constraints    none claimed: {out['exactly_one_violations']} Exactly-One violations")
     for name, value in (("TransPrec", metrics.trans_prec), ("TransCov", metrics.trans_cov),
                         ("OptPath", metrics.opt_path), ("AnyPath", metrics.any_path),
                         ("Exec", metrics.exec)):
