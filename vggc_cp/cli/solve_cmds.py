@@ -1,0 +1,271 @@
+"""``vggc-cp solve``, ``vggc-cp plan`` and ``vggc-cp bench sweep``: parse, call the library, print."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+from pathlib import Path
+
+from vggc_cp.errors import VggcError
+
+BENCH_NAME = "fruit-4x6"
+BENCH_TRANSITIONS = 700
+BENCH_LIMIT_S = 120.0
+
+
+def _image_plan_module():
+    """The localizer's image options of ``plan``, where that module is installed."""
+    try:
+        from vggc_cp.cli import localize_cmds
+    except ImportError:
+        return None
+    return localize_cmds
+
+
+def register(sub) -> None:
+    from vggc_cp.solvers import SOLVERS
+    from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
+    from vggc_cp.solvers.sweep import SELECTIONS
+    from vggc_cp.vision import add_distance_arguments
+
+    p = sub.add_parser("solve", help="learn a task graph: distances, (k_pick, k_place) sweep, "
+                                     "selection; writes the solution JSON")
+    p.add_argument("trace", help="trace .npz")
+    p.add_argument("-o", "--output", required=True, help="solution .json to write")
+    p.add_argument("--solver", default="greedy",
+                   help=f"colouring solver: {', '.join(sorted(SOLVERS))} (default greedy)")
+    p.add_argument("--k-pick", default=None, metavar="A:B",
+                   help="k_pick values, inclusive (default: derived from the actions)")
+    p.add_argument("--k-place", default=None, metavar="A:B",
+                   help="k_place values, inclusive (default: derived from the actions)")
+    p.add_argument("--jobs", type=int, default=1, help="parallel worker processes (default 1)")
+    p.add_argument("--tau", type=float, default=None,
+                   help="K_vis temperature (default: per role, the median within-role distance)")
+    p.add_argument("--select", default="fewest",
+                   help=f"selection rule: {', '.join(sorted(SELECTIONS))} (default fewest)")
+    p.add_argument("--plot", default=None, metavar="PNG", help="draw J over the grid")
+    p.add_argument("--quiet", action="store_true", help="no progress bars, no grid table")
+    add_distance_arguments(p)
+    p.set_defaults(func=cmd_solve)
+
+    q = sub.add_parser("plan", help="shortest pick/place plan on a solution's graph between the "
+                                    "nodes of two trace observations (or two images)")
+    q.add_argument("solution", help="solution .json")
+    q.add_argument("--start-obs", type=int, default=None, metavar="I",
+                   help="index of the start observation in the solved trace")
+    q.add_argument("--goal-obs", type=int, default=None, metavar="J",
+                   help="index of the goal observation in the solved trace")
+    images = _image_plan_module()
+    if images is not None:
+        images.add_image_plan_options(q)
+        q.add_argument("--json", action="store_true", help="print JSON (image planning)")
+    q.set_defaults(func=cmd_plan)
+
+
+def register_bench(bench_sub) -> None:
+    p = bench_sub.add_parser(
+        "sweep", help=f"time the whole greedy sweep on {BENCH_NAME} at |D|={BENCH_TRANSITIONS} "
+                      f"(distances cached): jobs=2 against jobs=1")
+    p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--cache-dir", default=None,
+                   help="where the generated trace is kept (default ~/.cache/vggc-cp/bench)")
+    p.add_argument("--jobs", type=int, default=2, help="workers of the timed sweep (default 2)")
+    p.set_defaults(func=cmd_bench_sweep)
+
+
+# ------------------------------------------------------------------ solve
+
+
+def _config_record(cfg) -> dict | str:
+    if dataclasses.is_dataclass(cfg):
+        return {k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)
+                for k, v in dataclasses.asdict(cfg).items()}
+    return repr(cfg)
+
+
+def _make_solver(name: str, tau: float | None):
+    from vggc_cp.solvers import get_solver
+
+    options = {} if tau is None else {"tau": tau}
+    try:
+        return get_solver(name, **options)
+    except TypeError:
+        raise VggcError(f"solver {name!r} takes no --tau") from None
+    except ValueError as exc:
+        raise VggcError(f"solver {name!r}: {exc}") from None
+
+
+def _grid(problem, k_pick: str | None, k_place: str | None):
+    from vggc_cp.solvers.sweep import default_grid, parse_range
+
+    dp, dq = default_grid(problem)
+    return (parse_range(k_pick, "--k-pick") if k_pick else dp,
+            parse_range(k_place, "--k-place") if k_place else dq)
+
+
+def cmd_solve(args) -> int:
+    from vggc_cp.solution import solution_dict, write_solution
+    from vggc_cp.solvers import Problem
+    from vggc_cp.solvers.sweep import get_selection, run_sweep
+    from vggc_cp.trace import load_trace
+    from vggc_cp.vision import compute_distances, config_from_args
+
+    get_selection(args.select)  # unknown names fail before any work
+    solver = _make_solver(args.solver, args.tau)
+    trace = load_trace(args.trace)
+    cfg = config_from_args(args)
+    t0 = time.perf_counter()
+    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
+    t_dist = time.perf_counter() - t0
+    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    kp, kq = _grid(problem, args.k_pick, args.k_place)
+    sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
+                      progress=not args.quiet)
+    n_found = sum(r.found for r in sweep.results)
+    print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
+          f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
+    print(f"distances      {t_dist:.1f} s")
+    print(f"sweep          {sweep.solver}, k_pick {kp.start}..{kp.stop - 1} x k_place "
+          f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cells, {n_found} with a colouring, "
+          f"{sweep.seconds:.1f} s (jobs {args.jobs})")
+    if not args.quiet:
+        table = sweep.table()[["k_pick", "k_place", "feasible", "status", "J", "seconds",
+                               "nodes", "selected"]]
+        print(table.to_markdown(index=False, floatfmt=".4f"))
+    if args.plot:
+        from vggc_cp.plots import plot_sweep_grid
+
+        k1, k2, J = sweep.j_matrix()
+        best = sweep.best
+        plot_sweep_grid(k1, k2, J, args.plot,
+                        selected=None if best is None else (best.k_pick, best.k_place),
+                        title=f"{Path(args.trace).name}: J over the grid ({sweep.solver})")
+        print(f"plot           {args.plot}")
+    best = sweep.best
+    if best is None:
+        raise VggcError(f"no cell of the grid has a colouring ({len(sweep.results)} cells); "
+                        f"try larger --k-pick/--k-place; nothing written")
+    graph = problem.graph(best.labels)
+    roles = problem.roles
+    data = solution_dict(
+        best.labels, roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
+        solver=best.solver, status=best.status, select=args.select,
+        grid=sweep.records(), distances=_config_record(cfg),
+        trace=str(args.trace), trace_sha256=trace.content_hash(),
+        seconds={"distances": round(t_dist, 3), "sweep": round(sweep.seconds, 3)},
+        stats=_jsonable(best.stats))
+    write_solution(args.output, data)
+    counts = graph.count_by_role()
+    print(f"chosen         k_pick {best.k_pick}, k_place {best.k_place} ({args.select}): "
+          f"{graph.n_nodes} nodes ({counts['pick']} pick, {counts['place']} place), "
+          f"{graph.n_edges} edges, J {best.J:.4f}, {best.status}")
+    print(f"wrote          {args.output}")
+    return 0
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if hasattr(obj, "item"):
+        return obj.item()
+    return obj
+
+
+# ------------------------------------------------------------------ plan
+
+
+def cmd_plan(args) -> int:
+    images = _image_plan_module()
+    obs_given = args.start_obs is not None or args.goal_obs is not None
+    if images is not None and images.wants_image_plan(args):
+        if obs_given:
+            raise VggcError("give either --start-obs/--goal-obs or the image options, not both")
+        return images.cmd_image_plan(args)
+    if args.start_obs is None or args.goal_obs is None:
+        raise VggcError("plan needs --start-obs and --goal-obs")
+    from vggc_cp.graph import format_plan, shortest_plan
+    from vggc_cp.solution import read_solution
+    from vggc_cp.trace import ROLE_NAMES
+
+    solution = read_solution(args.solution)
+    n = len(solution.labels)
+    for opt, i in (("--start-obs", args.start_obs), ("--goal-obs", args.goal_obs)):
+        if not 0 <= i < n:
+            raise VggcError(f"{opt} {i} is out of range: {args.solution} labels {n} "
+                            f"observations (0..{n - 1})")
+    graph = solution.edge_graph()
+    start, goal = int(solution.labels[args.start_obs]), int(solution.labels[args.goal_obs])
+    role = {u: ROLE_NAMES[r] if r >= 0 else "mixed" for u, r in graph.node_role.items()}
+    print(f"start          observation {args.start_obs} -> node {start} ({role[start]})")
+    print(f"goal           observation {args.goal_obs} -> node {goal} ({role[goal]})")
+    plan = shortest_plan(graph, start, goal)
+    if plan is None:
+        print(f"plan           none: node {goal} is unreachable from node {start}")
+        return 1
+    print(f"plan           {len(plan)} actions")
+    for i, step in enumerate(format_plan(graph, plan), 1):
+        print(f"  {i:>3}. {step}")
+    return 0
+
+
+# ------------------------------------------------------------------ bench sweep
+
+
+def _bench_trace(args):
+    from vggc_cp.trace import load_trace, save_trace
+
+    root = Path(args.cache_dir) if args.cache_dir else \
+        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "vggc-cp" / "bench"
+    path = root / f"{BENCH_NAME}-d{args.transitions}-s{args.seed}.npz"
+    if path.is_file():
+        return load_trace(path), path, 0.0
+    try:
+        from vggc_cp.sim.explore import generate
+    except ImportError:
+        raise VggcError("bench sweep needs the simulator (vggc_cp.sim) to generate "
+                        f"{BENCH_NAME}") from None
+    t0 = time.perf_counter()
+    trace = generate(BENCH_NAME, args.transitions, args.seed).trace
+    save_trace(trace, path)
+    return trace, path, time.perf_counter() - t0
+
+
+def cmd_bench_sweep(args) -> int:
+    from vggc_cp.solvers import Problem
+    from vggc_cp.solvers.greedy import GreedySolver
+    from vggc_cp.solvers.sweep import default_grid, run_sweep
+    from vggc_cp.vision import DistanceConfig, compute_distances
+
+    if args.jobs < 1:
+        raise VggcError(f"--jobs must be at least 1, got {args.jobs}")
+    trace, path, t_gen = _bench_trace(args)
+    how = f"generated in {t_gen:.1f} s" if t_gen else "cached"
+    print(f"trace          {path} ({how})", file=sys.stderr)
+    t0 = time.perf_counter()
+    dist_pick, dist_place = compute_distances(trace, DistanceConfig(), progress=False)
+    t_dist = time.perf_counter() - t0
+    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    kp, kq = default_grid(problem)
+    solver = GreedySolver()
+    base = run_sweep(problem, solver, kp, kq, jobs=1)
+    timed = run_sweep(problem, solver, kp, kq, jobs=args.jobs)
+    same = all((a.status, a.n_nodes) == (b.status, b.n_nodes)
+               for a, b in zip(base.results, timed.results))
+    best = timed.best
+    print(f"sweep {BENCH_NAME} |D|={trace.n_transitions} (pick {problem.n_pick}, place "
+          f"{problem.n_place}), grid {kp.start}..{kp.stop - 1} x {kq.start}..{kq.stop - 1} "
+          f"= {len(timed.results)} cells, distances {t_dist:.1f} s (cached after the first run)")
+    print(f"  jobs={args.jobs}: {timed.seconds:.2f} s")
+    print(f"  baseline, the same sweep inline (jobs=1): {base.seconds:.2f} s; "
+          f"ratio {timed.seconds / base.seconds:.2f}x; same cells: {same}")
+    if best is not None:
+        print(f"  selected (fewest): k_pick {best.k_pick}, k_place {best.k_place}, "
+              f"{best.n_nodes} nodes, J {best.J:.4f}")
+    verdict = "within" if timed.seconds <= BENCH_LIMIT_S else "OVER"
+    print(f"  {verdict} the {BENCH_LIMIT_S:.0f} s target")
+    return 0
