@@ -56,3 +56,41 @@ def plot_sweep_grid(k_pick: list[int], k_place: list[int], J: np.ndarray, path: 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     plt.close(fig)
+
+
+def plot_image_strip(images, titles, path: str | Path, *, suptitle: str | None = None,
+                     outlines=None) -> None:
+    """A row of images with a title above each (the ``vggc-cp demo`` picture strip).
+
+    Parameters
+    ----------
+    images : sequence of ndarray, uint8, shape (H, W, 3)
+    titles : sequence of str
+        One (multi-line allowed) per image.
+    path : path
+        PNG, written atomically.
+    suptitle : str, optional
+        A line above the whole strip.
+    outlines : sequence of str or None, optional
+        A frame colour per image (None: no frame), e.g. green for a reached goal.
+    """
+    plt = _pyplot()
+    n = len(images)
+    fig, axes = plt.subplots(1, n, figsize=(1.9 * n, 2.6 if suptitle else 2.3),
+                             constrained_layout=True, squeeze=False)
+    outlines = outlines or [None] * n
+    for ax, img, title, colour in zip(axes[0], images, titles, outlines):
+        ax.imshow(np.asarray(img), interpolation="nearest")
+        ax.set_title(title, fontsize=7)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        for spine in ax.spines.values():
+            spine.set_visible(colour is not None)
+            if colour is not None:
+                spine.set_edgecolor(colour)
+                spine.set_linewidth(3)
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=9)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)

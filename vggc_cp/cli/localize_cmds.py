@@ -1,5 +1,7 @@
-"""``vggc-cp train-localizer``, the image options of ``vggc-cp plan`` and ``evaluate``, and
-``vggc-cp demo``. Parses, calls :mod:`vggc_cp.localize`, prints."""
+"""``vggc-cp train-localizer``, ``vggc-cp demo``, and the image options that ``vggc-cp plan``
+(:mod:`vggc_cp.cli.solve_cmds`) and ``vggc-cp evaluate`` (:mod:`vggc_cp.cli.trace_cmds`) add
+through :func:`add_image_plan_options` / :func:`add_i2p_options`. Parses, calls
+:mod:`vggc_cp.localize`, prints."""
 
 from __future__ import annotations
 
@@ -69,13 +71,6 @@ def register(sub) -> None:
     d.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
     d.add_argument("--quiet", action="store_true", help="no progress output")
     d.set_defaults(func=cmd_demo)
-
-    if "plan" not in sub.choices:  # no solver-side ``plan`` registered: provide the image one
-        q = sub.add_parser("plan", help="plan between a start and a goal image on a solution")
-        q.add_argument("solution", help="solution .json")
-        add_image_plan_options(q)
-        q.add_argument("--json", action="store_true", help="print JSON")
-        q.set_defaults(func=cmd_image_plan)
 
 
 def cmd_train(args) -> int:
