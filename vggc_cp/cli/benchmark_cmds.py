@@ -20,6 +20,7 @@ def register(sub) -> None:
                    help="option of the baseline's config (comma-separated values for a sweep "
                         "grid), e.g. min_cluster_size=3,5 or d_m=4,12; repeatable")
     p.set_defaults(func=cmd_baseline)
+    register_benchmark(sub)
 
 
 def cmd_baseline(args) -> int:
@@ -35,4 +36,98 @@ def cmd_baseline(args) -> int:
     print(f"selected  {result.stats['params']}")
     print(f"sweep     {len(result.stats['grid'])} points, rule: {result.stats['selection']}")
     print(f"wrote     {args.output}")
+    return 0
+
+
+def _split(text: str) -> list[str]:
+    return [x.strip() for x in text.split(",") if x.strip()]
+
+
+def _scalar(text: str):
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    return {"true": True, "false": False, "none": None}.get(text.lower(), text)
+
+
+def method_options(items: list[str]) -> dict:
+    """``METHOD.KEY=VALUE`` strings -> ``{method: {key: value}}``.
+
+    Baseline keys are fields of the baseline's config (comma-separated values for sweep
+    grids); solver keys are keyword arguments of the solver (one value, commas kept).
+    """
+    from vggc_cp.errors import VggcError
+
+    grouped: dict[str, list[str]] = {}
+    for item in items:
+        head, sep, _ = item.partition("=")
+        method, dot, _key = head.partition(".")
+        if not sep or not dot:
+            raise VggcError(f"--param {item!r}: expected METHOD.KEY=VALUE")
+        grouped.setdefault(method.strip(), []).append(item.split(".", 1)[1])
+    out: dict[str, dict] = {}
+    for method, kvs in grouped.items():
+        if method in BASELINES:
+            out[method] = parse_params(BASELINES[method].config_class, kvs)
+        else:
+            out[method] = {k.strip(): _scalar(v.strip()) for k, _, v in
+                           (kv.partition("=") for kv in kvs)}
+    return out
+
+
+def register_benchmark(sub) -> None:
+    import os
+
+    from vggc_cp.evaluate.benchmark import BACKENDS, METHODS
+
+    p = sub.add_parser("benchmark", help="the paper's Table 1: every method on every benchmark",
+                       description="Generate or reuse traces, run every method, evaluate with "
+                                   "Q queries, write table1.csv and table1.md into --out. "
+                                   "Finished cells are cached there and skipped on a rerun.")
+    p.add_argument("--benchmarks", default="all",
+                   help="comma-separated benchmark names, or all (default)")
+    p.add_argument("--methods", default="greedy,cpsat,pca-hdbscan,lsr",
+                   help=f"comma-separated methods: {', '.join(METHODS)} (default all)")
+    p.add_argument("--seeds", default="0", help="comma-separated trace seeds (default 0)")
+    p.add_argument("--transitions", type=int, default=None,
+                   help="|D| of every trace (default: the paper's per benchmark)")
+    p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries (1500)")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                   help="worker processes / cluster tasks (default: the CPU count)")
+    p.add_argument("--backend", choices=BACKENDS, default="loky",
+                   help="loky: local processes (default); dask or ray: a cluster (extras)")
+    p.add_argument("--scheduler", default=None,
+                   help="address of an existing dask scheduler or ray cluster")
+    p.add_argument("--out", default="benchmark", help="output and cache folder (./benchmark)")
+    p.add_argument("--param", action="append", default=[], metavar="METHOD.KEY=VALUE",
+                   help="method option, e.g. cpsat.params=max_time_in_seconds:5 or "
+                        "lsr.steps=300; repeatable")
+    p.add_argument("--force", action="store_true", help="recompute cached cells")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=cmd_benchmark)
+
+
+def cmd_benchmark(args) -> int:
+    from pathlib import Path
+
+    from vggc_cp.errors import VggcError
+    from vggc_cp.evaluate.benchmark import BenchmarkConfig, run_benchmark, write_tables
+    from vggc_cp.sim import benchmark_names
+
+    benches = benchmark_names() if args.benchmarks == "all" else tuple(_split(args.benchmarks))
+    try:
+        seeds = tuple(int(s) for s in _split(args.seeds))
+    except ValueError:
+        raise VggcError(f"--seeds {args.seeds!r}: expected comma-separated integers") from None
+    cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
+                          args.transitions, args.queries, args.jobs, args.backend,
+                          args.scheduler, method_options(args.param), args.force)
+    run = run_benchmark(cfg, progress=not args.quiet)
+    csv, md = write_tables(run.rows, cfg.out, run.seconds)
+    print(md.read_text(encoding="utf-8"), end="")
+    print(f"cells          {run.computed} computed, {run.reused} reused from {cfg.out}/cells "
+          f"({run.seconds:.1f} s, jobs {cfg.jobs}, {cfg.backend})")
+    print(f"wrote          {csv}, {md}")
     return 0

@@ -1,0 +1,103 @@
+"""``vggc-cp benchmark``: cells, caching and resumption, tables, backends."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import pytest
+
+from vggc_cp.cli import main
+from vggc_cp.errors import VggcError
+from vggc_cp.evaluate.benchmark import (
+    METHODS,
+    BenchmarkConfig,
+    cell_jobs,
+    check_backend,
+    run_benchmark,
+    table_markdown,
+    write_tables,
+)
+from vggc_cp.solution import read_solution, verify_solution
+from vggc_cp.trace import load_trace
+
+HAS_VISION = importlib.util.find_spec("vggc_cp.vision") is not None
+
+
+def test_run_resume_and_tables(tmp_path, capsys):
+    out = tmp_path / "bench"
+    argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan",
+            "--seeds", "0,1", "--transitions", "12", "-Q", "50", "--jobs", "1", "--out",
+            str(out), "--quiet", "--param", "pca-hdbscan.min_cluster_size=2,3"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "2 computed, 0 reused" in text
+    assert "| fruit-2x3 (\\|D\\|=12" in text and "PCA-HDBSCAN (paper) | n/a" in text
+    assert (out / "table1.csv").is_file() and (out / "table1.md").is_file()
+    cell = json.loads((out / "cells" / "fruit-2x3__pca-hdbscan__s0.json").read_text())
+    row = cell["row"]
+    assert row["transitions"] == 12 and row["nodes"] >= 2
+    assert 0.0 <= row["opt_path"] <= row["any_path"] <= 1.0
+    trace = load_trace(out / "traces" / "fruit-2x3-d12-s0.npz")
+    sol = read_solution(row["solution"])
+    verify_solution(sol, trace)
+    assert {r["min_cluster_size"] for r in sol.extra["grid"]} == {2, 3}
+
+    assert main(argv) == 0  # resumed: every cell reused
+    assert "0 computed, 2 reused" in capsys.readouterr().out
+    changed = [a if a != "50" else "60" for a in argv]  # other settings: recomputed
+    assert main(changed) == 0
+    assert "2 computed, 0 reused" in capsys.readouterr().out
+
+
+def test_cells_and_table_layout(tmp_path):
+    cfg = BenchmarkConfig(tmp_path, ("fruit-2x3", "blocks-2"), ("pca-hdbscan", "lsr"), (0,),
+                          transitions=10, queries=10)
+    jobs = cell_jobs(cfg)
+    assert [(j.benchmark, j.method) for j in jobs] == [
+        ("fruit-2x3", "pca-hdbscan"), ("fruit-2x3", "lsr"),
+        ("blocks-2", "pca-hdbscan"), ("blocks-2", "lsr")]
+    rows = [{"benchmark": "fruit-2x3", "method": m, "seed": 0, "transitions": 10,
+             "paper_states": 6, "true_states": 5, "nodes": n, "seconds": 1.0,
+             "opt_path": p, "any_path": p, "trans_prec": 1.0, "trans_cov": 1.0, "exec": p}
+            for m, n, p in (("greedy", 6, 1.0), ("cpsat", 0, None))]
+    md = table_markdown(rows)
+    assert "| VGGC greedy (ours) | 100.0 | 100.0 | 100.0 | 100.0 | 100.0 | 6 / 5 |" in md
+    assert "| VGGC (paper) | n/a | n/a | n/a | n/a |" in md
+    assert "| VGGC CP-SAT (ours) | – | – |" in md
+    assert "CP-SAT (paper)" not in md
+    csv, md_path = write_tables(rows, tmp_path, 12.0)
+    assert "Wall time of the run: 12 s" in md_path.read_text()
+
+
+def test_bad_settings_fail_clearly(tmp_path):
+    with pytest.raises(VggcError, match="known: .*lsr"):
+        BenchmarkConfig(tmp_path, ("fruit-2x3",), ("kmeans",))
+    with pytest.raises(VggcError, match="benchmark"):
+        BenchmarkConfig(tmp_path, ("fruit-9x9",), ("lsr",))
+    with pytest.raises(VggcError, match="jobs"):
+        BenchmarkConfig(tmp_path, ("fruit-2x3",), ("lsr",), jobs=0)
+    assert set(METHODS) == {"greedy", "cpsat", "pca-hdbscan", "lsr"}
+
+
+@pytest.mark.skipif(importlib.util.find_spec("distributed") is not None,
+                    reason="dask is installed here")
+def test_missing_cluster_backend_says_how_to_install(tmp_path, capsys):
+    with pytest.raises(VggcError, match="vggc-cp\\[cluster\\]"):
+        check_backend("dask")
+    assert main(["benchmark", "--benchmarks", "fruit-2x3", "--methods", "lsr", "--backend",
+                 "dask", "--out", str(tmp_path)]) == 2
+    assert "pip install" in capsys.readouterr().err
+    assert not (tmp_path / "traces").exists()
+
+
+@pytest.mark.skipif(not HAS_VISION, reason="vggc_cp.vision (distances) not installed")
+def test_colouring_methods_run(tmp_path):
+    cfg = BenchmarkConfig(tmp_path, ("fruit-2x3",), ("greedy", "cpsat"), (0,), transitions=16,
+                          queries=50, options={"cpsat": {"params": "max_time_in_seconds:5"}})
+    run = run_benchmark(cfg, progress=False)
+    assert run.computed == 2
+    for row in run.rows:
+        assert row["status"] in ("feasible", "optimal")
+        assert row["exactly_one"] == 0 and row["nodes"] >= 2
+        assert row["seconds_distances"] >= 0
