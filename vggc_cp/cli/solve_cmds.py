@@ -46,6 +46,9 @@ def register(sub) -> None:
     p.add_argument("--select", default="fewest",
                    help=f"selection rule: {', '.join(sorted(SELECTIONS))} (default fewest)")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw J over the grid")
+    p.add_argument("--table", choices=("pivot", "cells", "none"), default="pivot",
+                   help="print the grid as J per cell (pivot, default), one row per cell with "
+                        "feasible, status, J, seconds (cells), or not at all")
     p.add_argument("--quiet", action="store_true", help="no progress bars, no grid table")
     add_distance_arguments(p)
     p.set_defaults(func=cmd_solve)
@@ -131,10 +134,13 @@ def cmd_solve(args) -> int:
     print(f"sweep          {sweep.solver}, k_pick {kp.start}..{kp.stop - 1} x k_place "
           f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cells, {n_found} with a colouring, "
           f"{sweep.seconds:.1f} s (jobs {args.jobs})")
-    if not args.quiet:
+    if not args.quiet and args.table == "cells":
         table = sweep.table()[["k_pick", "k_place", "feasible", "status", "J", "seconds",
                                "nodes", "selected"]]
         print(table.to_markdown(index=False, floatfmt=".4f"))
+    elif not args.quiet and args.table == "pivot":
+        print("J per cell (- no colouring, * selected):")
+        print(sweep.pivot().to_markdown(stralign="right", disable_numparse=True))
     if args.plot:
         from vggc_cp.plots import plot_sweep_grid
 
