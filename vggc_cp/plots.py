@@ -39,8 +39,7 @@ def plot_sweep_grid(k_pick: list[int], k_place: list[int], J: np.ndarray, path: 
     fig, ax = plt.subplots(figsize=(1.0 + 0.45 * len(k_place), 0.8 + 0.4 * len(k_pick)),
                            constrained_layout=True)
     masked = np.ma.masked_invalid(J)
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad(alpha=0.0)
+    cmap = plt.get_cmap("viridis").with_extremes(bad=(0.0, 0.0, 0.0, 0.0))
     im = ax.imshow(masked, origin="lower", cmap=cmap, aspect="auto")
     ax.set_xticks(range(len(k_place)), [str(k) for k in k_place])
     ax.set_yticks(range(len(k_pick)), [str(k) for k in k_pick])

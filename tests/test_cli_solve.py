@@ -1,0 +1,119 @@
+"""``vggc-cp solve`` and ``vggc-cp plan`` end to end on a tiny hand-built trace."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import TOY_NAMES, make_trace
+
+from vggc_cp.cli import main
+from vggc_cp.solution import read_solution, verify_solution
+from vggc_cp.trace import save_trace
+
+
+@pytest.fixture
+def toy_path(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    ep1 = ["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
+    ep2 = ["R", "pick_R", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
+    trace = make_trace([ep1, ep2], TOY_NAMES, size=16, noise=4)
+    path = tmp_path / "toy.npz"
+    save_trace(trace, path)
+    return path, trace
+
+
+def solve(trace_path, out, *extra):
+    return main(["solve", str(trace_path), "-o", str(out), "--quiet",
+                 "--k-pick", "1:3", "--k-place", "1:2", *extra])
+
+
+def test_solve_writes_a_valid_solution(toy_path, tmp_path, capsys):
+    path, trace = toy_path
+    out = tmp_path / "sol.json"
+    assert solve(path, out) == 0
+    text = capsys.readouterr().out
+    assert "chosen" in text and "k_pick 2, k_place 1" in text and "3 nodes" in text
+    sol = read_solution(out)
+    verify_solution(sol, trace, str(out))
+    assert (sol.k_pick, sol.k_place, sol.solver, sol.status) == (2, 1, "greedy", "feasible")
+    same = sol.labels[:, None] == sol.labels[None, :]
+    np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
+    grid = sol.extra["grid"]
+    assert len(grid) == 6
+    assert all({"k_pick", "k_place", "status", "J", "seconds", "nodes"} <= set(c) for c in grid)
+    assert "distances" in sol.extra and sol.extra["select"] == "fewest"
+
+
+def test_states_removed_solves_identically(toy_path, tmp_path):
+    path, trace = toy_path
+    bare = tmp_path / "bare.npz"
+    save_trace(trace.without_states(), bare)
+    assert solve(path, tmp_path / "a.json") == 0
+    assert solve(bare, tmp_path / "b.json", "--jobs", "2") == 0
+    a = json.loads((tmp_path / "a.json").read_text())
+    b = json.loads((tmp_path / "b.json").read_text())
+    for key in ("labels", "edges", "k_pick", "k_place", "J", "status"):
+        assert a[key] == b[key]
+
+
+def test_solve_grid_table_and_plot(toy_path, tmp_path, capsys):
+    path, _ = toy_path
+    png = tmp_path / "grid.png"
+    assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--k-pick", "1:3",
+                 "--k-place", "1:2", "--plot", str(png), "--table", "cells"]) == 0
+    out = capsys.readouterr().out
+    assert "| k_pick" in out.replace("|   k_pick", "| k_pick") and "feasible" in out
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_plan_between_two_observations(toy_path, tmp_path, capsys):
+    path, trace = toy_path
+    out = tmp_path / "sol.json"
+    assert solve(path, out) == 0
+    capsys.readouterr()
+    # observation 0 is L (pick), observation 2 is R (pick): L -pick_L-> H -place_R-> R
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "2"]) == 0
+    text = capsys.readouterr().out
+    assert "2 actions" in text and "pick_L" in text and "place_R" in text
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "0"]) == 0
+    assert "0 actions" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--start-obs", "0", "--goal-obs", "99"], "--goal-obs 99"),
+    (["--start-obs", "-1", "--goal-obs", "0"], "--start-obs -1"),
+    (["--start-obs", "0"], "--goal-obs"),
+])
+def test_plan_refuses_bad_indices(toy_path, tmp_path, capsys, args, needle):
+    path, _ = toy_path
+    out = tmp_path / "sol.json"
+    assert solve(path, out) == 0
+    capsys.readouterr()
+    assert main(["plan", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1
+
+
+def test_bad_input_exits_2(toy_path, tmp_path, capsys):
+    path, _ = toy_path
+    out = tmp_path / "x.json"
+    assert main(["solve", str(tmp_path / "missing.npz"), "-o", str(out)]) == 2
+    assert solve(path, out, "--select", "prettiest") == 2
+    assert "fewest" in capsys.readouterr().err
+    assert solve(path, out, "--solver", "nope") == 2
+    assert "greedy" in capsys.readouterr().err
+    assert main(["solve", str(path), "-o", str(out), "--k-pick", "3:1"]) == 2
+    assert main(["plan", str(tmp_path / "missing.json"), "--start-obs", "0",
+                 "--goal-obs", "0"]) == 2
+    assert not out.exists()
+
+
+def test_no_colouring_in_the_grid_is_an_error(toy_path, tmp_path, capsys):
+    path, _ = toy_path
+    out = tmp_path / "none.json"
+    # one pick and one place colour cannot hold both pick actions
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--k-pick", "1",
+                 "--k-place", "1"]) == 2
+    assert "no cell" in capsys.readouterr().err and not out.exists()
