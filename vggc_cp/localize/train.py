@@ -55,7 +55,7 @@ class TrainConfig:
     weights: str | None = None
     gamma: float = 16.0
     learning_rates: tuple[float, ...] = (3e-3, 1e-3)
-    epoch_grid: tuple[int, ...] = (8, 16, 24)
+    epoch_grid: tuple[int, ...] = (10, 20, 40)
     folds: int = 3
     batch_size: int = 32
     weight_decay: float = 1e-4
@@ -125,7 +125,8 @@ def _child_seed(seed: int, *path: int) -> int:
 def _fit(net: LocalizerNet, x: torch.Tensor, y: torch.Tensor, lr: float, epochs: int,
          config: TrainConfig, seed: int, on_epoch=None) -> None:
     """Train ``net`` in place for ``epochs`` (AdamW at a constant rate, shuffled batches,
-    fresh augmentations every epoch); ``on_epoch(epoch)`` is called after each epoch.
+    fresh augmentations every epoch); ``on_epoch(epoch)`` is called after each epoch and
+    stops the run by returning True.
 
     Dropout draws from torch's global generator, so the run is seeded inside a forked RNG
     state (the caller's global state is left as it was).
@@ -152,8 +153,8 @@ def _fit_seeded(net, x, y, lr, epochs, config, seed, on_epoch) -> None:
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
-        if on_epoch is not None:
-            on_epoch(epoch)
+        if on_epoch is not None and on_epoch(epoch):
+            break
 
 
 def _accuracy(net: LocalizerNet, x: torch.Tensor, y: torch.Tensor) -> float:
@@ -166,6 +167,9 @@ def _accuracy(net: LocalizerNet, x: torch.Tensor, y: torch.Tensor) -> float:
 def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: TrainConfig,
                    progress=None) -> tuple[tuple[float, int, float], ...]:
     """Mean k-fold validation accuracy of every (learning rate, epochs) of the grid.
+
+    A run that validates perfectly at a grid point stops there; its later grid points count
+    as perfect too (they could not score higher, and :func:`choose` prefers fewer epochs).
 
     Parameters
     ----------
@@ -188,11 +192,21 @@ def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: Tra
         for j, lr in enumerate(config.learning_rates):
             net = _new_net(config, n_classes, _child_seed(config.seed, 1, f, j))
 
-            def on_epoch(epoch, net=net, lr=lr, va=va):
+            def on_epoch(epoch, net=net, lr=lr, va=va) -> bool:
                 if progress is not None:
                     progress.update(1)
-                if (lr, epoch) in scores:
-                    scores[(lr, epoch)].append(_accuracy(net, x[va], y[va]))
+                if (lr, epoch) not in scores:
+                    return False
+                acc = _accuracy(net, x[va], y[va])
+                scores[(lr, epoch)].append(acc)
+                if acc < 1.0 or epoch == grid[-1]:
+                    return False
+                # perfect on this fold: longer runs cannot score higher here, stop early
+                for e in grid[grid.index(epoch) + 1:]:
+                    scores[(lr, e)].append(acc)
+                if progress is not None:
+                    progress.update(grid[-1] - epoch)
+                return True
 
             _fit(net, x[tr], y[tr], lr, grid[-1], config, _child_seed(config.seed, 2, f, j),
                  on_epoch)
@@ -239,12 +253,17 @@ def train_on_images(images: np.ndarray, classes: np.ndarray, n_classes: int,
         else:
             cv = ()
             lr, epochs = config.learning_rates[0], grid_max
+        cv_epochs = bar.n
         bar.total = cv_epochs + epochs
         bar.set_postfix_str(f"final fit lr={lr:g} epochs={epochs}")
         bar.refresh()
         net = probe
-        _fit(net, x, y, lr, epochs, config, _child_seed(config.seed, 3),
-             lambda _e: bar.update(1))
+
+        def tick(_epoch: int) -> bool:
+            bar.update(1)
+            return False
+
+        _fit(net, x, y, lr, epochs, config, _child_seed(config.seed, 3), tick)
     net.eval()
     report = TrainReport(lr, epochs, cv, _accuracy(net, x, y), n, n_classes,
                          time.perf_counter() - t0)
