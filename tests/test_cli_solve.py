@@ -117,3 +117,15 @@ def test_no_colouring_in_the_grid_is_an_error(toy_path, tmp_path, capsys):
     assert main(["solve", str(path), "-o", str(out), "--quiet", "--k-pick", "1",
                  "--k-place", "1"]) == 2
     assert "no cell" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.slow
+def test_bench_sweep_runs_on_a_short_trace(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("pybullet")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    args = ["bench", "sweep", "--transitions", "20", "--cache-dir", str(tmp_path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "ratio" in out and "jobs=2" in out and "target" in out
+    assert main(args) == 0  # second run: the trace comes from the cache
+    assert "cached" in capsys.readouterr().err
