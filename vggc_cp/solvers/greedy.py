@@ -13,11 +13,11 @@ Visual affinity (paper, Eq. K_vis) on the within-role distances ``d``:
 ``tau`` defaults, per role, to the median off-diagonal within-role distance, so an affinity of
 ``exp(-1)`` means "as far apart as a typical pair of this role".
 
-"Visually close" is decided *relatively*, without a threshold: an observation is close to a
-cluster when its mean K_vis to the cluster's members exceeds its mean K_vis to the observations
-not yet coloured (the pool from which any new cluster would be drawn). A fixed threshold fails
-as soon as a role has three or more states: most pairs are then between-state pairs, so any
-quantile-based threshold merges the nearest states.
+In stages 2-3 "visually close" is decided *relatively*, without a threshold: an observation is
+close to a colour when its mean K_vis to the colour's members exceeds its mean K_vis to the
+observations not yet coloured (the pool from which a new colour would be drawn). A fixed
+threshold fails as soon as a role has three or more states: most pairs are then between-state
+pairs, so any quantile-based threshold merges the nearest states.
 
 Stages
 ------
@@ -35,12 +35,16 @@ Stages
    feasible colours the one with highest mean K_vis to its members is tried first; a new colour
    (while fewer than ``k_place`` are used) is tried before the existing colours the observation
    is not close to (``open_when="dissimilar"``) or only after all of them (``open_when="stuck"``,
-   plain DSATUR). With no candidate left, the search backtracks
-   chronologically: the most recent decision is undone and its next candidate tried, within a
-   node limit and a time limit (reported in the statistics when hit).
+   plain DSATUR). With no candidate left, the search backtracks chronologically: the most
+   recent decision is undone and its next candidate tried, within a node limit and a time
+   limit (reported in the statistics when hit). The unused colours are interchangeable, so one
+   new colour per decision suffices and the search is complete for the fixed other side: an
+   ``exhausted`` search proves that no colouring fits *these* pick colours. Before searching, a
+   greedy clique of the conflict graph larger than ``k_place`` ends the stage at once.
 3. **Pick side, places frozen.** The seeds are discarded and the pick side is recoloured the
-   same way against the place colours. Should that search hit a limit, the stage-1 pick colours
-   (which the place colours were built to fit) are kept, so a stage-2 success is never lost.
+   same way against the place colours. Should that search fail (limit), the stage-1 pick
+   colours (which the place colours were built to fit) are kept, so a stage-2 success is never
+   lost.
 
 A greedy solver never proves infeasibility: without a colouring the status is ``unknown``.
 
