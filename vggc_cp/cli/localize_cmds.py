@@ -54,7 +54,7 @@ def register(sub) -> None:
     p.add_argument("--input-size", type=int, default=None,
                    help="network input side in pixels (default: the backbone's, 64 for cnn)")
     p.add_argument("--gamma", type=float, default=16.0, help="cosine-head temperature")
-    p.add_argument("--lr", default="3e-3,1e-3", help="learning-rate grid (comma-separated)")
+    p.add_argument("--lr", default="1e-2,3e-3", help="learning-rate grid (comma-separated)")
     p.add_argument("--epochs", default="10,20,40", help="epoch grid (comma-separated)")
     p.add_argument("--folds", type=int, default=3, help="k of the k-fold cross-validation")
     p.add_argument("--seed", type=int, default=0, help="seed of initialisation, folds, batches")

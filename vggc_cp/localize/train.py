@@ -54,7 +54,7 @@ class TrainConfig:
     input_size: int | None = None
     weights: str | None = None
     gamma: float = 16.0
-    learning_rates: tuple[float, ...] = (3e-3, 1e-3)
+    learning_rates: tuple[float, ...] = (1e-2, 3e-3)
     epoch_grid: tuple[int, ...] = (10, 20, 40)
     folds: int = 3
     batch_size: int = 32
