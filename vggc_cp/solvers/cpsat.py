@@ -77,6 +77,22 @@ labels and reported beside :math:`\hat J`. *Optimal* means optimal for :math:`\h
 within ``quantization_margin`` :math:`= 2 (K_P + K_Q) / s` of the true optimum of J.
 ``bound`` is the proved lower bound on :math:`\hat J / s`.
 
+*Size-aware lower bound* (``size_cuts``, exact reformulation plus an implied cut). Cluster
+sizes are one-hot, :math:`\beta_{c,t} \Leftrightarrow n_c = t`, with
+:math:`\sum_t t\,\beta_{c,t} = n_c` and :math:`q_c = \sum_t t(t-1)\,\beta_{c,t}` (linear, no
+product); :math:`z_{i,c,t} = x_{ic} \wedge \beta_{c,t}` is linked by
+:math:`\sum_t z_{ict} = x_{ic}` and :math:`\sum_i z_{ict} = t\,\beta_{c,t}` (a cluster of size
+:math:`t` has :math:`t` members). The mean of a cluster is the average over its members of
+their mean distance to the other members, and a member's mean distance to :math:`t-1` others is
+at least the mean of its :math:`t-1` smallest distances :math:`H_i(t)/(t-1)`. Hence the valid cut
+
+.. math:: m_c \ge \sum_i \sum_{t \ge 2} \frac{H_i(t)}{t(t-1)} z_{ict}
+
+(coefficients rounded down at scale 1/64). Unlike the product constraint, whose LP relaxation
+is 0, this bound is tight when clusters are visually tight, and it sees the cost of a cluster
+that outgrows a visual group: without it no cell of fruit-2x3 closed its gap in 60 s; with it
+the 6-node cells are proved optimal in seconds.
+
 The pair variables grow as :math:`O(n^2 K)`. When their number exceeds ``max_pair_terms``
 the model drops the objective (a documented relaxation: feasibility only, the colouring with
 the lower J of the CP-SAT solution and its hint is kept), and the status is at most
@@ -125,6 +141,7 @@ from vggc_cp.trace import PICK, PLACE
 OBJECTIVES = ("J", "none")
 HINTS = ("greedy", "none")
 DEFAULT_PARAMS = "max_time_in_seconds:10,num_workers:2"
+SIZE_CUT_SCALE = 64
 
 
 # ---------------------------------------------------------------- parameters
@@ -178,6 +195,9 @@ class CpSatOptions:
         Warm start from the greedy solver of the same cell.
     symmetry : bool
         Value-precedence symmetry breaking (and the conflict clique).
+    size_cuts : bool
+        Cluster-size indicators and the nearest-neighbour lower bound on each cluster's mean
+        (see the module docstring); off: ``q_c = n_c (n_c - 1)`` by a product constraint.
     """
 
     objective: str = "J"
@@ -188,6 +208,7 @@ class CpSatOptions:
     max_pair_terms: int = 300_000
     hint: str = "greedy"
     symmetry: bool = True
+    size_cuts: bool = True
 
     def __post_init__(self):
         if self.objective not in OBJECTIVES:
@@ -256,6 +277,7 @@ class CellModel:
     in_used: dict = field(default_factory=dict)
     pairs: dict = field(default_factory=dict)       # (role, i, j, c) -> (BoolVar, dhat)
     means: dict = field(default_factory=dict)       # (role, c) -> (q, prod, m, members)
+    sizes: dict = field(default_factory=dict)       # (role, c) -> (beta[t], z[(i, t)])
     dhat: tuple = ()
     notes: tuple = ()
 
@@ -370,6 +392,12 @@ class CellModel:
             put(q, n * (n - 1))
             put(m, mval)
             put(prod, mval * n * (n - 1))
+            if (role, c) in self.sizes:
+                beta, z = self.sizes[(role, c)]
+                for t, b in enumerate(beta):
+                    put(b, t == n)
+                for (i, t), v in z.items():
+                    put(v, col[i] == c and t == n)
         return vals
 
 
@@ -586,6 +614,7 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
     # ---- objective
     pairs: dict = {}
     means: dict = {}
+    sizes: dict = {}
     objective_mode = options.objective
     if objective_mode == "J":
         n_terms = sum(int(np.count_nonzero(np.triu(dhat[r], 1))) * kk[r] for r in (PICK, PLACE))
@@ -615,17 +644,43 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
                 nm = len(members)
                 size = sum(members)
                 q = model.new_int_var(0, nm * (nm - 1), f"q{r}_{c}")
-                model.add_multiplication_equality(q, [size, size - 1])
+                if options.size_cuts:
+                    cand = [i for i in range(n) if x[i][c] is not None]
+                    beta = [model.new_bool_var(f"b{r}_{c}_{t}") for t in range(nm + 1)]
+                    model.add_exactly_one(beta)
+                    model.add(sum(t * b for t, b in enumerate(beta)) == size)
+                    model.add(sum(t * (t - 1) * b for t, b in enumerate(beta)) == q)
+                    z: dict = {}
+                    cut = []
+                    for i in cand:
+                        near = np.cumsum(np.sort(np.delete(dq[i], i)))  # H_i(t) = near[t-2]
+                        for t in range(1, nm + 1):
+                            v = model.new_bool_var(f"z{r}_{c}_{i}_{t}")
+                            model.add_implication(v, x[i][c])
+                            model.add_implication(v, beta[t])
+                            z[(i, t)] = v
+                            if t >= 2:
+                                coef = int(SIZE_CUT_SCALE * int(near[t - 2]) // (t * (t - 1)))
+                                if coef > 0:
+                                    cut.append(coef * v)
+                        model.add(sum(z[(i, t)] for t in range(1, nm + 1)) == x[i][c])
+                    for t in range(1, nm + 1):
+                        model.add(sum(z[(i, t)] for i in cand) == t * beta[t])
+                    sizes[(r, c)] = (beta, z)
+                else:
+                    model.add_multiplication_equality(q, [size, size - 1])
                 m = model.new_int_var(0, dmax_i, f"m{r}_{c}")
                 prod = model.new_int_var(0, dmax_i * nm * (nm - 1), f"mq{r}_{c}")
                 model.add_multiplication_equality(prod, [m, q])
                 if s_terms:
                     model.add(prod >= 2 * sum(s_terms))
+                if options.size_cuts and cut:
+                    model.add(SIZE_CUT_SCALE * m >= sum(cut))
                 means[(r, c)] = (q, prod, m, nm)
                 terms.append(m)
         model.minimize(sum(terms))
     return CellModel(problem, k_pick, k_place, options, model, None, objective_mode, scale,
-                     tuple(roles), y, out_used, in_used, pairs, means, dhat, tuple(notes))
+                     tuple(roles), y, out_used, in_used, pairs, means, sizes, dhat, tuple(notes))
 
 
 # ---------------------------------------------------------------- solver
@@ -654,7 +709,8 @@ class CpSatSolver(Solver):
 
     Parameters
     ----------
-    objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry :
+    objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry,
+    size_cuts :
         See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
@@ -665,9 +721,9 @@ class CpSatSolver(Solver):
     def __init__(self, objective: str = "J", deterministic: bool = False,
                  max_actions: int | None = None, params: str = "", resolution: int = 1000,
                  max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
-                 greedy_options: dict | None = None):
+                 size_cuts: bool = True, greedy_options: dict | None = None):
         self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
-                                    max_pair_terms, hint, symmetry)
+                                    max_pair_terms, hint, symmetry, size_cuts)
         self.params_text = self.options.sat_parameters_text()
         self.greedy_options = dict(greedy_options or {})
 
