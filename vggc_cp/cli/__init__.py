@@ -18,6 +18,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.sim_cmds",
     "vggc_cp.cli.localize_cmds",
     "vggc_cp.cli.benchmark_cmds",
+    "vggc_cp.cli.notebook_cmds",
 ]
 
 
