@@ -93,3 +93,60 @@ def plot_image_strip(images, titles, path: str | Path, *, suptitle: str | None =
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     plt.close(fig)
+
+
+def plot_compare_grids(k_pick: list[int], k_place: list[int], J_greedy: np.ndarray,
+                       J_cpsat: np.ndarray, cpsat_status: dict, path: str | Path, *,
+                       selected: list | None = None, title: str | None = None) -> None:
+    """Greedy and CP-SAT J over one ``(k_pick, k_place)`` grid, side by side, one colour scale.
+
+    Parameters
+    ----------
+    k_pick, k_place : list of int
+    J_greedy, J_cpsat : ndarray, shape (len(k_pick), len(k_place))
+        NaN where the solver has no colouring (blank).
+    cpsat_status : dict
+        ``(k_pick, k_place) -> status``; CP-SAT cells are marked ``*`` proved optimal,
+        ``x`` proved infeasible, ``?`` unknown.
+    path : path
+        Written atomically.
+    selected : [greedy cell or None, CP-SAT cell or None], optional
+        Outlined in red.
+    """
+    plt = _pyplot()
+    mats = [np.asarray(J_greedy, dtype=float), np.asarray(J_cpsat, dtype=float)]
+    finite = np.concatenate([m[np.isfinite(m)] for m in mats])
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    w = 1.0 + 0.32 * len(k_place)
+    fig, axes = plt.subplots(1, 2, figsize=(2 * w + 1.0, 1.0 + 0.3 * len(k_pick)),
+                             constrained_layout=True)
+    cmap = plt.get_cmap("viridis").with_extremes(bad=(0.0, 0.0, 0.0, 0.0))
+    marks = {"optimal": "*", "infeasible": "x", "unknown": "?"}
+    im = None
+    for idx, (ax, mat, name) in enumerate(zip(axes, mats, ("greedy", "CP-SAT"))):
+        im = ax.imshow(np.ma.masked_invalid(mat), origin="lower", cmap=cmap, aspect="auto",
+                       vmin=vmin, vmax=vmax)
+        ax.set_xticks(range(len(k_place)), [str(k) for k in k_place], fontsize=7)
+        ax.set_yticks(range(len(k_pick)), [str(k) for k in k_pick], fontsize=7)
+        ax.set_xlabel("k_place")
+        ax.set_ylabel("k_pick")
+        ax.set_title(name + (" (* optimal, x infeasible, ? unknown)" if idx else
+                             " (blank: no colouring)"), fontsize=9)
+        if idx:
+            for (a, b), status in cpsat_status.items():
+                if status in marks and a in k_pick and b in k_place:
+                    ax.text(k_place.index(b), k_pick.index(a), marks[status], ha="center",
+                            va="center", fontsize=7,
+                            color="white" if status == "optimal" else "black")
+        cell = None if selected is None else selected[idx]
+        if cell is not None and cell[0] in k_pick and cell[1] in k_place:
+            y, x = k_pick.index(cell[0]), k_place.index(cell[1])
+            ax.add_patch(plt.Rectangle((x - 0.5, y - 0.5), 1, 1, fill=False, edgecolor="red",
+                                       linewidth=2))
+    if finite.size:
+        fig.colorbar(im, ax=list(axes), label="J")
+    if title:
+        fig.suptitle(title)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)
