@@ -17,10 +17,10 @@ Methods (:data:`METHODS`):
 
 * ``greedy`` — the paper's VGGC: the whole default (k_pick, k_place) grid with the greedy
   solver, fewest nodes then lowest J (:func:`vggc_cp.solvers.sweep.run_sweep`);
-* ``cpsat`` — the exact CP-SAT model, warm-started by greedy, searched on the same grid in
-  order of increasing ``k_pick + k_place``, stopping after the first total with a colouring
-  (:func:`frontier_search`): with the cells below proved infeasible this is the fewest-nodes
-  choice of the full sweep, at a fraction of its cost;
+* ``cpsat`` — the exact CP-SAT model on the same grid: the greedy sweep first (witnesses and
+  hints), then :func:`vggc_cp.solvers.cpsat.exact_sweep` (staircase feasibility frontier, J
+  optimized on the cells of minimal ``k_pick + k_place``), fewest nodes then lowest J; its
+  seconds include the greedy sweep;
 * ``pca-hdbscan`` and ``lsr`` — the baselines of :mod:`vggc_cp.baselines`.
 
 :func:`write_tables` writes ``table1.csv`` (one row per cell) and ``table1.md`` (means over
@@ -33,8 +33,8 @@ import contextlib
 import json
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -234,41 +234,12 @@ def compute_trace_distances(trace_path: Path, distances_path: Path) -> float:
     return seconds
 
 
-def frontier_search(problem, solver, k_pick: Sequence[int], k_place: Sequence[int]):
-    """Solve the cells of ``k_pick x k_place`` in order of increasing ``k_pick + k_place``,
-    stopping after the first total where some cell has a colouring; select by ``fewest``.
-
-    Returns
-    -------
-    vggc_cp.solvers.sweep.Sweep
-        The solved cells only (the grid record of the solution JSON).
-    """
-    from vggc_cp.solvers.sweep import Sweep, get_selection
-
-    t0 = time.perf_counter()
-    cells = sorted(((a, b) for a in k_pick for b in k_place), key=lambda c: (sum(c), c))
-    results: list[SolveResult] = []
-    stop = None
-    for a, b in cells:
-        if stop is not None and a + b > stop:
-            break
-        res = solver.solve(problem, a, b)
-        results.append(res)
-        if res.found and stop is None:
-            stop = a + b
-    selected = get_selection("fewest")(results, problem)
-    return Sweep(tuple(results), selected, "fewest", solver.name, time.perf_counter() - t0, 1)
-
-
 def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
+    import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
+    import vggc_cp.solvers.greedy  # noqa: F401
     from vggc_cp.solution import solution_dict
     from vggc_cp.solvers import Problem, get_solver
     from vggc_cp.solvers.sweep import default_grid, run_sweep
-
-    if solver_name == "greedy":
-        import vggc_cp.solvers.greedy  # noqa: F401  (registers the solver)
-    else:
-        import vggc_cp.solvers.cpsat  # noqa: F401
     with np.load(job.distances_path, allow_pickle=False) as data:
         dist_pick, dist_place = data["dist_pick"], data["dist_place"]
         t_dist = float(data["seconds"])
@@ -278,10 +249,14 @@ def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
     except TypeError as exc:
         raise VggcError(f"method {solver_name}: bad option ({exc})") from None
     kp, kq = default_grid(problem)
-    if solver_name == "greedy":
-        sweep = run_sweep(problem, solver, kp, kq, jobs=1, select="fewest")
-    else:
-        sweep = frontier_search(problem, solver, kp, kq)
+    sweep = run_sweep(problem, get_solver("greedy") if solver_name == "cpsat" else solver,
+                      kp, kq, jobs=1, select="fewest")
+    if solver_name == "cpsat":
+        from vggc_cp.solvers.cpsat import exact_sweep
+
+        greedy_seconds = sweep.seconds
+        sweep = exact_sweep(problem, kp, kq, solver, greedy=sweep.results, select="fewest")
+        sweep = replace(sweep, seconds=sweep.seconds + greedy_seconds)
     seconds = {"distances": round(t_dist, 3), "method": round(sweep.seconds, 3)}
     best = sweep.best
     if best is None:
@@ -301,7 +276,7 @@ def run_greedy(trace: Trace, job: CellJob) -> MethodRun:
 
 @register_method("cpsat")
 def run_cpsat(trace: Trace, job: CellJob) -> MethodRun:
-    """VGGC with CP-SAT, grid searched by :func:`frontier_search`."""
+    """VGGC with CP-SAT: greedy sweep, then :func:`vggc_cp.solvers.cpsat.exact_sweep`."""
     return _colouring(trace, job, "cpsat")
 
 
