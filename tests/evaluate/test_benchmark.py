@@ -91,6 +91,7 @@ def test_missing_cluster_backend_says_how_to_install(tmp_path, capsys):
     assert not (tmp_path / "traces").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not HAS_VISION, reason="vggc_cp.vision (distances) not installed")
 def test_colouring_methods_run(tmp_path):
     cfg = BenchmarkConfig(tmp_path, ("fruit-2x3",), ("greedy", "cpsat"), (0,), transitions=16,

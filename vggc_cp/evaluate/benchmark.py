@@ -225,7 +225,9 @@ def compute_trace_distances(trace_path: Path, distances_path: Path) -> float:
 
     trace = load_trace(trace_path)
     t0 = time.perf_counter()
-    dist_pick, dist_place = compute_distances(trace, DistanceConfig(), progress=False)
+    dist_pick, dist_place = compute_distances(trace, DistanceConfig(),
+                                              cache_dir=distances_path.parent / "cache",
+                                              progress=False)
     seconds = time.perf_counter() - t0
     buf = io.BytesIO()
     np.savez(buf, dist_pick=np.asarray(dist_pick, dtype=np.float64),
