@@ -15,7 +15,7 @@ from vggc_cp.trace import save_trace
 
 @pytest.fixture
 def toy_path(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setenv("VGGC_CP_CACHE", str(tmp_path / "cache"))
     ep1 = ["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
     ep2 = ["R", "pick_R", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
     trace = make_trace([ep1, ep2], TOY_NAMES, size=16, noise=4)
@@ -122,7 +122,7 @@ def test_no_colouring_in_the_grid_is_an_error(toy_path, tmp_path, capsys):
 @pytest.mark.slow
 def test_bench_sweep_runs_on_a_short_trace(tmp_path, monkeypatch, capsys):
     pytest.importorskip("pybullet")
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setenv("VGGC_CP_CACHE", str(tmp_path / "cache"))
     args = ["bench", "sweep", "--transitions", "20", "--cache-dir", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out

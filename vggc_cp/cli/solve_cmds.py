@@ -74,7 +74,8 @@ def register_bench(bench_sub) -> None:
     p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--cache-dir", default=None,
-                   help="where the generated trace is kept (default ~/.cache/vggc-cp/bench)")
+                   help="where the generated trace is kept (default $VGGC_CP_CACHE/bench or "
+                        "./.cache/vggc-cp/bench); distances use their own cache")
     p.add_argument("--jobs", type=int, default=2, help="workers of the timed sweep (default 2)")
     p.set_defaults(func=cmd_bench_sweep)
 
@@ -224,9 +225,11 @@ def cmd_plan(args) -> int:
 
 def _bench_trace(args):
     from vggc_cp.trace import load_trace, save_trace
+    from vggc_cp.vision import CACHE_ENV
 
+    env = os.environ.get(CACHE_ENV)
     root = Path(args.cache_dir) if args.cache_dir else \
-        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "vggc-cp" / "bench"
+        Path(env) / "bench" if env else Path(".cache") / "vggc-cp" / "bench"
     path = root / f"{BENCH_NAME}-d{args.transitions}-s{args.seed}.npz"
     if path.is_file():
         return load_trace(path), path, 0.0
