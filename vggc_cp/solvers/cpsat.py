@@ -1032,7 +1032,7 @@ class NodeFrontier:
     nodes : int or None
         Fewest abstract nodes used by any colouring of the sweep (None: no colouring).
     cells : tuple of (k_pick, k_place)
-        Cells whose colouring uses that many nodes.
+        The minimal cells (no other such cell below them) whose colouring uses that many nodes.
     proved : bool
         Every grid cell with ``k_pick + k_place < nodes`` is proved infeasible (by the
         CP-SAT sweep ``proof``): no colouring of the grid uses fewer nodes.
@@ -1049,7 +1049,9 @@ def node_frontier(sweep, proof=None) -> NodeFrontier:
     if not found:
         return NodeFrontier(None, (), False)
     nodes = min(r.n_nodes for r in found)
-    cells = tuple(sorted((r.k_pick, r.k_place) for r in found if r.n_nodes == nodes))
+    at = {(r.k_pick, r.k_place) for r in found if r.n_nodes == nodes}
+    cells = tuple(sorted(c for c in at if not any(o != c and o[0] <= c[0] and o[1] <= c[1]
+                                                  for o in at)))
     proof = sweep if proof is None else proof
     below = [r for r in proof.results if r.k_pick + r.k_place < nodes]
     return NodeFrontier(nodes, cells, all(r.status == INFEASIBLE for r in below))
