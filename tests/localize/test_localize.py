@@ -333,3 +333,36 @@ def test_unknown_backbone_and_bad_config():
         new_backbone("vgg")
     with pytest.raises(VggcError):
         TrainConfig(folds=1)
+
+
+def test_dinov2_backbone_with_a_tiny_random_checkpoint(setup, tmp_path):
+    dinov2 = pytest.importorskip("vggc_cp.vision.dinov2")
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(0)
+        vit = dinov2.DinoVisionTransformer(embed_dim=64, depth=2, num_heads=1, patch_size=14,
+                                           pos_grid=2)
+    weights = tmp_path / "tiny_dinov2.pth"
+    torch.save(vit.state_dict(), weights)
+    config = quick_config(backbone="dinov2", weights=str(weights), input_size=28,
+                          epoch_grid=(3,), folds=2)
+    loc, report = train_localizer(setup["trace"], setup["solution"], config)
+    net = loc.net
+    # frozen except the last block and the final norm (and the head)
+    trainable = {n for n, p in net.named_parameters() if p.requires_grad}
+    assert trainable and all(n.startswith(("backbone.vit.blocks.1.", "backbone.vit.norm.",
+                                           "head.")) for n in trainable)
+    before = vit.state_dict()
+    after = {k.removeprefix("backbone.vit."): v for k, v in net.state_dict().items()
+             if k.startswith("backbone.vit.")}
+    assert torch.equal(before["blocks.0.attn.qkv.weight"], after["blocks.0.attn.qkv.weight"])
+    assert torch.equal(before["patch_embed.proj.weight"], after["patch_embed.proj.weight"])
+    assert not torch.equal(before["blocks.1.mlp.fc1.weight"], after["blocks.1.mlp.fc1.weight"])
+    assert loc.meta["training"]["weights_sha256"]
+    path = tmp_path / "dino.pt"
+    save_localizer(path, loc)
+    back = load_localizer(path)  # no weights file needed to plan
+    weights.unlink()
+    a, b = loc.predict(setup["novel"]), back.predict(setup["novel"])
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    np.testing.assert_allclose(a.probabilities, b.probabilities, atol=1e-5)
+    assert report.n_classes == len(loc.node_ids)

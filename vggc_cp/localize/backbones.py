@@ -92,7 +92,8 @@ class Dinov2Backbone(nn.Module):
         as :func:`vggc_cp.vision.dinov2` reports them for a weights file.
     weights : str or None
         Local weights file, read once when training starts (a checkpoint of the localizer
-        holds the whole state dict, so planning never needs it).
+        holds the whole state dict, so planning never needs it). With neither ``weights`` nor
+        ``arch``, the file named by ``$VGGC_CP_DINOV2_WEIGHTS``.
     """
 
     name = "dinov2"
@@ -101,11 +102,11 @@ class Dinov2Backbone(nn.Module):
                  weights: str | None = None) -> None:
         super().__init__()
         vision = _dinov2_module()
+        if weights is None and arch is None:  # training: the weights file of the environment
+            weights = str(vision.resolve_weights(None))
         if weights is not None:
             vit, arch = vision.load_dinov2(weights)
         else:
-            if arch is None:
-                raise VggcError("dinov2 backbone: give a weights file (--weights PATH)")
             vit = vision.DinoVisionTransformer(**arch)
         patch = int(arch.get("patch_size", 14))
         if input_size % patch:

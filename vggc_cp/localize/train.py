@@ -295,10 +295,21 @@ def train_localizer(trace: Trace, solution: Solution, config: TrainConfig | None
         "trace": {"path": None if trace_path is None else str(trace_path),
                   "content_hash": trace.content_hash(),
                   "benchmark": trace.meta.get("benchmark") if trace.meta else None},
-        "training": config.as_dict() | {"weights": config.weights} | report.as_dict(),
+        "training": config.as_dict() | {"weights": config.weights,
+                                        "weights_sha256": _weights_digest(config)}
+                    | report.as_dict(),
         "action_names": list(trace.action_names),
     }
     return Localizer(net, tuple(int(u) for u in node_ids), trace.image_shape, meta), report
+
+
+def _weights_digest(config: TrainConfig) -> str | None:
+    """SHA-256 of the pretrained weights file a run started from (None for ``cnn``)."""
+    if config.backbone != "dinov2":
+        return None
+    from vggc_cp.vision.dinov2 import resolve_weights, weights_sha256
+
+    return weights_sha256(resolve_weights(config.weights))
 
 
 def quick_config(**changes) -> TrainConfig:
