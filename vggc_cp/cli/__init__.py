@@ -15,10 +15,12 @@ from vggc_cp.errors import VggcError
 
 COMMAND_MODULES = [
     "vggc_cp.cli.trace_cmds",
+    "vggc_cp.cli.vision_cmds",
     "vggc_cp.cli.sim_cmds",
     "vggc_cp.cli.localize_cmds",
     "vggc_cp.cli.benchmark_cmds",
     "vggc_cp.cli.notebook_cmds",
+    "vggc_cp.cli.compare_cmds",
 ]
 
 

@@ -1,0 +1,71 @@
+"""Visual distances of the paper: attention maps and debiased Sinkhorn divergences.
+
+``d_vis(o_i, o_j) = S_eps(M(o_i), M(o_j))`` between observations of the same role, with
+``M`` an attention map on a patch grid (:mod:`.attention`: ``saliency``, ``dinov2``) and
+``S_eps`` the debiased Sinkhorn divergence (:mod:`.sinkhorn`); :mod:`.distances` runs the
+stage on a trace and caches it. The affinity ``K_vis = exp(-d / tau)`` and the score ``J``
+live in :mod:`vggc_cp.score` and are re-exported here.
+
+Typical use::
+
+    from vggc_cp.vision import DistanceConfig, compute_distances
+    dist_pick, dist_place = compute_distances(trace, DistanceConfig(eps=0.05))
+"""
+
+from vggc_cp.score import affinity, visual_score, visual_score_role
+from vggc_cp.vision.attention import ATTENTION_BACKENDS, AttentionParams, attention_maps
+from vggc_cp.vision.distances import (
+    CACHE_ENV,
+    DistanceConfig,
+    DistanceResult,
+    add_distance_arguments,
+    cache_path,
+    compute_distances,
+    compute_distances_full,
+    config_from_args,
+    default_cache_dir,
+    distance_matrices,
+)
+from vggc_cp.vision.sinkhorn import (
+    SinkhornStats,
+    cost_matrix,
+    patch_centres,
+    sinkhorn_costs,
+    sinkhorn_divergence_matrix,
+    sinkhorn_divergence_pairs,
+)
+
+
+def __getattr__(name: str):
+    """Lazy access to the DINOv2 model (imports torch only when asked)."""
+    if name in ("DinoVisionTransformer", "load_dinov2"):
+        from vggc_cp.vision import dinov2
+
+        return getattr(dinov2, name)
+    raise AttributeError(f"module 'vggc_cp.vision' has no attribute {name!r}")
+
+
+__all__ = [
+    "ATTENTION_BACKENDS",
+    "AttentionParams",
+    "CACHE_ENV",
+    "DistanceConfig",
+    "DistanceResult",
+    "SinkhornStats",
+    "add_distance_arguments",
+    "affinity",
+    "attention_maps",
+    "cache_path",
+    "compute_distances",
+    "compute_distances_full",
+    "config_from_args",
+    "cost_matrix",
+    "default_cache_dir",
+    "distance_matrices",
+    "patch_centres",
+    "sinkhorn_costs",
+    "sinkhorn_divergence_matrix",
+    "sinkhorn_divergence_pairs",
+    "visual_score",
+    "visual_score_role",
+]

@@ -1,0 +1,193 @@
+"""Attention maps ``M(o)``: one histogram on a ``g x g`` patch grid per observation.
+
+Every backend maps uint8 images ``(N, H, W, 3)`` to float64 maps ``(N, g*g)`` (row-major
+patches, the order of :func:`vggc_cp.vision.sinkhorn.patch_centres`), non-negative, each
+summing to 1, strictly positive thanks to a floor: ``M = (1 - floor) A / sum(A) + floor / g^2``
+(a uniform map when ``A`` is all zero), so no map is empty and every Sinkhorn problem is
+well posed.
+
+Backends (registry :data:`ATTENTION_BACKENDS`, ``--attention NAME``):
+
+``saliency`` (default, no weights)
+    Object-agnostic foreground: how much each patch differs from the trace's background.
+
+    1. Background ``B``: the per-pixel median over the trace's images (at most
+       ``MAX_BACKGROUND_IMAGES`` of them, evenly spaced). Objects that move are a minority at
+       every pixel, so the median shows the empty table (where an object rests in more than
+       half of the images, the map shows the hole it leaves when gone instead).
+    2. Gain: each image's channel ``c`` is divided by the robust gain
+       ``g_c = median_pixels(I_c / B_c)`` over well-lit pixels, which undoes a global
+       brightness or tint change (camera gain, white balance) of any size.
+    3. Deviation per pixel: intensity ``|I - B|`` averaged over channels, plus chromatic
+       ``||chroma(I) - chroma(B)||_1 * mean(B)`` with ``chroma(x) = x / sum_c x_c``, so an
+       object that matches the table's brightness but not its hue still stands out.
+    4. Noise: the deviation is soft-thresholded at ``k sigma`` with ``sigma`` the image's robust
+       noise level (``1.4826 * MAD`` of the deviation, most pixels being background), and at
+       least ``min_contrast``; sensor noise and residual gain errors fall below it.
+    5. Patch pooling (mean over each patch's pixels), then the floor.
+
+``dinov2``
+    The last-layer CLS-to-patch attention of a DINOv2 ViT (:mod:`vggc_cp.vision.dinov2`),
+    averaged over heads, the image resized to ``14 g`` pixels; weights from ``--weights`` or
+    ``$VGGC_CP_DINOV2_WEIGHTS``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.errors import lookup
+
+#: Images used for the per-pixel median background.
+MAX_BACKGROUND_IMAGES = 256
+
+
+@dataclass(frozen=True)
+class AttentionParams:
+    """Parameters of the attention backends (part of the distance cache key).
+
+    Attributes
+    ----------
+    grid : int
+        Patches per side ``g``.
+    floor : float
+        Mass spread uniformly over all patches, in ``(0, 1)``.
+    noise_k : float
+        Saliency: soft threshold in multiples of the robust noise level.
+    min_contrast : float
+        Saliency: smallest deviation (intensity units in [0, 1]) that counts as foreground.
+    weights : str or None
+        DINOv2: weights file.
+    batch_size : int
+        DINOv2: images per forward pass (does not change the maps).
+    """
+
+    grid: int = 16
+    floor: float = 0.01
+    noise_k: float = 3.0
+    min_contrast: float = 0.04
+    weights: str | None = None
+    batch_size: int = 32
+
+
+def finish_maps(raw: np.ndarray, floor: float) -> np.ndarray:
+    """Normalise non-negative ``raw`` ``(N, n)`` maps and add the floor; rows sum to 1."""
+    raw = np.clip(np.asarray(raw, dtype=np.float64), 0.0, None)
+    n = raw.shape[1]
+    total = raw.sum(axis=1, keepdims=True)
+    safe = np.where(total > 0, total, 1.0)
+    shape = np.where(total > 0, raw / safe, 1.0 / n)
+    out = (1.0 - floor) * shape + floor / n
+    return out / out.sum(axis=1, keepdims=True)
+
+
+def pool_to_grid(x: np.ndarray, grid: int) -> np.ndarray:
+    """Mean of ``x`` ``(N, H, W)`` over a ``grid x grid`` partition of the pixels -> ``(N, g*g)``.
+
+    Patch ``(r, c)`` covers rows ``[floor(r H / g), floor((r+1) H / g))`` (likewise columns);
+    works for any ``H, W >= g``.
+    """
+    n, h, w = x.shape
+    if h < grid or w < grid:
+        raise ValueError(f"images of {h}x{w} pixels are smaller than the {grid}x{grid} grid")
+    rb = (np.arange(h) * grid) // h
+    cb = (np.arange(w) * grid) // w
+    rows = np.zeros((n, grid, w))
+    for r in range(grid):
+        rows[:, r] = x[:, rb == r].mean(axis=1)
+    out = np.empty((n, grid, grid))
+    for c in range(grid):
+        out[:, :, c] = rows[:, :, cb == c].mean(axis=2)
+    return out.reshape(n, grid * grid)
+
+
+def background(images: np.ndarray) -> np.ndarray:
+    """Per-pixel median of (at most :data:`MAX_BACKGROUND_IMAGES`) images, float ``(H, W, 3)``."""
+    n = len(images)
+    idx = np.unique(np.linspace(0, n - 1, min(n, MAX_BACKGROUND_IMAGES)).round().astype(int))
+    return np.median(images[idx].astype(np.float32), axis=0) / 255.0
+
+
+def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionParams) -> np.ndarray:
+    """Per-pixel foreground strength of ``images`` (uint8 ``(N, H, W, 3)``) -> ``(N, H, W)``."""
+    x = images.astype(np.float32) / 255.0
+    lit = bg.mean(axis=2) > 0.05
+    # 2. robust per-channel gain against the background
+    ratio = x[:, lit, :] / np.maximum(bg[lit][None], 1e-3)
+    gain = np.median(ratio, axis=1)  # (N, 3)
+    x = x / np.maximum(gain, 1e-3)[:, None, None, :]
+    # 3. intensity and chromatic deviation
+    inten = np.abs(x - bg[None]).mean(axis=3)
+    bg_sum = bg.sum(axis=2, keepdims=True)
+    chroma_bg = bg / np.maximum(bg_sum, 1e-3)
+    chroma_x = x / np.maximum(x.sum(axis=3, keepdims=True), 1e-3)
+    chrom = np.abs(chroma_x - chroma_bg[None]).sum(axis=3) * (bg_sum[..., 0] / 3.0)[None]
+    dev = inten + chrom
+    # 4. soft threshold relative to the robust noise level
+    flat = dev.reshape(len(dev), -1)
+    med = np.median(flat, axis=1)
+    sigma = 1.4826 * np.median(np.abs(flat - med[:, None]), axis=1)
+    thr = np.maximum(med + params.noise_k * sigma, params.min_contrast)
+    return np.clip(dev - thr[:, None, None], 0.0, None)
+
+
+def saliency_maps(images: np.ndarray, params: AttentionParams,
+                  progress: Callable[[int], None] | None = None) -> np.ndarray:
+    """The ``saliency`` backend: ``(N, H, W, 3)`` uint8 -> ``(N, g*g)`` maps (module docstring)."""
+    bg = background(images)
+    out = np.empty((len(images), params.grid * params.grid))
+    step = 64
+    for s in range(0, len(images), step):
+        raw = saliency_raw(images[s:s + step], bg, params)
+        out[s:s + step] = finish_maps(pool_to_grid(raw, params.grid), params.floor)
+        if progress is not None:
+            progress(min(step, len(images) - s))
+    return out
+
+
+def dinov2_maps(images: np.ndarray, params: AttentionParams,
+                progress: Callable[[int], None] | None = None) -> np.ndarray:
+    """The ``dinov2`` backend: CLS-to-patch attention of the last block, ``(N, g*g)``."""
+    import torch
+
+    from vggc_cp.vision.dinov2 import load_dinov2, preprocess, resolve_weights
+
+    model, arch = load_dinov2(resolve_weights(params.weights))
+    size = params.grid * int(arch.get("patch_size", 14))
+    out = np.empty((len(images), params.grid * params.grid))
+    with torch.inference_mode():
+        for s in range(0, len(images), params.batch_size):
+            x = preprocess(images[s:s + params.batch_size], size)
+            att = model.cls_attention(x).reshape(len(x), -1).double().numpy()
+            out[s:s + len(x)] = finish_maps(att, params.floor)
+            if progress is not None:
+                progress(len(x))
+    return out
+
+
+AttentionFn = Callable[..., np.ndarray]
+
+#: name -> ``fn(images, params, progress=None) -> (N, g*g)`` maps.
+ATTENTION_BACKENDS: dict[str, AttentionFn] = {
+    "saliency": saliency_maps,
+    "dinov2": dinov2_maps,
+}
+
+#: Backends whose maps depend on a weights file (hashed into the cache key).
+NEEDS_WEIGHTS = frozenset({"dinov2"})
+
+
+def attention_maps(images: np.ndarray, backend: str = "saliency",
+                   params: AttentionParams | None = None,
+                   progress: Callable[[int], None] | None = None) -> np.ndarray:
+    """Attention maps of ``images`` (uint8 ``(N, H, W, 3)``) with a registered backend.
+
+    Returns
+    -------
+    ndarray, float64, shape (N, g*g): strictly positive rows summing to 1.
+    """
+    fn = lookup(ATTENTION_BACKENDS, backend, "attention backend")
+    return fn(np.asarray(images), params or AttentionParams(), progress)
