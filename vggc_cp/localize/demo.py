@@ -11,7 +11,6 @@ and planning see pixels only.
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from collections import deque
 from collections.abc import Callable
@@ -89,19 +88,19 @@ def choose_pair(bench, states: np.ndarray, rng: np.random.Generator) -> tuple[in
     return i, j
 
 
-def compute_solution(trace, *, progress: bool = False) -> dict:
+def compute_solution(trace, *, cache_dir: str | Path | None = None,
+                     progress: bool = False) -> dict:
     """Default visual distances, greedy sweep over the default grid, ``fewest`` selection;
-    the solution JSON object (what ``vggc-cp solve`` writes with default options)."""
+    the solution JSON object (what ``vggc-cp solve`` writes with default options). The
+    distance cache goes to ``cache_dir`` (default: the vision package's)."""
     from vggc_cp.solution import solution_dict
     from vggc_cp.solvers import Problem, get_solver
     from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
     from vggc_cp.solvers.sweep import default_grid, run_sweep
-    from vggc_cp.vision import add_distance_arguments, compute_distances, config_from_args
+    from vggc_cp.vision import DistanceConfig, compute_distances
 
-    parser = argparse.ArgumentParser(add_help=False)
-    add_distance_arguments(parser)
-    cfg = config_from_args(parser.parse_args([]))
-    dist_pick, dist_place = compute_distances(trace, cfg, progress=progress)
+    dist_pick, dist_place = compute_distances(trace, DistanceConfig(), cache_dir=cache_dir,
+                                              progress=progress)
     problem = Problem.from_trace(trace, dist_pick, dist_place)
     kp, kq = default_grid(problem)
     sweep = run_sweep(problem, get_solver("greedy"), kp, kq, select="fewest", progress=progress)
@@ -166,7 +165,8 @@ def _run(output: Path, seed: int, work: Path, log, keep: bool) -> DemoResult:
     save_trace(trace, files["trace"])
     save_novel(files["novel"], gen.novel_observations, gen.novel_states)
     log("[2/6] visual distances and greedy sweep")
-    write_solution(files["solution"], compute_solution(trace.without_states()))
+    write_solution(files["solution"], compute_solution(trace.without_states(),
+                                                       cache_dir=work / "cache"))
     solution = read_solution(files["solution"])
     verify_solution(solution, trace, str(files["solution"]))
     log(f"      {solution.k_pick} pick + {solution.k_place} place nodes, J = {solution.J:.4g}")
