@@ -150,3 +150,219 @@ def plot_compare_grids(k_pick: list[int], k_place: list[int], J_greedy: np.ndarr
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     plt.close(fig)
+
+
+# ---------------------------------------------------------------- research notebooks
+
+
+def _save(fig, path: str | Path) -> None:
+    plt = _pyplot()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)
+
+
+def plot_feasibility_heatmaps(panels: list[list[dict]], path: str | Path, *,
+                              title: str | None = None) -> None:
+    """A grid of ``(k_pick, k_place)`` feasibility heatmaps (rows: solvers/models, columns: |D|).
+
+    Parameters
+    ----------
+    panels : list of rows, each a list of dicts
+        Each dict: ``k_pick``, ``k_place`` (lists of int), ``feasible`` (share of seeds with a
+        colouring, shape (len(k_pick), len(k_place))), optional ``proved`` (share of seeds
+        proved infeasible; cells proved in every seed are marked ``x``) and ``title``.
+    path : path
+        Written atomically.
+    """
+    plt = _pyplot()
+    nrows, ncols = len(panels), max(len(r) for r in panels)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(2.3 * ncols + 0.8, 2.2 * nrows + 0.4),
+                             squeeze=False, constrained_layout=True)
+    im = None
+    for i, row in enumerate(panels):
+        for j in range(ncols):
+            ax = axes[i][j]
+            if j >= len(row):
+                ax.axis("off")
+                continue
+            p = row[j]
+            kp, kq = list(p["k_pick"]), list(p["k_place"])
+            feas = np.asarray(p["feasible"], dtype=float)
+            im = ax.imshow(np.ma.masked_invalid(feas), origin="lower", cmap="Greens",
+                           vmin=0, vmax=1, aspect="auto")
+            proved = p.get("proved")
+            if proved is not None:
+                proved = np.asarray(proved, dtype=float)
+                ys, xs = np.nonzero(proved >= 1.0 - 1e-9)
+                ax.scatter(xs, ys, marker="x", s=10, c="firebrick", linewidths=0.8)
+            step = max(1, len(kq) // 6)
+            ax.set_xticks(range(0, len(kq), step), [str(k) for k in kq[::step]], fontsize=7)
+            step = max(1, len(kp) // 6)
+            ax.set_yticks(range(0, len(kp), step), [str(k) for k in kp[::step]], fontsize=7)
+            ax.set_title(p.get("title", ""), fontsize=8)
+            if i == nrows - 1:
+                ax.set_xlabel("k_place", fontsize=8)
+            if j == 0:
+                ax.set_ylabel("k_pick", fontsize=8)
+    if im is not None:
+        fig.colorbar(im, ax=axes, shrink=0.6,
+                     label="share of seeds with a colouring (x: proved infeasible, all seeds)")
+    if title:
+        fig.suptitle(title)
+    _save(fig, path)
+
+
+def plot_min_k(series: list[dict], path: str | Path, *, title: str | None = None) -> None:
+    """Minimal total K against |D| (left) and against the number of visited states (right).
+
+    Parameters
+    ----------
+    series : list of dict
+        Each: ``label``, ``transitions``, ``states``, ``K`` (equal-length sequences; NaN where
+        no colouring was found), optional ``proved`` (bools: filled markers where proved
+        minimal, hollow otherwise) and ``marker``.
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    for idx, s in enumerate(series):
+        colour = f"C{idx}"
+        d = np.asarray(s["transitions"], dtype=float)
+        v = np.asarray(s["states"], dtype=float)
+        k = np.asarray(s["K"], dtype=float)
+        proved = np.asarray(s.get("proved", np.ones(len(k), bool)), dtype=bool)
+        jitter = (idx - (len(series) - 1) / 2) * 0.012
+        for ax, x, logx in ((axes[0], d, True), (axes[1], v, False)):
+            xs = x * (1 + jitter) if logx else x + jitter * 40
+            ax.scatter(xs[proved], k[proved], color=colour, marker=s.get("marker", "o"),
+                       label=s["label"], s=28)
+            ax.scatter(xs[~proved], k[~proved], facecolors="none", edgecolors=colour,
+                       marker=s.get("marker", "o"), s=28)
+            ok = np.isfinite(k)
+            if ok.any():
+                ux = np.unique(x[ok])
+                means = [np.nanmean(k[ok][x[ok] == u]) for u in ux]
+                ax.plot(ux * (1 + jitter) if logx else ux, means, color=colour, alpha=0.5)
+    axes[0].set_xscale("log")
+    axes[0].set_xlabel("|D| (transitions)")
+    axes[1].set_xlabel("distinct true states visited |V*|")
+    lim = [0, max(1.0, float(np.nanmax([np.nanmax(np.asarray(s["states"], float))
+                                        for s in series])) * 1.05)]
+    axes[1].plot(lim, lim, ls=":", color="grey", label="K = |V*|")
+    for ax in axes:
+        ax.set_ylabel("minimal total K = k_pick + k_place")
+        ax.grid(alpha=0.3)
+    axes[1].legend(fontsize=7, loc="upper left")
+    if title:
+        fig.suptitle(title + " (hollow: not proved minimal)")
+    _save(fig, path)
+
+
+def plot_solver_bars(labels: list[str], values: dict, path: str | Path, *, ylabel: str = "",
+                     title: str | None = None, log: bool = False, ylim=None) -> None:
+    """Grouped bars: one group per label (benchmark), one bar per series (solver).
+
+    Parameters
+    ----------
+    labels : list of str
+    values : dict
+        ``series name -> sequence of float`` (len(labels) each; NaN: no bar).
+    """
+    plt = _pyplot()
+    n = len(values)
+    width = 0.8 / max(n, 1)
+    fig, ax = plt.subplots(figsize=(1.2 + 1.1 * len(labels), 3.4), constrained_layout=True)
+    x = np.arange(len(labels))
+    for i, (name, vals) in enumerate(values.items()):
+        ax.bar(x + (i - (n - 1) / 2) * width, np.asarray(vals, dtype=float), width, label=name)
+    ax.set_xticks(x, labels, rotation=20, fontsize=8)
+    ax.set_ylabel(ylabel)
+    if log:
+        ax.set_yscale("log")
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=10)
+    _save(fig, path)
+
+
+def plot_metric_panels(labels: list[str], metrics: dict, path: str | Path, *,
+                       title: str | None = None) -> None:
+    """One panel per planning metric, grouped bars per label, one bar per solver.
+
+    Parameters
+    ----------
+    labels : list of str
+        Groups (benchmarks).
+    metrics : dict
+        ``metric title -> {solver -> sequence of float in [0, 1]}``.
+    """
+    plt = _pyplot()
+    names = list(metrics)
+    fig, axes = plt.subplots(1, len(names), figsize=(2.6 * len(names) + 0.5, 3.3),
+                             squeeze=False, constrained_layout=True, sharey=True)
+    x = np.arange(len(labels))
+    for ax, name in zip(axes[0], names):
+        series = metrics[name]
+        width = 0.8 / max(len(series), 1)
+        for i, (solver, vals) in enumerate(series.items()):
+            ax.bar(x + (i - (len(series) - 1) / 2) * width, np.asarray(vals, dtype=float),
+                   width, label=solver)
+        ax.set_xticks(x, labels, rotation=60, fontsize=7)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylim(0, 1.05)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    _save(fig, path)
+
+
+def plot_scalability(transitions: list[int], curves: dict, seconds: dict, path: str | Path, *,
+                     title: str | None = None) -> None:
+    """The paper's scalability figure: metrics against |D| (left), runtime split (right).
+
+    Parameters
+    ----------
+    transitions : list of int
+        |D| values (x axis, log scale).
+    curves : dict
+        ``label -> sequence of float`` (e.g. ``"TransCov greedy"``), one value per |D|.
+    seconds : dict
+        ``solver -> {"distances": seq, "search": seq}``: stacked bars per |D| and solver.
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.9), constrained_layout=True)
+    styles = ["-o", "--s", "-^", "--v", "-D", "--x"]
+    for i, (label, vals) in enumerate(curves.items()):
+        axes[0].plot(transitions, np.asarray(vals, dtype=float), styles[i % len(styles)],
+                     label=label, color=f"C{i // 2}" if len(curves) > 2 else None,
+                     alpha=0.85)
+    axes[0].set_xscale("log")
+    axes[0].set_xlabel("|D| (transitions)")
+    axes[0].set_ylabel("rate")
+    axes[0].set_ylim(0, 1.05)
+    axes[0].grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    ax = axes[1]
+    x = np.arange(len(transitions))
+    n = len(seconds)
+    width = 0.8 / max(n, 1)
+    for i, (solver, parts) in enumerate(seconds.items()):
+        dist = np.asarray(parts["distances"], dtype=float)
+        search = np.asarray(parts["search"], dtype=float)
+        pos = x + (i - (n - 1) / 2) * width
+        ax.bar(pos, dist, width, color="lightgrey", edgecolor=f"C{i}",
+               label="distances" if i == 0 else None)
+        ax.bar(pos, search, width, bottom=dist, color=f"C{i}", label=f"search ({solver})")
+    ax.set_xticks(x, [str(t) for t in transitions])
+    ax.set_xlabel("|D| (transitions)")
+    ax.set_ylabel("seconds")
+    ax.set_yscale("log")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    _save(fig, path)
