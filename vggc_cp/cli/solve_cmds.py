@@ -35,7 +35,8 @@ def register(sub) -> None:
     p.add_argument("trace", help="trace .npz")
     p.add_argument("-o", "--output", required=True, help="solution .json to write")
     p.add_argument("--solver", default="greedy",
-                   help=f"colouring solver: {', '.join(sorted(SOLVERS))} (default greedy)")
+                   help=f"colouring solver: {', '.join(sorted(SOLVERS))}, or both (greedy, then "
+                        f"CP-SAT warm-started by it; cpsat does the same) (default greedy)")
     p.add_argument("--k-pick", default=None, metavar="A:B",
                    help="k_pick values, inclusive (default: derived from the actions)")
     p.add_argument("--k-place", default=None, metavar="A:B",
@@ -51,6 +52,9 @@ def register(sub) -> None:
                         "feasible, status, J, seconds (cells), or not at all")
     p.add_argument("--quiet", action="store_true", help="no progress bars, no grid table")
     add_distance_arguments(p)
+    from vggc_cp.cli.compare_cmds import add_cpsat_arguments
+
+    add_cpsat_arguments(p)
     p.set_defaults(func=cmd_solve)
 
     q = sub.add_parser("plan", help="shortest pick/place plan on a solution's graph between the "
@@ -118,7 +122,13 @@ def cmd_solve(args) -> int:
     from vggc_cp.vision import compute_distances, config_from_args
 
     get_selection(args.select)  # unknown names fail before any work
-    solver = _make_solver(args.solver, args.tau)
+    exact = args.solver in ("cpsat", "both")
+    if exact:
+        from vggc_cp.cli.compare_cmds import cpsat_sweeps, make_cpsat_solver
+
+        make_cpsat_solver(args, args.tau)  # bad --cpsat-params fail before any work
+    else:
+        solver = _make_solver(args.solver, args.tau)
     trace = load_trace(args.trace)
     cfg = config_from_args(args)
     t0 = time.perf_counter()
@@ -126,8 +136,16 @@ def cmd_solve(args) -> int:
     t_dist = time.perf_counter() - t0
     problem = Problem.from_trace(trace, dist_pick, dist_place)
     kp, kq = _grid(problem, args.k_pick, args.k_place)
-    sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
-                      progress=not args.quiet)
+    if exact:
+        greedy, sweep = cpsat_sweeps(problem, kp, kq, args, tau=args.tau, jobs=args.jobs,
+                                     select=args.select, progress=not args.quiet)
+        if args.solver == "both" and greedy.best is not None:
+            g = greedy.best
+            print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "
+                  f"{g.n_nodes} nodes, J {g.J:.4f} ({greedy.seconds:.1f} s)")
+    else:
+        sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
+                          progress=not args.quiet)
     n_found = sum(r.found for r in sweep.results)
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
