@@ -983,7 +983,8 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
             wits = below(cell)
             if wits:
                 src, labels, J, c = min(wits, key=lambda w: w[2])
-                stats["decided_by"] = "solved" if cell in solved else f"inferred from {c}"
+                stats["decided_by"] = ("solved" if cell in solved else
+                                       f"{src} colouring" if c == cell else f"inferred from {c}")
                 stats["colouring_from"] = f"{src}@{c[0]},{c[1]}"
                 results.append(SolveResult(labels, a, b, J, FEASIBLE, solver.name,
                                            spent.get(cell, 0.0), None, stats))
