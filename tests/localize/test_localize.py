@@ -344,7 +344,7 @@ def test_dinov2_backbone_with_a_tiny_random_checkpoint(setup, tmp_path):
     weights = tmp_path / "tiny_dinov2.pth"
     torch.save(vit.state_dict(), weights)
     config = quick_config(backbone="dinov2", weights=str(weights), input_size=28,
-                          epoch_grid=(3,), folds=2)
+                          epoch_grid=(2,), folds=2)  # one grid point: no cross-validation
     loc, report = train_localizer(setup["trace"], setup["solution"], config)
     net = loc.net
     # frozen except the last block and the final norm (and the head)
@@ -366,3 +366,21 @@ def test_dinov2_backbone_with_a_tiny_random_checkpoint(setup, tmp_path):
     np.testing.assert_array_equal(a.nodes, b.nodes)
     np.testing.assert_allclose(a.probabilities, b.probabilities, atol=1e-5)
     assert report.n_classes == len(loc.node_ids)
+
+
+def test_shipped_model_localizes_the_shipped_novel_renders():
+    from pathlib import Path
+
+    from vggc_cp.evaluate.i2p import evaluate_localizer
+    from vggc_cp.sim.novel import load_novel
+    from vggc_cp.trace import load_trace
+
+    root = Path(__file__).resolve().parents[2]
+    model, sol = root / "models" / "fruit-2x3.pt", root / "models" / "fruit-2x3.solution.json"
+    if not model.is_file() or not (root / "data" / "fruit-2x3.novel.npz").is_file():
+        pytest.skip("shipped model or data absent")
+    trace = load_trace(root / "data" / "fruit-2x3.npz")
+    obs, states = load_novel(root / "data" / "fruit-2x3.novel.npz")
+    m = evaluate_localizer(trace, read_solution(sol), load_localizer(model), obs, states,
+                           n_queries=150, dynamics="trace")
+    assert m.localization >= 0.95 and m.i2p >= 0.9 and m.exec_i2p >= 0.9
