@@ -1,0 +1,40 @@
+"""``vggc-cp compare``: bad CP-SAT options exit 2; a small end-to-end run writes CSV and PNG."""
+
+from __future__ import annotations
+
+import csv
+
+from vggc_cp.cli import main
+from vggc_cp.trace import save_trace
+
+
+def test_compare_rejects_bad_cpsat_params(tmp_path, toy_trace, capsys):
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    assert main(["compare", str(path), "--cpsat-params", "no_such_field:1"]) == 2
+    err = capsys.readouterr().err
+    assert "cpsat-params" in err and err.count("\n") == 1
+    assert main(["compare", str(path), "--cpsat-params", "num_workers:many"]) == 2
+    assert main(["compare", str(path), "--max-actions", "0"]) == 2
+
+
+def test_compare_end_to_end(tmp_path, toy_trace, capsys):
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    out_csv, out_png = tmp_path / "cmp.csv", tmp_path / "cmp.png"
+    rc = main(["compare", str(path), "--k-pick", "1:3", "--k-place", "1:2", "--quiet",
+               "--cpsat-params", "max_time_in_seconds:10,num_workers:1",
+               "--grid", "4", "--cache-dir", str(tmp_path / "cache"), "--csv", str(out_csv),
+               "--plot", str(out_png), "--optimize", "all"])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "cpsat" in text and "proved minimal: yes" in text
+    rows = list(csv.DictReader(out_csv.open()))
+    assert len(rows) == 6
+    assert {"greedy_feasible", "greedy_J", "cpsat_status", "cpsat_J", "bound", "gap",
+            "cpsat_seconds", "variables", "constraints"} <= set(rows[0])
+    for r in rows:
+        assert r["cpsat_status"] in ("optimal", "infeasible")
+        if r["greedy_feasible"] == "True":
+            assert float(r["cpsat_J"]) <= float(r["greedy_J"]) + 1e-9
+    assert out_png.stat().st_size > 1000
