@@ -209,7 +209,7 @@ def plot_feasibility_heatmaps(panels: list[list[dict]], path: str | Path, *,
         fig.colorbar(im, ax=axes, shrink=0.6,
                      label="share of seeds with a colouring (x: proved infeasible, all seeds)")
     if title:
-        fig.suptitle(title)
+        fig.suptitle(title, fontsize=10)
     _save(fig, path)
 
 
@@ -244,6 +244,9 @@ def plot_min_k(series: list[dict], path: str | Path, *, title: str | None = None
                 means = [np.nanmean(k[ok][x[ok] == u]) for u in ux]
                 ax.plot(ux * (1 + jitter) if logx else ux, means, color=colour, alpha=0.5)
     axes[0].set_xscale("log")
+    ticks = sorted({int(t) for s in series for t in np.asarray(s["transitions"]).tolist()})
+    axes[0].set_xticks(ticks, [str(t) for t in ticks])
+    axes[0].minorticks_off()
     axes[0].set_xlabel("|D| (transitions)")
     axes[1].set_xlabel("distinct true states visited |V*|")
     lim = [0, max(1.0, float(np.nanmax([np.nanmax(np.asarray(s["states"], float))
