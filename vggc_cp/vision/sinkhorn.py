@@ -443,7 +443,7 @@ def _solve_log(ops, logK, M, H, src, dst, eps, tol, max_iter, omega, block,
 def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.ndarray,
                    eps: float, *, tol: float = 1e-6, max_iter: int = 20000,
                    omega: float = 1.5, dtype: str = "float32", device: str = "torch",
-                   block: int = 2048, threads: int | None = None,
+                   block: int = 2048, threads: int | None = None, domain: str = "auto",
                    on_done: Callable[[int], None] | None = None
                    ) -> tuple[np.ndarray, SinkhornStats]:
     """Entropic OT costs ``<P*, M>`` for many pairs of histograms sharing one cost matrix.
@@ -474,6 +474,8 @@ def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.nd
     threads : int or None
         Worker threads on the CPU, each solving an interleaved share of the problems with one
         intra-op thread (numpy's BLAS keeps its own threads).
+    domain : {"auto", "log"}
+        ``log`` forces the log-domain iteration (``auto`` uses it only when needed).
     on_done : callable, optional
         Called with the number of problems just finished (progress bars).
 
@@ -499,7 +501,11 @@ def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.nd
         raise ValueError("histograms must be finite and strictly positive")
     ratio = float(M.max()) / eps
     mode_dtype = dtype if ratio <= SCALING_LIMITS[dtype] else "float64"
-    log_mode = ratio > SCALING_LIMITS["float64"]
+    if domain not in ("auto", "log"):
+        raise ValueError(f"domain must be 'auto' or 'log', got {domain!r}")
+    log_mode = ratio > SCALING_LIMITS["float64"] or domain == "log"
+    if log_mode:
+        mode_dtype = "float64"
     n_prob = len(src)
     report = on_done if on_done is not None else (lambda k: None)
 
