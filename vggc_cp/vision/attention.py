@@ -15,11 +15,12 @@ Backends (registry :data:`ATTENTION_BACKENDS`, ``--attention NAME``):
        ``MAX_BACKGROUND_IMAGES`` of them, evenly spaced). Objects that move are a minority at
        every pixel, so the median shows the empty table (where an object rests in more than
        half of the images, the map shows the hole it leaves when gone instead).
-    2. Gain: each image's channel ``c`` is divided by the robust gain
-       ``g_c = median_pixels(I_c / B_c)`` over well-lit pixels, which undoes a global
-       brightness or tint change (camera gain, white balance) of any size.
-    3. Deviation per pixel: intensity ``|I - B|`` averaged over channels, plus chromatic
-       ``||chroma(I) - chroma(B)||_1 * mean(B)`` with ``chroma(x) = x / sum_c x_c``, so an
+    2. Gain: per image and channel ``c``, the robust gain ``g_c = median(I_c / B_c)`` over
+       pixels that are lit and clipped in neither image; the background as this camera would
+       see it is ``P = min(g B, 1)`` (clipped like the sensor). This undoes a global
+       brightness or tint change (camera gain, white balance), saturated pixels included.
+    3. Deviation per pixel: intensity ``|I - P| / g`` averaged over channels, plus chromatic
+       ``||chroma(I) - chroma(P)||_1 * mean(B)`` with ``chroma(x) = x / sum_c x_c``, so an
        object that matches the table's brightness but not its hue still stands out.
     4. Noise: the deviation is soft-thresholded at ``k sigma`` with ``sigma`` the image's robust
        noise level (``1.4826 * MAD`` of the deviation, most pixels being background), and at
@@ -43,6 +44,9 @@ from vggc_cp.errors import lookup
 
 #: Images used for the per-pixel median background.
 MAX_BACKGROUND_IMAGES = 256
+
+#: Channel value (in [0, 1]) from which a pixel counts as clipped by the sensor.
+SATURATED = 0.98
 
 
 @dataclass(frozen=True)
@@ -114,17 +118,24 @@ def background(images: np.ndarray) -> np.ndarray:
 def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionParams) -> np.ndarray:
     """Per-pixel foreground strength of ``images`` (uint8 ``(N, H, W, 3)``) -> ``(N, H, W)``."""
     x = images.astype(np.float32) / 255.0
+    # 2. robust per-channel gain against the background, from pixels that are lit and
+    #    saturated in neither image (a clipped pixel hides its gain)
     lit = bg.mean(axis=2) > 0.05
-    # 2. robust per-channel gain against the background
-    ratio = x[:, lit, :] / np.maximum(bg[lit][None], 1e-3)
-    gain = np.median(ratio, axis=1)  # (N, 3)
-    x = x / np.maximum(gain, 1e-3)[:, None, None, :]
-    # 3. intensity and chromatic deviation
-    inten = np.abs(x - bg[None]).mean(axis=3)
-    bg_sum = bg.sum(axis=2, keepdims=True)
-    chroma_bg = bg / np.maximum(bg_sum, 1e-3)
+    ok = lit[None] & (x.max(axis=3) < SATURATED) & (bg.max(axis=2) < SATURATED)[None]
+    ratio = x / np.maximum(bg, 1e-3)[None]
+    gain = np.empty((len(x), 3), dtype=np.float32)
+    for i in range(len(x)):
+        use = ok[i] if ok[i].sum() >= 0.01 * ok[i].size else lit
+        gain[i] = np.median(ratio[i][use], axis=0)
+    gain = np.maximum(gain, 1e-3)
+    # the background as this camera would see it (clipped like the sensor), in image units
+    pred = np.minimum(bg[None] * gain[:, None, None, :], 1.0)
+    # 3. intensity and chromatic deviation, in background units
+    inten = (np.abs(x - pred) / gain[:, None, None, :]).mean(axis=3)
+    pred_sum = pred.sum(axis=3, keepdims=True)
+    chroma_pred = pred / np.maximum(pred_sum, 1e-3)
     chroma_x = x / np.maximum(x.sum(axis=3, keepdims=True), 1e-3)
-    chrom = np.abs(chroma_x - chroma_bg[None]).sum(axis=3) * (bg_sum[..., 0] / 3.0)[None]
+    chrom = np.abs(chroma_x - chroma_pred).sum(axis=3) * bg.mean(axis=2)[None]
     dev = inten + chrom
     # 4. soft threshold relative to the robust noise level
     flat = dev.reshape(len(dev), -1)
