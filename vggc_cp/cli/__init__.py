@@ -17,6 +17,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.trace_cmds",
     "vggc_cp.cli.vision_cmds",
     "vggc_cp.cli.sim_cmds",
+    "vggc_cp.cli.solve_cmds",
     "vggc_cp.cli.localize_cmds",
     "vggc_cp.cli.benchmark_cmds",
     "vggc_cp.cli.notebook_cmds",
