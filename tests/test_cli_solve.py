@@ -13,9 +13,15 @@ from vggc_cp.solution import read_solution, verify_solution
 from vggc_cp.trace import save_trace
 
 
+@pytest.fixture(scope="module")
+def cache_root(tmp_path_factory):
+    """One distance cache for the module: the toy's distances are computed once."""
+    return tmp_path_factory.mktemp("cache")
+
+
 @pytest.fixture
-def toy_path(tmp_path, monkeypatch):
-    monkeypatch.setenv("VGGC_CP_CACHE", str(tmp_path / "cache"))
+def toy_path(tmp_path, monkeypatch, cache_root):
+    monkeypatch.setenv("VGGC_CP_CACHE", str(cache_root))
     ep1 = ["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
     ep2 = ["R", "pick_R", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
     trace = make_trace([ep1, ep2], TOY_NAMES, size=16, noise=4)
@@ -24,9 +30,12 @@ def toy_path(tmp_path, monkeypatch):
     return path, trace
 
 
+FAST = ("--sinkhorn-device", "numpy")  # no torch start-up for a ten-image trace
+
+
 def solve(trace_path, out, *extra):
     return main(["solve", str(trace_path), "-o", str(out), "--quiet",
-                 "--k-pick", "1:3", "--k-place", "1:2", *extra])
+                 "--k-pick", "1:3", "--k-place", "1:2", *FAST, *extra])
 
 
 def test_solve_writes_a_valid_solution(toy_path, tmp_path, capsys):
@@ -62,7 +71,7 @@ def test_solve_grid_table_and_plot(toy_path, tmp_path, capsys):
     path, _ = toy_path
     png = tmp_path / "grid.png"
     assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--k-pick", "1:3",
-                 "--k-place", "1:2", "--plot", str(png), "--table", "cells"]) == 0
+                 "--k-place", "1:2", "--plot", str(png), "--table", "cells", *FAST]) == 0
     out = capsys.readouterr().out
     assert "| k_pick" in out.replace("|   k_pick", "| k_pick") and "feasible" in out
     assert png.read_bytes()[:4] == b"\x89PNG"
@@ -115,7 +124,7 @@ def test_no_colouring_in_the_grid_is_an_error(toy_path, tmp_path, capsys):
     out = tmp_path / "none.json"
     # one pick and one place colour cannot hold both pick actions
     assert main(["solve", str(path), "-o", str(out), "--quiet", "--k-pick", "1",
-                 "--k-place", "1"]) == 2
+                 "--k-place", "1", *FAST]) == 2
     assert "no cell" in capsys.readouterr().err and not out.exists()
 
 

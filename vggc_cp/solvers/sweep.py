@@ -35,13 +35,16 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vggc_cp.errors import VggcError, lookup
 from vggc_cp.solvers.base import Problem, Solver, SolveResult
 from vggc_cp.trace import PICK, PLACE, action_kind
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 GRID_MIN_TOP = 20
 SelectionRule = Callable[[Sequence[SolveResult], Problem], "int | None"]
@@ -187,6 +190,8 @@ class Sweep:
 
     def table(self) -> pd.DataFrame:
         """The grid as a DataFrame, one row per cell, with a ``selected`` column."""
+        import pandas as pd
+
         df = pd.DataFrame.from_records(self.records())
         df.insert(2, "feasible", [r.found for r in self.results])
         df["selected"] = [i == self.selected for i in range(len(self.results))]
@@ -195,6 +200,8 @@ class Sweep:
     def pivot(self, digits: int = 3) -> pd.DataFrame:
         """The grid as text: rows ``k_pick``, columns ``k_place``, J per cell (``-`` without a
         colouring, ``*`` after the selected cell)."""
+        import pandas as pd
+
         kp, kq, mat = self.j_matrix()
         best = self.best
         cells = [[("-" if np.isnan(mat[i, j]) else f"{mat[i, j]:.{digits}f}")
