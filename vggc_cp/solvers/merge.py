@@ -184,18 +184,29 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
     cand = np.concatenate(candidates) if candidates else np.zeros((0, 3))
     order = np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))
     attempts = accepted = veto_d = veto_e = veto_w = 0
+    # A veto depends only on the current clusters: while nothing is committed, the same pair of
+    # clusters is vetoed again, so remember vetoes until the next commit (exact, and most
+    # candidate pairs fall between clusters that already failed to merge).
+    epoch = 0
+    vetoed: dict[tuple[int, int], int] = {}
     for k in order:
         i, j = int(cand[k, 1]), int(cand[k, 2])
-        if cl.find(i) == cl.find(j):
+        ri, rj = cl.find(i), cl.find(j)
+        if ri == rj:
+            continue
+        key = (ri, rj) if ri < rj else (rj, ri)
+        if vetoed.get(key) == epoch:
             continue
         attempts += 1
         groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work)
         if groups is None:
+            vetoed[key] = epoch
             veto_d += why == "distance"
             veto_e += why == "exactly_one"
             veto_w += why == "work"
             continue
         cl.commit(groups)
+        epoch += 1
         accepted += 1
     roots = np.array([cl.find(x) for x in range(problem.n_obs)])
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
