@@ -384,3 +384,11 @@ def test_shipped_model_localizes_the_shipped_novel_renders():
     m = evaluate_localizer(trace, read_solution(sol), load_localizer(model), obs, states,
                            n_queries=150, dynamics="trace")
     assert m.localization >= 0.95 and m.i2p >= 0.9 and m.exec_i2p >= 0.9
+
+
+def test_choose_prefers_accuracy_then_fewer_epochs_then_larger_rate():
+    from vggc_cp.localize.train import choose
+
+    cv = ((1e-2, 10, 0.9), (1e-2, 20, 1.0), (3e-3, 20, 1.0), (3e-3, 40, 1.0))
+    assert choose(cv) == (1e-2, 20)
+    assert choose(((1e-2, 10, 0.5), (3e-3, 10, 0.7))) == (3e-3, 10)
