@@ -294,10 +294,6 @@ class CellModel:
         return 0 if self.model is None else len(self.model.proto.constraints)
 
     @property
-    def n_clusters_max(self) -> int:
-        return sum(r.k for r in self.roles)
-
-    @property
     def quantization_margin(self) -> float:
         """Upper bound on ``|J_true - J_hat / s|`` differences that optimality allows."""
         return 2.0 * (self.k_pick + self.k_place) / self.scale
@@ -443,10 +439,6 @@ def _conflict_graph(problem: Problem, role: int) -> list[set[int]]:
     return adj
 
 
-def _time_order(n: int) -> np.ndarray:
-    return np.arange(n, dtype=np.int64)
-
-
 def build_cell_model(problem: Problem, k_pick: int, k_place: int,
                      options: CpSatOptions = CpSatOptions()) -> CellModel:
     """Build the CP-SAT model of one cell (see the module docstring for the mathematics)."""
@@ -486,7 +478,7 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
     # ---- orders and fixed clique
     orders, fixed = [], []
     for r in (PICK, PLACE):
-        order = _time_order(n_role[r])
+        order = np.arange(n_role[r], dtype=np.int64)  # time order within the role
         clique: list[int] = []
         if options.symmetry and kk[1 - r] == 1:
             clique = _greedy_clique(_conflict_graph(problem, r))
