@@ -8,7 +8,7 @@ import numpy as np
 
 
 def draw_attention(images: np.ndarray, maps: np.ndarray, titles: list[str],
-                   path: str | Path, alpha: float = 0.55) -> None:
+                   path: str | Path, alpha: float = 0.8) -> None:
     """Save a PNG with one column per image: the image, then the image with its map on top.
 
     Parameters
@@ -17,7 +17,7 @@ def draw_attention(images: np.ndarray, maps: np.ndarray, titles: list[str],
     maps : ndarray, shape (K, g*g), rows summing to 1
     titles : list of str, length K
     path : output file (written atomically)
-    alpha : opacity of the map layer
+    alpha : opacity of the map layer where the map is largest
     """
     import matplotlib
 
@@ -35,8 +35,9 @@ def draw_attention(images: np.ndarray, maps: np.ndarray, titles: list[str],
         axes[0, c].imshow(images[c])
         axes[0, c].set_title(titles[c], fontsize=8)
         axes[1, c].imshow(images[c])
-        axes[1, c].imshow(att, cmap="inferno", alpha=alpha, extent=(-0.5, w - 0.5, h - 0.5, -0.5),
-                          interpolation="nearest")
+        rgba = plt.get_cmap("inferno")(att / att.max())
+        rgba[..., 3] = alpha * att / att.max()  # opacity follows the mass: low mass stays clear
+        axes[1, c].imshow(rgba, extent=(-0.5, w - 0.5, h - 0.5, -0.5), interpolation="nearest")
         axes[1, c].set_title(f"max {att.max():.3f}", fontsize=8)
         for r in range(2):
             axes[r, c].set_xticks([])
