@@ -6,6 +6,10 @@
 stage on a trace and caches it. The affinity ``K_vis = exp(-d / tau)`` and the score ``J``
 live in :mod:`vggc_cp.score` and are re-exported here.
 
+Distances are cached per (trace content hash, every result-changing parameter) in
+``$VGGC_CP_CACHE/distances`` when that variable is set, else ``./.cache/vggc-cp/distances``
+(git-ignored), or in ``--cache-dir``; the file format is in :mod:`.distances`.
+
 Typical use::
 
     from vggc_cp.vision import DistanceConfig, compute_distances
