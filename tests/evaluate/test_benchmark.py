@@ -102,3 +102,16 @@ def test_colouring_methods_run(tmp_path):
         assert row["status"] in ("feasible", "optimal")
         assert row["exactly_one"] == 0 and row["nodes"] >= 2
         assert row["seconds_distances"] >= 0
+
+
+def test_table_only_marks_unfinished_cells(tmp_path, capsys):
+    argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan", "--seeds",
+            "0", "--transitions", "12", "-Q", "50", "--jobs", "1", "--out", str(tmp_path),
+            "--quiet"]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main([*argv[:4], "pca-hdbscan,lsr", *argv[5:], "--table-only"]) == 0
+    out = capsys.readouterr().out
+    assert "1 cached, 1 not finished" in out
+    assert "| LSR (ours) | not finished |" in out
+    assert "| PCA-HDBSCAN (ours) | " in out and not (tmp_path / "cells" / "fruit-2x3__lsr__s0.json").exists()

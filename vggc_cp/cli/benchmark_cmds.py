@@ -105,6 +105,9 @@ def register_benchmark(sub) -> None:
                    help="method option, e.g. cpsat.params=max_time_in_seconds:5 or "
                         "lsr.steps=300; repeatable")
     p.add_argument("--force", action="store_true", help="recompute cached cells")
+    p.add_argument("--table-only", action="store_true",
+                   help="run nothing: write the tables from the cells cached so far "
+                        "(unfinished cells marked)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_benchmark)
 
@@ -113,7 +116,12 @@ def cmd_benchmark(args) -> int:
     from pathlib import Path
 
     from vggc_cp.errors import VggcError
-    from vggc_cp.evaluate.benchmark import BenchmarkConfig, run_benchmark, write_tables
+    from vggc_cp.evaluate.benchmark import (
+        BenchmarkConfig,
+        collect_rows,
+        run_benchmark,
+        write_tables,
+    )
     from vggc_cp.sim import benchmark_names
 
     benches = benchmark_names() if args.benchmarks == "all" else tuple(_split(args.benchmarks))
@@ -124,6 +132,14 @@ def cmd_benchmark(args) -> int:
     cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
                           args.transitions, args.queries, args.jobs, args.backend,
                           args.scheduler, method_options(args.param), args.force)
+    if args.table_only:
+        rows, missing = collect_rows(cfg)
+        csv, md = write_tables(rows, cfg.out)
+        print(md.read_text(encoding="utf-8"), end="")
+        print(f"cells          {len(rows) - missing} cached, {missing} not finished in "
+              f"{cfg.out}/cells")
+        print(f"wrote          {csv}, {md}")
+        return 0
     run = run_benchmark(cfg, progress=not args.quiet)
     csv, md = write_tables(run.rows, cfg.out, run.seconds)
     print(md.read_text(encoding="utf-8"), end="")

@@ -45,6 +45,8 @@ from vggc_cp.solvers.base import SolveResult
 from vggc_cp.trace import Trace, load_trace, save_trace
 
 CELL_FORMAT = "vggc-benchmark-cell/1"
+#: Status of a cell that has no cached row yet (tables written from a partial run).
+NOT_FINISHED = "not finished"
 BACKENDS = ("loky", "dask", "ray")
 PAPER_METRICS = ("opt_path", "any_path", "trans_prec", "trans_cov")
 METRIC_TITLES = {"opt_path": "OptPath", "any_path": "AnyPath", "trans_prec": "TransPrec",
@@ -494,6 +496,27 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     return BenchmarkRun(ordered, len(todo), len(jobs) - len(todo), time.perf_counter() - t0)
 
 
+def collect_rows(cfg: BenchmarkConfig) -> tuple[list[dict], int]:
+    """The rows of every cell of ``cfg`` from the cache, without running anything.
+
+    Cells not cached yet get a placeholder row with status :data:`NOT_FINISHED`. Returns the
+    rows (in :func:`cell_jobs` order) and the number of placeholders.
+    """
+    from vggc_cp.sim import get_spec
+
+    rows, missing = [], 0
+    for job in cell_jobs(cfg):
+        row = cached_row(job)
+        if row is None:
+            missing += 1
+            row = {"benchmark": job.benchmark, "method": job.method, "seed": job.seed,
+                   "transitions": cfg.n_transitions(job.benchmark),
+                   "paper_states": get_spec(job.benchmark).paper_states,
+                   "status": NOT_FINISHED}
+        rows.append(row)
+    return rows, missing
+
+
 # ---------------------------------------------------------------- tables
 
 
@@ -524,11 +547,15 @@ def table_markdown(rows: list[dict]) -> str:
             n_seeds = len(g)
             vals = {m: g[m].astype(float).mean() if g[m].notna().all() else None
                     for m in (*PAPER_METRICS, "exec")}
-            nodes = f"{g['nodes'].mean():.0f} / {g['true_states'].mean():.0f}"
             seeds = f" ({n_seeds} seeds)" if n_seeds > 1 else ""
-            lines.append(f"| {label} | {METHOD_TITLES.get(method, method)} (ours){seeds} | "
-                         + " | ".join(_pct(vals[m]) for m in (*PAPER_METRICS, "exec"))
-                         + f" | {nodes} | {g['seconds'].mean():.1f} |")
+            title = f"{METHOD_TITLES.get(method, method)} (ours){seeds}"
+            if "status" in g and (g["status"] == NOT_FINISHED).any():
+                lines.append(f"| {label} | {title} | " + " | ".join([NOT_FINISHED] * 7) + " |")
+            else:
+                nodes = f"{g['nodes'].mean():.0f} / {g['true_states'].mean():.0f}"
+                lines.append(f"| {label} | {title} | "
+                             + " | ".join(_pct(vals[m]) for m in (*PAPER_METRICS, "exec"))
+                             + f" | {nodes} | {g['seconds'].mean():.1f} |")
             label = ""
             if method in PAPER_METHODS:
                 paper = PAPER_TABLE1.get((bench, method), {})
