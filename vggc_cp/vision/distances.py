@@ -4,6 +4,12 @@
 observations of the same role (pick x pick, place x place); see :mod:`.attention` for ``M`` and
 :mod:`.sinkhorn` for ``S_eps``. The stage never reads ``trace.states``.
 
+With ``colour="auto"`` (the default) and a trace whose foreground carries at least two object
+colours, the divergences of the colour-channel maps (:func:`.attention.colour_channel_maps`)
+are added: ``d = S_eps(M(o_i), M(o_j)) + sum_c S_eps(M_c(o_i), M_c(o_j))``, so two scenes that
+differ only by which coloured object stands where are told apart. With one colour (or
+``colour="off"``) ``d`` is the paper's distance.
+
 Cache
 -----
 Directory: the ``cache_dir`` argument, else ``DistanceConfig.cache_dir`` (``--cache-dir``),
@@ -18,7 +24,8 @@ atomically (temporary file + rename), with members
 ``stats``         unicode scalar            JSON: Sinkhorn statistics, seconds per stage
 ================  ========================  ==================================================
 
-The key holds ``format`` (``vggc-distances/1``), the trace's
+The key holds ``format`` (``vggc-distances/1``), ``algorithm`` (:data:`ALGORITHM_VERSION`,
+bumped when the code changes the numbers), the trace's
 :meth:`~vggc_cp.trace.Trace.content_hash` (observations and actions, not states), and every
 field of :class:`DistanceConfig` that changes the numbers (:meth:`DistanceConfig.key`), with the
 SHA-256 of the weights file for weight-based backends. The file name is the SHA-256 of the
@@ -47,10 +54,14 @@ from vggc_cp.vision.attention import (
     NEEDS_WEIGHTS,
     AttentionParams,
     attention_maps,
+    colour_channel_maps,
 )
 from vggc_cp.vision.sinkhorn import DEVICES, cost_matrix, sinkhorn_divergence_matrix
 
 CACHE_FORMAT = "vggc-distances/1"
+#: Bumped whenever a backend or the solver changes its numbers (part of the cache key).
+ALGORITHM_VERSION = 2
+COLOUR_MODES = ("auto", "off")
 CACHE_ENV = "VGGC_CP_CACHE"
 
 
@@ -89,6 +100,11 @@ class DistanceConfig:
         Sinkhorn over-relaxation.
     dtype : str
         Precision of the Sinkhorn matrix products (``float32`` or ``float64``).
+    colour : str
+        ``auto``: add colour-channel divergences when the trace shows two or more object
+        colours (module docstring); ``off``: the paper's distance only.
+    colour_min_share : float
+        Share of the chromatic foreground mass that makes a hue bin a colour channel.
     """
 
     backend: str = "saliency"
@@ -102,6 +118,8 @@ class DistanceConfig:
     max_iter: int = 20000
     omega: float = 1.5
     dtype: str = "float32"
+    colour: str = "auto"
+    colour_min_share: float = 0.1
     device: str = _exec("torch")
     threads: int | None = _exec(2)
     block: int = _exec(2048)
@@ -120,6 +138,12 @@ class DistanceConfig:
             raise VggcError(f"--sinkhorn-tol must be positive, got {self.tol}")
         if not 1 <= self.omega < 2:
             raise VggcError(f"--omega must lie in [1, 2), got {self.omega}")
+        if self.colour not in COLOUR_MODES:
+            raise VggcError(f"--colour must be one of {', '.join(COLOUR_MODES)}, "
+                            f"got {self.colour!r}")
+        if not 0 < self.colour_min_share < 1:
+            raise VggcError(f"--colour-min-share must lie in (0, 1), got "
+                            f"{self.colour_min_share}")
         if self.dtype not in ("float32", "float64"):
             raise VggcError(f"--sinkhorn-dtype must be float32 or float64, got {self.dtype!r}")
         lookup({d: d for d in DEVICES}, self.device, "device")
@@ -136,9 +160,11 @@ class DistanceConfig:
             from vggc_cp.vision.dinov2 import resolve_weights, weights_sha256
 
             out["weights_sha256"] = weights_sha256(resolve_weights(self.weights))
-        if self.backend != "saliency":
-            out.pop("noise_k")
-            out.pop("min_contrast")
+        if self.colour == "off":
+            out.pop("colour_min_share")
+            if self.backend != "saliency":  # the saliency threshold shapes no map
+                out.pop("noise_k")
+                out.pop("min_contrast")
         return out
 
 
@@ -149,7 +175,8 @@ def default_cache_dir() -> Path:
 
 
 def cache_key(trace: Trace, cfg: DistanceConfig) -> dict:
-    return {"format": CACHE_FORMAT, "trace": trace.content_hash(), "config": cfg.key()}
+    return {"format": CACHE_FORMAT, "algorithm": ALGORITHM_VERSION,
+            "trace": trace.content_hash(), "config": cfg.key()}
 
 
 def cache_path(trace: Trace, cfg: DistanceConfig, cache_dir: str | Path | None = None
@@ -272,15 +299,25 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
                    leave=False)
     t0 = time.perf_counter()
     maps = role_maps(trace, cfg, bar.update if bar is not None else None)
+    channels, kept = (colour_channel_maps(trace.observations, cfg.attention_params(),
+                                          cfg.colour_min_share)
+                      if cfg.colour == "auto" else (np.zeros((trace.n_obs, 0, 1)), []))
     t_att = time.perf_counter() - t0
     if bar is not None:
         bar.close()
-        bar = tqdm(total=n_problems(roles), desc="sinkhorn", unit="pair", unit_scale=True)
+        bar = tqdm(total=n_problems(roles) * (1 + len(kept)), desc="sinkhorn", unit="pair",
+                   unit_scale=True)
     t1 = time.perf_counter()
     dp, dq, stats = distance_matrices(maps, roles, cfg,
                                       bar.update if bar is not None else None)
+    for c, hue_bin in enumerate(kept):
+        cp, cq, cstats = distance_matrices(channels[:, c], roles, cfg,
+                                           bar.update if bar is not None else None)
+        dp, dq = dp + cp, dq + cq
+        stats[f"colour_{hue_bin}"] = cstats
     if bar is not None:
         bar.close()
+    stats["colour_bins"] = kept
     stats["seconds"] = {"attention": t_att, "sinkhorn": time.perf_counter() - t1}
     if cfg.use_cache:
         save_cached(path, key, dp, dq, stats)
@@ -338,6 +375,9 @@ def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
                         f"cuda, numpy (default {d.device})")
     g.add_argument("--sinkhorn-threads", type=int, default=d.threads,
                    help=f"CPU threads of the Sinkhorn stage (default {d.threads})")
+    g.add_argument("--colour", choices=COLOUR_MODES, default=d.colour,
+                   help="add colour-channel divergences when the trace shows two or more "
+                        f"object colours (auto) or never (off) (default {d.colour})")
     g.add_argument("--cache-dir", default=None,
                    help="distance cache directory (default $VGGC_CP_CACHE/distances or "
                         "./.cache/vggc-cp/distances)")
@@ -355,6 +395,7 @@ def config_from_args(args: argparse.Namespace) -> DistanceConfig:
         weights=getattr(args, "weights", None),
         tol=getattr(args, "sinkhorn_tol", d.tol),
         dtype=getattr(args, "sinkhorn_dtype", d.dtype),
+        colour=getattr(args, "colour", d.colour),
         device=getattr(args, "sinkhorn_device", d.device),
         threads=getattr(args, "sinkhorn_threads", d.threads),
         cache_dir=getattr(args, "cache_dir", None),
