@@ -27,6 +27,15 @@ Backends (registry :data:`ATTENTION_BACKENDS`, ``--attention NAME``):
        least ``min_contrast``; sensor noise and residual gain errors fall below it.
     5. Patch pooling (mean over each patch's pixels), then the floor.
 
+Colour channels (:func:`colour_channel_maps`, ``--colour auto``)
+    The saliency map is blind to colour: swapping a red and a yellow fruit leaves it unchanged.
+    Each salient pixel's foreground strength, times its saturation, is split over
+    :data:`COLOUR_BINS` hue bins centred on red, yellow, green, cyan, blue and magenta; every
+    bin holding at least ``min_share`` of the trace's chromatic foreground mass becomes a
+    channel map (pooled, floored like the others). Channels are kept only when at least two
+    bins qualify: with one object colour a channel repeats the saliency map. Grey parts (the
+    gripper) have no saturation and drop out.
+
 ``dinov2``
     The last-layer CLS-to-patch attention of a DINOv2 ViT (:mod:`vggc_cp.vision.dinov2`),
     averaged over heads, the image resized to ``14 g`` pixels; weights from ``--weights`` or
@@ -177,6 +186,65 @@ def dinov2_maps(images: np.ndarray, params: AttentionParams,
             if progress is not None:
                 progress(len(x))
     return out
+
+
+#: Hue bins of the colour channels (bin 0 centred on red, then every 60 degrees).
+COLOUR_BINS = 6
+
+
+def hue_bins(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hue bin (int, :data:`COLOUR_BINS` bins centred on red) and HSV saturation of float RGB
+    pixels ``(..., 3)`` in [0, 1]."""
+    mx, mn = x.max(axis=-1), x.min(axis=-1)
+    chroma = np.maximum(mx - mn, 1e-6)
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    hue = np.where(mx == r, ((g - b) / chroma) % 6,
+                   np.where(mx == g, (b - r) / chroma + 2, (r - g) / chroma + 4)) / 6
+    bins = np.floor(hue * COLOUR_BINS + 0.5).astype(np.int64) % COLOUR_BINS
+    sat = np.where(mx > 0, (mx - mn) / np.maximum(mx, 1e-6), 0.0)
+    return bins, sat
+
+
+def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: float = 0.1,
+                        progress: Callable[[int], None] | None = None
+                        ) -> tuple[np.ndarray, list[int]]:
+    """Colour-channel maps of the salient foreground (module docstring).
+
+    Parameters
+    ----------
+    images : uint8 ndarray, shape (N, H, W, 3)
+    params : AttentionParams
+    min_share : float
+        Smallest share of the trace's chromatic foreground mass that makes a hue bin a channel.
+
+    Returns
+    -------
+    maps : float64 ndarray, shape (N, C, g*g)
+        One strictly positive map per kept channel, rows summing to 1 (C may be 0).
+    bins : list of int
+        The hue bins kept.
+    """
+    images = np.asarray(images)
+    bg = background(images)
+    g2 = params.grid * params.grid
+    pooled = np.empty((len(images), COLOUR_BINS, g2))
+    step = 64
+    for s in range(0, len(images), step):
+        chunk = images[s:s + step]
+        raw = saliency_raw(chunk, bg, params)
+        bins, sat = hue_bins(chunk.astype(np.float32) / 255.0)
+        weight = raw * sat
+        for c in range(COLOUR_BINS):
+            pooled[s:s + step, c] = pool_to_grid(weight * (bins == c), params.grid)
+        if progress is not None:
+            progress(len(chunk))
+    mass = pooled.sum(axis=(0, 2))
+    share = mass / max(float(mass.sum()), 1e-12)
+    kept = [c for c in range(COLOUR_BINS) if share[c] >= min_share]
+    if len(kept) < 2:
+        return np.zeros((len(images), 0, g2)), []
+    maps = np.stack([finish_maps(pooled[:, c], params.floor) for c in kept], axis=1)
+    return maps, kept
 
 
 AttentionFn = Callable[..., np.ndarray]
