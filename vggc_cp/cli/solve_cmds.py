@@ -27,6 +27,7 @@ def _image_plan_module():
 def register(sub) -> None:
     from vggc_cp.solvers import SOLVERS
     from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
+    from vggc_cp.solvers.merge import PATH_SELECTIONS
     from vggc_cp.solvers.sweep import SELECTIONS
     from vggc_cp.vision import add_distance_arguments
 
@@ -44,8 +45,13 @@ def register(sub) -> None:
     p.add_argument("--jobs", type=int, default=1, help="parallel worker processes (default 1)")
     p.add_argument("--tau", type=float, default=None,
                    help="K_vis temperature (default: per role, the median within-role distance)")
-    p.add_argument("--select", default="fewest",
-                   help=f"selection rule: {', '.join(sorted(SELECTIONS))} (default fewest)")
+    p.add_argument("--select", default=None,
+                   help=f"selection rule: over the k grid {', '.join(sorted(SELECTIONS))} "
+                        f"(default fewest); over the merge solver's thresholds "
+                        f"{', '.join(sorted(PATH_SELECTIONS))} (default cascade)")
+    p.add_argument("--thresholds", default=None, metavar="T1,T2,...",
+                   help="merge solver: visual-distance thresholds to try (default: a geometric "
+                        "grid from the noise scale of nearest-neighbour distances)")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw J over the grid")
     p.add_argument("--table", choices=("pivot", "cells", "none"), default="pivot",
                    help="print the grid as J per cell (pivot, default), one row per cell with "
@@ -121,6 +127,9 @@ def cmd_solve(args) -> int:
     from vggc_cp.trace import load_trace
     from vggc_cp.vision import compute_distances, config_from_args
 
+    if args.solver == "merge":
+        return _solve_merge(args)
+    args.select = args.select or "fewest"
     get_selection(args.select)  # unknown names fail before any work
     exact = args.solver in ("cpsat", "both")
     if exact:
@@ -187,6 +196,65 @@ def cmd_solve(args) -> int:
     print(f"chosen         k_pick {best.k_pick}, k_place {best.k_place} ({args.select}): "
           f"{graph.n_nodes} nodes ({counts['pick']} pick, {counts['place']} place), "
           f"{graph.n_edges} edges, J {best.J:.4f}, {best.status}")
+    print(f"wrote          {args.output}")
+    return 0
+
+
+def _parse_thresholds(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise VggcError(f"--thresholds {text!r}: expected comma-separated numbers") from None
+    if not values or any(not v > 0 for v in values):
+        raise VggcError(f"--thresholds {text!r}: expected positive numbers")
+    return values
+
+
+def _solve_merge(args) -> int:
+    """``solve --solver merge``: congruence-closure merging over a threshold path."""
+    from vggc_cp.errors import lookup
+    from vggc_cp.solution import solution_dict, write_solution
+    from vggc_cp.solvers import Problem
+    from vggc_cp.solvers.merge import PATH_SELECTIONS, threshold_path
+    from vggc_cp.trace import load_trace
+    from vggc_cp.vision import compute_distances, config_from_args
+
+    rule = args.select or "cascade"
+    lookup(PATH_SELECTIONS, rule, "path selection rule")
+    thresholds = _parse_thresholds(args.thresholds)
+    trace = load_trace(args.trace)
+    cfg = config_from_args(args)
+    t0 = time.perf_counter()
+    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
+    t_dist = time.perf_counter() - t0
+    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    path = threshold_path(problem, thresholds, rule, progress=not args.quiet)
+    print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
+          f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
+    print(f"distances      {t_dist:.1f} s")
+    print(f"merge path     {len(path.results)} thresholds, {path.seconds:.1f} s")
+    if not args.quiet and args.table != "none":
+        import pandas as pd
+
+        table = pd.DataFrame(path.records())[["threshold", "nodes", "k_pick", "k_place", "J",
+                                              "seconds", "selected"]]
+        print(table.to_markdown(index=False, floatfmt=".4f"))
+    best = path.best
+    graph = problem.graph(best.labels)
+    data = solution_dict(
+        best.labels, problem.roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
+        solver=best.solver, status=best.status, select=rule, threshold=best.stats["threshold"],
+        grid=path.records(), distances=_config_record(cfg), trace=str(args.trace),
+        trace_sha256=trace.content_hash(),
+        seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)},
+        stats=_jsonable(best.stats))
+    write_solution(args.output, data)
+    counts = graph.count_by_role()
+    print(f"chosen         threshold {best.stats['threshold']:.4f} ({rule}): {graph.n_nodes} "
+          f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
+          f"J {best.J:.4f}")
     print(f"wrote          {args.output}")
     return 0
 

@@ -21,10 +21,13 @@ determinisation).
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from vggc_cp.errors import lookup
 from vggc_cp.solvers.base import FEASIBLE, Problem, Solver, SolveResult, register_solver
 
 
@@ -231,3 +234,108 @@ class MergeSolver(Solver):
                            self.name, stats={"threshold": self.threshold,
                                              "bidirectional": self.bidirectional,
                                              **stats.__dict__})
+
+
+# ------------------------------------------------------------------ threshold path
+
+
+def noise_scale(problem: Problem) -> float:
+    """Median nearest-neighbour distance over both roles: the scale of rendering noise
+    (most observations have a near-duplicate of their own state in the trace)."""
+    nn = []
+    for d in (problem.dist_pick, problem.dist_place):
+        if len(d) > 1:
+            masked = d + np.diag(np.full(len(d), np.inf))
+            nn.append(masked.min(axis=1))
+    return float(np.median(np.concatenate(nn))) if nn else 0.0
+
+
+def default_thresholds(problem: Problem, factor: float = 1.25, steps: int = 17) -> np.ndarray:
+    """Geometric threshold grid from the noise scale: ``s * factor**k`` for ``k < steps``."""
+    s = noise_scale(problem)
+    if s <= 0:
+        s = 1e-3
+    return s * factor ** np.arange(steps)
+
+
+PathRule = Callable[[Sequence[SolveResult]], "int | None"]
+PATH_SELECTIONS: dict[str, PathRule] = {}
+
+
+def register_path_selection(name: str) -> Callable[[PathRule], PathRule]:
+    """Decorator: add a rule that picks one result of a threshold path (ascending thresholds)."""
+    def deco(fn: PathRule) -> PathRule:
+        PATH_SELECTIONS[name] = fn
+        return fn
+    return deco
+
+
+@register_path_selection("cascade")
+def select_cascade(results: Sequence[SolveResult], stable: float = 0.05) -> int | None:
+    """The threshold just after the cascade: where the node count stops collapsing.
+
+    As the threshold grows, noise-level merges first shrink the node count steadily, then
+    congruence closure collapses the near-duplicates of each state into one node (the largest
+    relative drop of the path), and past the true structure merges slow down until wrong
+    merges set in. The rule takes the largest relative drop ``n_k -> n_{k+1}`` and returns the
+    first ``j > k`` whose next step loses less than ``stable`` of the nodes (or the last index).
+    """
+    nodes = [r.n_nodes for r in results]
+    if not nodes:
+        return None
+    if len(nodes) == 1:
+        return 0
+    drops = [(nodes[k] - nodes[k + 1]) / max(nodes[k], 1) for k in range(len(nodes) - 1)]
+    k = int(np.argmax(drops))
+    for j in range(k + 1, len(nodes) - 1):
+        if nodes[j + 1] >= (1 - stable) * nodes[j]:
+            return j
+    return len(nodes) - 1
+
+
+@register_path_selection("fewest")
+def select_path_fewest(results: Sequence[SolveResult]) -> int | None:
+    """Fewest nodes, then lowest J (the paper's rule applied to the path)."""
+    if not results:
+        return None
+    return min(range(len(results)), key=lambda i: (results[i].n_nodes, results[i].J))
+
+
+@dataclass(frozen=True, eq=False)
+class ThresholdPath:
+    """Merges over a grid of thresholds and the one a rule picked."""
+
+    thresholds: tuple[float, ...]
+    results: tuple[SolveResult, ...]
+    selected: int | None
+    rule: str
+    seconds: float
+
+    @property
+    def best(self) -> SolveResult | None:
+        return None if self.selected is None else self.results[self.selected]
+
+    def records(self) -> list[dict]:
+        """One JSON-ready row per threshold (the solution file's ``grid``)."""
+        return [{"threshold": round(t, 6), "k_pick": r.k_pick, "k_place": r.k_place,
+                 "nodes": r.n_nodes, "status": r.status, "J": r.J,
+                 "seconds": round(r.seconds, 4), "selected": i == self.selected}
+                for i, (t, r) in enumerate(zip(self.thresholds, self.results))]
+
+
+def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
+                   rule: str = "cascade", bidirectional: bool = True,
+                   progress: bool = False) -> ThresholdPath:
+    """Run :class:`MergeSolver` at every threshold (ascending) and select one by ``rule``."""
+    fn = lookup(PATH_SELECTIONS, rule, "path selection rule")
+    ts = np.sort(np.asarray(default_thresholds(problem) if thresholds is None else thresholds,
+                            dtype=np.float64))
+    t0 = time.perf_counter()
+    iterator = ts
+    if progress:
+        from tqdm.auto import tqdm
+
+        iterator = tqdm(ts, desc="merge thresholds", unit="thr")
+    results = tuple(MergeSolver(float(t), bidirectional).solve(problem, 0, 0) for t in iterator)
+    return ThresholdPath(tuple(float(t) for t in ts), results, fn(results), rule,
+                         time.perf_counter() - t0)
