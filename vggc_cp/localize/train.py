@@ -168,8 +168,9 @@ def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: Tra
                    progress=None) -> tuple[tuple[float, int, float], ...]:
     """Mean k-fold validation accuracy of every (learning rate, epochs) of the grid.
 
-    A run that validates perfectly at a grid point stops there; its later grid points count
-    as perfect too (they could not score higher, and :func:`choose` prefers fewer epochs).
+    Early stopping: a run stops at a grid point where it validates perfectly or no better
+    than at the previous grid point; its later grid points keep that score (so the choice,
+    which prefers fewer epochs on ties, picks the earlier point).
 
     Parameters
     ----------
@@ -199,10 +200,13 @@ def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: Tra
                     return False
                 acc = _accuracy(net, x[va], y[va])
                 scores[(lr, epoch)].append(acc)
-                if acc < 1.0 or epoch == grid[-1]:
+                k = grid.index(epoch)
+                plateau = k > 0 and acc <= scores[(lr, grid[k - 1])][-1]
+                if epoch == grid[-1] or not (acc >= 1.0 or plateau):
                     return False
-                # perfect on this fold: longer runs cannot score higher here, stop early
-                for e in grid[grid.index(epoch) + 1:]:
+                # perfect, or no better than at the previous grid point: stop this run early;
+                # its later grid points keep this score
+                for e in grid[k + 1:]:
                     scores[(lr, e)].append(acc)
                 if progress is not None:
                     progress.update(grid[-1] - epoch)
