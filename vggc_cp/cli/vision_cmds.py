@@ -42,8 +42,8 @@ def register_bench(bench_sub) -> None:
     b.add_argument("--pairs", type=int, default=20000, help="pairs timed for ours (default 20000)")
     b.add_argument("--naive-pairs", type=int, default=60,
                    help="first pairs timed for the naive loop (default 60)")
-    b.add_argument("--batch-pairs", type=int, default=32,
-                   help="first pairs timed for POT's batched solver (default 32)")
+    b.add_argument("--batch-pairs", type=int, default=16,
+                   help="first pairs timed for POT's batched solver (default 16)")
     b.add_argument("--batch-size", type=int, default=16,
                    help="problems per ot.batch call (default 16, POT's fastest here: a "
                         "batch iterates until its slowest problem converges)")

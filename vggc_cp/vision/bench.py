@@ -79,7 +79,7 @@ def _divergences(cross: np.ndarray, selfc: np.ndarray, pos: np.ndarray) -> np.nd
 
 
 def run_bench(maps: np.ndarray, pairs: np.ndarray, eps: float, *, tol: float = 1e-6,
-              naive_pairs: int = 60, batch_pairs: int = 32, batch_size: int = 16,
+              naive_pairs: int = 60, batch_pairs: int = 16, batch_size: int = 16,
               threads: int | None = 2, device: str = "torch", max_iter: int = 20000,
               log: Callable[[str], None] = print) -> BenchResult:
     """Time the three implementations on ``pairs`` ``(P, 2)`` of rows of ``maps`` ``(m, n)``."""
