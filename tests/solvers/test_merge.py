@@ -89,3 +89,58 @@ def test_exactly_one_veto():
     labels, stats = congruence_merge(problem, threshold=0.1)
     assert check(problem.graph(labels)).ok
     assert len(set(labels)) == 3 and stats.vetoed_exactly_one == 1
+
+
+def test_cascade_rule_takes_the_end_of_the_largest_collapse():
+    from vggc_cp.solvers.base import SolveResult
+    from vggc_cp.solvers.merge import select_cascade, select_path_fewest
+
+    def path(counts):
+        return [SolveResult(np.arange(c), 0, 0, float(i), "feasible", "merge")
+                for i, c in enumerate(counts)]
+
+    # slow noise merges, a collapse 19 -> 6, then stable
+    assert select_cascade(path([50, 48, 46, 41, 19, 6, 6, 6, 5])) == 5
+    # collapse then a slow drift that never stabilises within 5 %: the last index
+    assert select_cascade(path([40, 10, 8, 6])) == 3
+    assert select_cascade(path([7])) == 0 and select_cascade([]) is None
+    assert select_path_fewest(path([9, 7, 7, 8])) == 1
+
+
+def test_threshold_path_recovers_states_from_the_noise_scale():
+    from vggc_cp.solvers.merge import default_thresholds, noise_scale, threshold_path
+
+    rng = np.random.default_rng(3)
+    trace = make_trace([fruit_episode(rng, 8) for _ in range(5)], NAMES)
+    problem = problem_with_distances(trace, noise=0.05, between=0.5)
+    assert 0 < noise_scale(problem) < 0.05
+    ts = default_thresholds(problem)
+    assert np.all(np.diff(ts) > 0) and len(ts) == 17
+    path = threshold_path(problem)
+    assert path.best.n_nodes == len(set(trace.states))
+    assert check(problem.graph(path.best.labels)).ok
+    rows = path.records()
+    assert len(rows) == 17 and sum(r["selected"] for r in rows) == 1
+
+
+def test_solve_cli_merge(tmp_path, capsys):
+    from vggc_cp.cli import main
+    from vggc_cp.solution import read_solution, verify_solution
+    from vggc_cp.trace import save_trace
+
+    rng = np.random.default_rng(4)
+    trace = make_trace([fruit_episode(rng, 6) for _ in range(3)], NAMES, size=16, noise=4)
+    path = tmp_path / "t.npz"
+    save_trace(trace, path)
+    out = tmp_path / "s.json"
+    code = main(["solve", str(path), "-o", str(out), "--solver", "merge", "--grid", "4",
+                 "--quiet", "--cache-dir", str(tmp_path / "cache")])
+    assert code == 0, capsys.readouterr().err
+    sol = read_solution(out)
+    verify_solution(sol, trace)
+    assert sol.solver == "merge" and sol.extra["select"] == "cascade"
+    assert len(sol.extra["grid"]) == 17
+    assert main(["solve", str(path), "-o", str(out), "--solver", "merge", "--thresholds",
+                 "0,-1", "--grid", "4"]) == 2
+    assert main(["solve", str(path), "-o", str(out), "--solver", "merge", "--select",
+                 "nope", "--grid", "4"]) == 2
