@@ -40,15 +40,17 @@ def _threads(n: int) -> None:
 
 
 def register(sub) -> None:
-    from vggc_cp.localize.backbones import DEFAULT_BACKBONE, backbone_names
-
+    # the backbone names are spelled out here, not imported: importing the localizer pulls in
+    # torch, which would make every vggc-cp command start slowly (unknown names still fail
+    # with the registry's list when training starts)
     p = sub.add_parser("train-localizer",
                        help="train the image -> node classifier on a trace and its solution")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("solution", help="solution .json (its labels supervise the classifier)")
     p.add_argument("-o", "--output", required=True, help="checkpoint to write (.pt)")
-    p.add_argument("--backbone", default=DEFAULT_BACKBONE,
-                   help=f"backbone: {', '.join(backbone_names())} (default {DEFAULT_BACKBONE})")
+    p.add_argument("--backbone", default="cnn",
+                   help="backbone: cnn (a small CNN trained from scratch, default) or dinov2 "
+                        "(local weights, frozen except the last block)")
     p.add_argument("--weights", default=None,
                    help="local weights file of a pretrained backbone (dinov2)")
     p.add_argument("--input-size", type=int, default=None,
