@@ -158,7 +158,7 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
 
 
 def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = True,
-                     max_work: int = 100_000) -> tuple[np.ndarray, MergeStats]:
+                     max_work: int = 2_000) -> tuple[np.ndarray, MergeStats]:
     """Labels of the merged clustering and counters.
 
     Parameters
