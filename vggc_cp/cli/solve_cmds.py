@@ -121,11 +121,7 @@ def _grid(problem, k_pick: str | None, k_place: str | None):
 
 
 def cmd_solve(args) -> int:
-    from vggc_cp.solution import solution_dict, write_solution
-    from vggc_cp.solvers import Problem
     from vggc_cp.solvers.sweep import get_selection, run_sweep
-    from vggc_cp.trace import load_trace
-    from vggc_cp.vision import compute_distances, config_from_args
 
     if args.solver == "merge":
         return _solve_merge(args)
@@ -138,12 +134,7 @@ def cmd_solve(args) -> int:
         make_cpsat_solver(args, args.tau)  # bad --cpsat-params fail before any work
     else:
         solver = _make_solver(args.solver, args.tau)
-    trace = load_trace(args.trace)
-    cfg = config_from_args(args)
-    t0 = time.perf_counter()
-    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
-    t_dist = time.perf_counter() - t0
-    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    trace, cfg, problem, t_dist = _problem(args)
     kp, kq = _grid(problem, args.k_pick, args.k_place)
     if exact:
         greedy, sweep = cpsat_sweeps(problem, kp, kq, args, tau=args.tau, jobs=args.jobs,
@@ -182,22 +173,41 @@ def cmd_solve(args) -> int:
     if best is None:
         raise VggcError(f"no cell of the grid has a colouring ({len(sweep.results)} cells); "
                         f"try larger --k-pick/--k-place; nothing written")
+    _write_chosen(args, trace, cfg, problem, best, f"k_pick {best.k_pick}, k_place "
+                  f"{best.k_place} ({args.select})", select=args.select, grid=sweep.records(),
+                  seconds={"distances": round(t_dist, 3), "sweep": round(sweep.seconds, 3)})
+    return 0
+
+
+def _problem(args):
+    """Load the trace and compute (or reuse) its distances: ``(trace, cfg, problem, seconds)``."""
+    from vggc_cp.solvers import Problem
+    from vggc_cp.trace import load_trace
+    from vggc_cp.vision import compute_distances, config_from_args
+
+    trace = load_trace(args.trace)
+    cfg = config_from_args(args)
+    t0 = time.perf_counter()
+    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
+    return trace, cfg, Problem.from_trace(trace, dist_pick, dist_place), \
+        time.perf_counter() - t0
+
+
+def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
+    """Write the chosen result as the solution JSON and print its summary line."""
+    from vggc_cp.solution import solution_dict, write_solution
+
     graph = problem.graph(best.labels)
-    roles = problem.roles
     data = solution_dict(
-        best.labels, roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-        solver=best.solver, status=best.status, select=args.select,
-        grid=sweep.records(), distances=_config_record(cfg),
+        best.labels, problem.roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
+        solver=best.solver, status=best.status, distances=_config_record(cfg),
         trace=str(args.trace), trace_sha256=trace.content_hash(),
-        seconds={"distances": round(t_dist, 3), "sweep": round(sweep.seconds, 3)},
-        stats=_jsonable(best.stats))
+        stats=_jsonable(best.stats), **extra)
     write_solution(args.output, data)
     counts = graph.count_by_role()
-    print(f"chosen         k_pick {best.k_pick}, k_place {best.k_place} ({args.select}): "
-          f"{graph.n_nodes} nodes ({counts['pick']} pick, {counts['place']} place), "
-          f"{graph.n_edges} edges, J {best.J:.4f}, {best.status}")
+    print(f"chosen         {how}: {graph.n_nodes} nodes ({counts['pick']} pick, "
+          f"{counts['place']} place), {graph.n_edges} edges, J {best.J:.4f}, {best.status}")
     print(f"wrote          {args.output}")
-    return 0
 
 
 def _parse_thresholds(text: str | None) -> list[float] | None:
@@ -215,21 +225,12 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
 def _solve_merge(args) -> int:
     """``solve --solver merge``: congruence-closure merging over a threshold path."""
     from vggc_cp.errors import lookup
-    from vggc_cp.solution import solution_dict, write_solution
-    from vggc_cp.solvers import Problem
     from vggc_cp.solvers.merge import PATH_SELECTIONS, threshold_path
-    from vggc_cp.trace import load_trace
-    from vggc_cp.vision import compute_distances, config_from_args
 
     rule = args.select or "cascade"
     lookup(PATH_SELECTIONS, rule, "path selection rule")
     thresholds = _parse_thresholds(args.thresholds)
-    trace = load_trace(args.trace)
-    cfg = config_from_args(args)
-    t0 = time.perf_counter()
-    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
-    t_dist = time.perf_counter() - t0
-    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    trace, cfg, problem, t_dist = _problem(args)
     path = threshold_path(problem, thresholds, rule, progress=not args.quiet)
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
@@ -242,20 +243,10 @@ def _solve_merge(args) -> int:
                                               "seconds", "selected"]]
         print(table.to_markdown(index=False, floatfmt=".4f"))
     best = path.best
-    graph = problem.graph(best.labels)
-    data = solution_dict(
-        best.labels, problem.roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-        solver=best.solver, status=best.status, select=rule, threshold=best.stats["threshold"],
-        grid=path.records(), distances=_config_record(cfg), trace=str(args.trace),
-        trace_sha256=trace.content_hash(),
-        seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)},
-        stats=_jsonable(best.stats))
-    write_solution(args.output, data)
-    counts = graph.count_by_role()
-    print(f"chosen         threshold {best.stats['threshold']:.4f} ({rule}): {graph.n_nodes} "
-          f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
-          f"J {best.J:.4f}")
-    print(f"wrote          {args.output}")
+    _write_chosen(args, trace, cfg, problem, best,
+                  f"threshold {best.stats['threshold']:.4f} ({rule})", select=rule,
+                  threshold=best.stats["threshold"], grid=path.records(),
+                  seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)})
     return 0
 
 
