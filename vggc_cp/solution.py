@@ -49,18 +49,20 @@ class Solution:
         src, act, dst = trace.transitions()
         return TaskGraph.from_labels(self.labels, trace.roles(), src, act, dst, trace.action_names)
 
-    def edge_graph(self) -> TaskGraph:
+    def edge_graph(self, action_names: tuple[str, ...] | None = None) -> TaskGraph:
         """The task graph of the file alone: nodes from ``labels``/``roles``, edges as listed.
 
-        No trace needed (planning on a solution). Action indices follow the sorted action names
-        found on the edges; edges carry no supporting transitions.
+        No trace needed (planning on a solution). Action indices follow ``action_names`` (e.g.
+        the trace's) or, by default, the sorted action names found on the edges; edges carry
+        no supporting transitions.
 
         Raises
         ------
         SolutionError
             An edge names a node that no observation has.
         """
-        names = tuple(sorted({a for _, a, _ in self.edges}))
+        names = tuple(action_names) if action_names else \
+            tuple(sorted({a for _, a, _ in self.edges}))
         index = {a: i for i, a in enumerate(names)}
         order = np.argsort(self.labels, kind="stable")
         uniq, starts = np.unique(self.labels[order], return_index=True)
@@ -74,6 +76,8 @@ class Solution:
         out: dict = {u: [] for u in members}
         inn: dict = {u: [] for u in members}
         for u, a, v in self.edges:
+            if a not in index:
+                raise SolutionError(f"edge [{u}, {a!r}, {v}] names an unknown action")
             if u not in members or v not in members:
                 raise SolutionError(f"edge [{u}, {a!r}, {v}] names a node without observations")
             key = (int(u), index[a], int(v))

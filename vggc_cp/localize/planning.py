@@ -13,35 +13,9 @@ from vggc_cp.solution import Solution
 
 
 def solution_graph(solution: Solution, action_names: tuple[str, ...] | None = None) -> TaskGraph:
-    """The task graph of a solution file alone (its labels, roles and edges; no trace).
-
-    ``action_names`` fixes the action indices (e.g. the trace's); by default the sorted names
-    that occur on the edges.
-    """
-    names = tuple(action_names) if action_names else tuple(sorted({a for _, a, _ in
-                                                                  solution.edges}))
-    index = {a: i for i, a in enumerate(names)}
-    labels = np.asarray(solution.labels, dtype=np.int64)
-    order = np.argsort(labels, kind="stable")
-    uniq, starts = np.unique(labels[order], return_index=True)
-    bounds = list(starts[1:]) + [len(order)]
-    members = {int(u): order[s:e] for u, s, e in zip(uniq, starts, bounds)}
-    node_role = {}
-    for u, mem in members.items():
-        r = np.unique(solution.roles[mem])
-        node_role[u] = int(r[0]) if len(r) == 1 else -1
-    edges, out, inn = {}, {u: [] for u in members}, {u: [] for u in members}
-    for u, a, v in solution.edges:
-        if a not in index:
-            raise VggcError(f"solution edge [{u}, {a!r}, {v}]: unknown action")
-        if u not in members or v not in members:
-            raise VggcError(f"solution edge [{u}, {a!r}, {v}]: node without observations")
-        key = (int(u), index[a], int(v))
-        if key not in edges:
-            edges[key] = np.zeros(0, dtype=np.int64)
-            out[key[0]].append((key[1], key[2]))
-            inn[key[2]].append((key[1], key[0]))
-    return TaskGraph(node_role, members, edges, names, out, inn)
+    """The task graph of a solution file alone (:meth:`Solution.edge_graph`); ``action_names``
+    fixes the action indices (e.g. the trace's), by default the sorted names on the edges."""
+    return solution.edge_graph(action_names)
 
 
 def check_model_matches(localizer: Localizer, solution: Solution, source: str) -> None:
