@@ -54,7 +54,9 @@ PAPER_METRICS = ("opt_path", "any_path", "trans_prec", "trans_cov")
 METRIC_TITLES = {"opt_path": "OptPath", "any_path": "AnyPath", "trans_prec": "TransPrec",
                  "trans_cov": "TransCov", "exec": "Exec"}
 METHOD_TITLES = {"greedy": "VGGC greedy", "cpsat": "VGGC CP-SAT", "pca-hdbscan": "PCA-HDBSCAN",
-                 "lsr": "LSR"}
+                 "lsr": "LSR", "merge": "merge + cascade"}
+#: Methods that need the visual distances of a trace.
+VISUAL_METHODS = ("greedy", "cpsat", "merge")
 #: Methods of the paper's Table 1, by our method name.
 PAPER_METHODS = {"greedy": "VGGC", "pca-hdbscan": "PCA-HDBSCAN", "lsr": "LSR"}
 #: Published Table 1 values, ``(benchmark, method) -> {metric: fraction}``. Only values checked
@@ -165,7 +167,7 @@ class CellJob:
 def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
     """Every cell of the run, benchmark-major then seed then method."""
     out = Path(cfg.out)
-    dist_key, dist_tag = _distance_key() if {"greedy", "cpsat"} & set(cfg.methods) else ({}, "")
+    dist_key, dist_tag = _distance_key() if set(VISUAL_METHODS) & set(cfg.methods) else ({}, "")
     jobs = []
     for bench in cfg.benchmarks:
         for seed in cfg.seeds:
@@ -176,7 +178,7 @@ def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
                 key = {"format": CELL_FORMAT, "benchmark": bench, "method": method,
                        "seed": int(seed), "transitions": cfg.n_transitions(bench),
                        "queries": cfg.queries, "options": _jsonable(options)}
-                if method in ("greedy", "cpsat"):
+                if method in VISUAL_METHODS:
                     key["distances"] = dist_key
                 jobs.append(CellJob(bench, method, int(seed), tpath,
                                     out / "distances" / f"{tpath.stem}-{dist_tag}.npz",
@@ -266,17 +268,25 @@ def compute_trace_distances(trace_path: Path, distances_path: Path) -> float:
     return seconds
 
 
-def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
-    import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
-    import vggc_cp.solvers.greedy  # noqa: F401
-    from vggc_cp.solution import solution_dict
-    from vggc_cp.solvers import Problem, get_solver
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
+def _visual_problem(trace: Trace, job: CellJob):
+    """The solver's problem (no ground truth) from the stored distances of a cell's trace:
+    ``(problem, distance seconds, cached)``."""
+    from vggc_cp.solvers import Problem
+
     with np.load(job.distances_path, allow_pickle=False) as data:
         dist_pick, dist_place = data["dist_pick"], data["dist_place"]
         t_dist = float(data["seconds"])
         cached = bool(data["cached"]) if "cached" in data.files else False
-    problem = Problem.from_trace(trace.without_states(), dist_pick, dist_place)
+    return Problem.from_trace(trace.without_states(), dist_pick, dist_place), t_dist, cached
+
+
+def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
+    import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
+    import vggc_cp.solvers.greedy  # noqa: F401
+    from vggc_cp.solution import solution_dict
+    from vggc_cp.solvers import get_solver
+    from vggc_cp.solvers.sweep import default_grid, run_sweep
+    problem, t_dist, cached = _visual_problem(trace, job)
     try:
         solver = get_solver(solver_name, **job.options)
     except TypeError as exc:
@@ -325,6 +335,25 @@ def _baseline(trace: Trace, job: CellJob, name: str) -> MethodRun:
     result = get_baseline(name, config=config).fit(trace.without_states())
     seconds = {"distances": 0.0, "method": round(result.seconds, 3)}
     return MethodRun(result, baseline_solution(trace, result) | {"seconds": seconds}, seconds)
+
+
+@register_method("merge")
+def run_merge(trace: Trace, job: CellJob) -> MethodRun:
+    """Congruence-closure merging over the threshold path, ``cascade`` selection."""
+    from vggc_cp.solution import solution_dict
+    from vggc_cp.solvers.merge import threshold_path
+
+    problem, t_dist, cached = _visual_problem(trace, job)
+    path = threshold_path(problem, **job.options)
+    seconds = {"distances": round(t_dist, 3), "method": round(path.seconds, 3),
+               "distances_cached": cached}
+    best = path.best
+    graph = problem.graph(best.labels)
+    data = solution_dict(best.labels, problem.roles, graph, k_pick=best.k_pick,
+                         k_place=best.k_place, J=best.J, solver=best.solver, status=best.status,
+                         select=path.rule, threshold=best.stats["threshold"],
+                         grid=path.records(), seconds=seconds)
+    return MethodRun(best, data, seconds)
 
 
 @register_method("pca-hdbscan")
@@ -506,7 +535,7 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     list(_spread(_generate, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,
                  "traces", progress))
     dist = sorted({(str(j.trace_path), str(j.distances_path)) for j in todo
-                   if j.method in ("greedy", "cpsat") and not j.distances_path.is_file()})
+                   if j.method in VISUAL_METHODS and not j.distances_path.is_file()})
     list(_spread(_distances, dist, cfg, "distances", progress))
     for row in _spread(run_cell, todo, cfg, "cells", progress):
         rows[(row["benchmark"], row["method"], row["seed"])] = row
