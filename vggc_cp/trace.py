@@ -250,6 +250,19 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
     return trace
 
 
+def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """Deterministic ``.npz`` bytes of ``arrays`` (fixed zip timestamps, no pickles)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key, arr in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            member = io.BytesIO()
+            np.lib.format.write_array(member, arr, allow_pickle=False)
+            zf.writestr(info, member.getvalue())
+    return buf.getvalue()
+
+
 def trace_to_bytes(trace: Trace) -> bytes:
     """Serialize a trace to the npz format (deterministic bytes for a given trace)."""
     arrays = {
@@ -261,16 +274,7 @@ def trace_to_bytes(trace: Trace) -> bytes:
         arrays["states"] = np.asarray(trace.states, dtype=str)
     if trace.meta:
         arrays["meta"] = np.array(json.dumps(trace.meta, sort_keys=True))
-    buf = io.BytesIO()
-    # zip entries carry a timestamp; write through ZipFile with a fixed date for same bytes
-    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-        for key, arr in arrays.items():
-            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
-            member = io.BytesIO()
-            np.lib.format.write_array(member, arr, allow_pickle=False)
-            zf.writestr(info, member.getvalue())
-    return buf.getvalue()
+    return npz_bytes(arrays)
 
 
 def save_trace(trace: Trace, path: str | Path) -> None:

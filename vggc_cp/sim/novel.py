@@ -7,7 +7,6 @@ written with fixed zip timestamps, so the same arrays give the same bytes.
 
 from __future__ import annotations
 
-import io
 import zipfile
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import numpy as np
 
 from vggc_cp.atomic import write_bytes
 from vggc_cp.errors import VggcError
+from vggc_cp.trace import npz_bytes
 
 
 def novel_path(trace_path: str | Path) -> Path:
@@ -26,17 +26,8 @@ def novel_path(trace_path: str | Path) -> Path:
 
 def novel_bytes(observations: np.ndarray, states: np.ndarray) -> bytes:
     """Serialize novel images to npz bytes (deterministic)."""
-    arrays = {"observations": np.ascontiguousarray(observations, dtype=np.uint8),
-              "states": np.asarray(states, dtype=str).reshape(-1)}
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-        for key, arr in arrays.items():
-            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
-            member = io.BytesIO()
-            np.lib.format.write_array(member, arr, allow_pickle=False)
-            zf.writestr(info, member.getvalue())
-    return buf.getvalue()
+    return npz_bytes({"observations": np.ascontiguousarray(observations, dtype=np.uint8),
+                      "states": np.asarray(states, dtype=str).reshape(-1)})
 
 
 def save_novel(path: str | Path, observations: np.ndarray, states: np.ndarray) -> None:
