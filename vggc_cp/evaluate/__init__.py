@@ -22,7 +22,7 @@ from vggc_cp.trace import Trace
 DYNAMICS = ("auto", "trace", "sim")
 
 __all__ = ["DYNAMICS", "GroundTruth", "Metrics", "evaluate_labels", "evaluate_trace",
-           "execution_probability", "sample_queries", "simulator_step",
+           "execution_probability", "resolve_dynamics", "sample_queries", "simulator_step",
            "transition_precision_coverage", "validate_dag"]
 
 
@@ -40,6 +40,25 @@ def simulator_step(trace: Trace, gt: GroundTruth) -> StepFn | None:
     return gt.step_from_names(bench.step, trace.action_names)
 
 
+def resolve_dynamics(trace: Trace, gt: GroundTruth, dynamics: str) -> tuple[StepFn | None, str]:
+    """The true transition function for Exec and its name (``sim`` or ``trace``).
+
+    ``trace``: None (the transitions observed in the trace); ``sim``: the benchmark
+    simulator's dynamics (``meta['benchmark']``), an error without one; ``auto``: the simulator
+    when the trace names a known benchmark, else the trace.
+    """
+    if dynamics not in DYNAMICS:
+        raise VggcError(f"unknown dynamics {dynamics!r}; known: {', '.join(DYNAMICS)}")
+    if dynamics == "trace":
+        return None, "trace"
+    step = simulator_step(trace, gt)
+    if step is not None:
+        return step, "sim"
+    if dynamics == "sim":
+        raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    return None, "trace"
+
+
 def evaluate_trace(trace: Trace, graph: TaskGraph, labels: np.ndarray, *, n_queries: int = 1500,
                    seed: int = 0, dynamics: str = "auto", localize=None) -> tuple[Metrics, str]:
     """Evaluate a labelling of ``trace``; returns the metrics and the dynamics used for Exec.
@@ -48,17 +67,8 @@ def evaluate_trace(trace: Trace, graph: TaskGraph, labels: np.ndarray, *, n_quer
     on the benchmark simulator's dynamics (``meta['benchmark']``), ``auto`` the simulator
     when the trace names a known benchmark, else the trace.
     """
-    if dynamics not in DYNAMICS:
-        raise VggcError(f"unknown dynamics {dynamics!r}; known: {', '.join(DYNAMICS)}")
     gt = GroundTruth.from_trace(trace)
-    step = None
-    used = "trace"
-    if dynamics in ("auto", "sim"):
-        step = simulator_step(trace, gt)
-        if step is not None:
-            used = "sim"
-        elif dynamics == "sim":
-            raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    step, used = resolve_dynamics(trace, gt, dynamics)
     metrics = evaluate_labels(graph, labels, gt, n_queries=n_queries, seed=seed,
                               localize=localize, step=step)
     return metrics, used

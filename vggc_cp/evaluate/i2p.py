@@ -183,20 +183,12 @@ def evaluate_localizer(trace, solution, localizer, novel_observations: np.ndarra
     ``dynamics`` as in :func:`vggc_cp.evaluate.evaluate_trace`: ``auto`` executes on the
     benchmark simulator when the trace names one, else on the trace's observed transitions.
     """
-    from vggc_cp.evaluate import DYNAMICS, simulator_step
+    from vggc_cp.evaluate import resolve_dynamics
     from vggc_cp.solution import verify_solution
 
-    if dynamics not in DYNAMICS:
-        raise VggcError(f"unknown dynamics {dynamics!r}; known: {', '.join(DYNAMICS)}")
     graph = verify_solution(solution, trace)
     gt = GroundTruth.from_trace(trace)
-    step, used = None, "trace"
-    if dynamics in ("auto", "sim"):
-        step = simulator_step(trace, gt)
-        if step is not None:
-            used = "sim"
-        elif dynamics == "sim":
-            raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    step, used = resolve_dynamics(trace, gt, dynamics)
     novel_observations = np.asarray(novel_observations)
     if novel_observations.shape[1:3] != tuple(localizer.image_shape):
         h, w = localizer.image_shape
