@@ -280,10 +280,19 @@ def _visual_problem(trace: Trace, job: CellJob):
     return Problem.from_trace(trace.without_states(), dist_pick, dist_place), t_dist, cached
 
 
+def _solved(problem, best: SolveResult, seconds: dict, **extra) -> MethodRun:
+    """The method run of a selected result, with its solution JSON."""
+    from vggc_cp.solution import solution_dict
+
+    data = solution_dict(best.labels, problem.roles, problem.graph(best.labels),
+                         k_pick=best.k_pick, k_place=best.k_place, J=best.J, solver=best.solver,
+                         status=best.status, seconds=seconds, **extra)
+    return MethodRun(best, data, seconds)
+
+
 def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
     import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
     import vggc_cp.solvers.greedy  # noqa: F401
-    from vggc_cp.solution import solution_dict
     from vggc_cp.solvers import get_solver
     from vggc_cp.solvers.sweep import default_grid, run_sweep
     problem, t_dist, cached = _visual_problem(trace, job)
@@ -305,11 +314,7 @@ def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
     best = sweep.best
     if best is None:
         return MethodRun(None, None, seconds)
-    graph = problem.graph(best.labels)
-    data = solution_dict(best.labels, problem.roles, graph, k_pick=best.k_pick,
-                         k_place=best.k_place, J=best.J, solver=best.solver, status=best.status,
-                         select="fewest", grid=sweep.records(), seconds=seconds)
-    return MethodRun(best, data, seconds)
+    return _solved(problem, best, seconds, select="fewest", grid=sweep.records())
 
 
 @register_method("greedy")
@@ -340,7 +345,6 @@ def _baseline(trace: Trace, job: CellJob, name: str) -> MethodRun:
 @register_method("merge")
 def run_merge(trace: Trace, job: CellJob) -> MethodRun:
     """Congruence-closure merging over the threshold path, ``cascade`` selection."""
-    from vggc_cp.solution import solution_dict
     from vggc_cp.solvers.merge import threshold_path
 
     problem, t_dist, cached = _visual_problem(trace, job)
@@ -348,12 +352,8 @@ def run_merge(trace: Trace, job: CellJob) -> MethodRun:
     seconds = {"distances": round(t_dist, 3), "method": round(path.seconds, 3),
                "distances_cached": cached}
     best = path.best
-    graph = problem.graph(best.labels)
-    data = solution_dict(best.labels, problem.roles, graph, k_pick=best.k_pick,
-                         k_place=best.k_place, J=best.J, solver=best.solver, status=best.status,
-                         select=path.rule, threshold=best.stats["threshold"],
-                         grid=path.records(), seconds=seconds)
-    return MethodRun(best, data, seconds)
+    return _solved(problem, best, seconds, select=path.rule,
+                   threshold=best.stats["threshold"], grid=path.records())
 
 
 @register_method("pca-hdbscan")
