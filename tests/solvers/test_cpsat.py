@@ -25,6 +25,7 @@ from vggc_cp.solvers.cpsat import (
     CpSatOptions,
     CpSatSolver,
     build_cell_model,
+    enumerate_colourings,
     parse_cpsat_params,
 )
 from vggc_cp.trace import PICK, PLACE
@@ -151,14 +152,16 @@ def test_user_params_override_defaults():
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(tiny_problems(), st.integers(1, 3), st.integers(1, 3), st.booleans(),
-       st.sampled_from([None, 1, 2]), st.booleans())
+       st.sampled_from([None, 1, 2]), st.booleans(), st.sampled_from([0, 20_000]))
 def test_cpsat_agrees_with_brute_force(problem, k_pick, k_place, deterministic, max_actions,
-                                       symmetry):
+                                       symmetry, enumerate_limit):
     cons = CellConstraints(deterministic, max_actions)
     brute = enumerate_cell(problem, k_pick, k_place, cons)
     solver = CpSatSolver(deterministic=deterministic, max_actions=max_actions, params=FAST,
-                         hint="none", symmetry=symmetry)
+                         hint="none", symmetry=symmetry, enumerate_limit=enumerate_limit)
     res = solver.solve(problem, k_pick, k_place)
+    enumerated = symmetry and enumerate_limit > 0
+    assert (res.stats.get("method") == "enumeration") == enumerated
     if not brute.feasible:
         assert res.status == INFEASIBLE and not res.found
         return
@@ -170,6 +173,48 @@ def test_cpsat_agrees_with_brute_force(problem, k_pick, k_place, deterministic, 
     margin = res.stats["quantization_margin"]
     assert brute.J - 1e-9 <= res.J <= brute.J + margin
     assert res.bound is not None and res.bound <= res.J + margin
+    if enumerated:  # exact on the float J, no quantization
+        assert res.J == pytest.approx(brute.J, abs=1e-9) and res.bound == res.J
+        assert res.stats["enumerated"] == brute.n_valid
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(tiny_problems(), st.integers(1, 3), st.integers(1, 3), st.booleans(),
+       st.sampled_from([None, 1, 2]))
+def test_enumeration_visits_each_valid_colouring_once(problem, k_pick, k_place, deterministic,
+                                                      max_actions):
+    """One model solution per valid colouring up to renaming: the counts of brute force."""
+    cons = CellConstraints(deterministic, max_actions)
+    brute = enumerate_cell(problem, k_pick, k_place, cons)
+    opts = CpSatOptions(deterministic=deterministic, max_actions=max_actions)
+    e = enumerate_colourings(problem, k_pick, k_place, opts, limit=10**6, max_seconds=20)
+    assert e.complete and e.count == brute.n_valid
+    if brute.feasible:
+        assert e.J == pytest.approx(brute.J, abs=1e-9)
+        assert not violations(problem, e.pick_colour, e.place_colour, cons)
+        labels = problem.labels_from_colours(e.pick_colour, e.place_colour)
+        assert problem.visual_score(labels) == pytest.approx(e.J, abs=1e-9)
+    else:
+        assert e.pick_colour is None and math.isnan(e.J)
+    if brute.n_valid > 1:  # a limit below the count stops early
+        short = enumerate_colourings(problem, k_pick, k_place, opts, limit=1, max_seconds=20)
+        assert not short.complete and short.count == 1
+
+
+def test_incomplete_enumeration_hands_over_to_the_model():
+    """Over the limit, the model optimizes, hinted by the best enumerated colouring."""
+    p = chain_problem(EPISODES * 2, NAMES, seed=1)
+    brute = enumerate_cell(p, 2, 3)
+    assert brute.n_valid > 50
+    res = CpSatSolver(params=FAST, hint="none", enumerate_limit=50).solve(p, 2, 3)
+    assert res.stats["method"] == "cpsat" and res.stats["enumerated"] == 50
+    assert res.stats["hint_source"] == "enumeration"
+    assert res.J <= res.stats["hint_J"] + 1e-12
+    assert res.status == OPTIMAL
+    assert brute.J - 1e-9 <= res.J <= brute.J + res.stats["quantization_margin"]
+    full = CpSatSolver(params=FAST, hint="none").solve(p, 2, 3)
+    assert full.stats["method"] == "enumeration" and full.stats["enumerated"] == brute.n_valid
+    assert full.J == pytest.approx(brute.J, abs=1e-12) and full.status == OPTIMAL
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -290,13 +335,14 @@ def test_hint_floor_and_fallback():
                 J = p.visual_score(labels)
                 if worst is None or J > worst[0]:
                     worst = (J, labels)
-    solver = CpSatSolver(params=FAST, hint="none")
+    solver = CpSatSolver(params=FAST, hint="none", enumerate_limit=0)
     res = solver.solve_hinted(p, 2, 2, [("worst", worst[1])])
     assert res.stats["hint_source"] == "worst" and res.stats["hint_J"] == pytest.approx(worst[0])
     assert res.J <= worst[0] + 1e-12
     assert res.J <= best.J + res.stats["quantization_margin"]
     # no search at all: the result is the hint itself, reported as feasible
-    starved = CpSatSolver(params="max_time_in_seconds:0.0,num_workers:1", hint="none")
+    starved = CpSatSolver(params="max_time_in_seconds:0.0,num_workers:1", hint="none",
+                          enumerate_limit=0)
     res = starved.solve_hinted(p, 2, 2, [("worst", worst[1])])
     assert res.found and res.J <= worst[0] + 1e-12
     assert res.status in (FEASIBLE, OPTIMAL)
@@ -309,7 +355,8 @@ def test_hint_floor_and_fallback():
 
 def test_large_models_drop_the_objective():
     p = chain_problem(EPISODES * 3, NAMES, seed=1)
-    res = CpSatSolver(params=FAST, hint="none", max_pair_terms=10).solve(p, 3, 3)
+    res = CpSatSolver(params=FAST, hint="none", max_pair_terms=10,
+                      enumerate_limit=0).solve(p, 3, 3)
     assert res.status == FEASIBLE and res.bound is None
     assert res.stats["objective_mode"] == "none"
     assert any("objective dropped" in n for n in res.stats["notes"])

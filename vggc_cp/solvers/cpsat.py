@@ -100,6 +100,24 @@ the model drops the objective (a documented relaxation: feasibility only, the co
 the lower J of the CP-SAT solution and its hint is kept), and the status is at most
 *feasible* with no bound.
 
+Exact optimum by enumeration
+----------------------------
+With objective ``J`` (and ``symmetry`` on) a cell is first solved by enumeration: the
+feasibility model (no objective) with every auxiliary Boolean tied to the colours in both
+directions (:func:`_exact_auxiliaries`: :math:`y_{c,c',a}` implies some :math:`a`-transition
+from a :math:`c`- to a :math:`c'`-observation, :math:`u`, :math:`v` imply a member with that
+action) has exactly one solution per valid colouring up to renaming (value precedence keeps one
+representative per partition), and CP-SAT's ``enumerate_all_solutions`` lists them; the float
+J of each is computed from the colours. When the enumeration ends within
+``enumerate_limit`` colourings and half the cell's time limit, its best colouring is the
+**exact optimum of the float J** (no quantization), the status is *optimal*, ``bound``
+equals J and ``stats['method']`` is ``'enumeration'``; no colouring at all proves the cell
+infeasible. Minimal cells are tightly constrained: the selected cells of fruit-2x3 (3, 2),
+multifruit-2x3 (3, 3) and blocks-2 (3, 3) have 16, 2 and 1 valid colourings, which the
+objective model below could not prove optimal in minutes (its LP bound stays far below the
+optimum) but enumeration decides in a fraction of a second. Otherwise the best enumerated
+colouring joins the hints and the objective model gets the rest of the time limit.
+
 Warm start
 ----------
 The greedy (DSATUR) colouring of the same cell, renamed to satisfy value precedence, is given
@@ -202,6 +220,10 @@ class CpSatOptions:
     size_cuts : bool
         Cluster-size indicators and the nearest-neighbour lower bound on each cluster's mean
         (see the module docstring); off: ``q_c = n_c (n_c - 1)`` by a product constraint.
+    enumerate_limit : int
+        With objective ``J``, first enumerate the cell's valid colourings (up to renaming) and
+        keep the lowest float J when there are at most this many; 0 disables, and so does
+        ``symmetry=False`` (see the module docstring, *Exact optimum by enumeration*).
     """
 
     objective: str = "J"
@@ -213,6 +235,7 @@ class CpSatOptions:
     hint: str = "greedy"
     symmetry: bool = True
     size_cuts: bool = True
+    enumerate_limit: int = 20_000
 
     def __post_init__(self):
         if self.objective not in OBJECTIVES:
@@ -221,6 +244,8 @@ class CpSatOptions:
             raise VggcError(f"unknown hint {self.hint!r}; known: {', '.join(HINTS)}")
         if self.resolution < 1:
             raise VggcError(f"resolution must be a positive integer, got {self.resolution}")
+        if self.enumerate_limit < 0:
+            raise VggcError(f"enumerate_limit must be >= 0, got {self.enumerate_limit}")
         CellConstraints(self.deterministic, self.max_actions)  # validates max_actions
 
     @property
@@ -679,6 +704,168 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
                      tuple(roles), y, out_used, in_used, pairs, means, sizes, dhat, tuple(notes))
 
 
+# ---------------------------------------------------------------- enumeration
+
+
+@dataclass(frozen=True)
+class Enumeration:
+    """Outcome of :func:`enumerate_colourings`.
+
+    Attributes
+    ----------
+    complete : bool
+        Every valid colouring of the cell was visited (then ``J`` is the exact optimum).
+    count : int
+        Valid colourings visited (up to renaming of colours within a role).
+    pick_colour, place_colour : ndarray or None
+        The visited colouring with the lowest float J.
+    J : float
+        Its float J (``nan`` when none was visited).
+    seconds : float
+    variables, constraints : int
+        Size of the enumeration model (0 when presolve proved the cell infeasible).
+    """
+
+    complete: bool
+    count: int
+    pick_colour: np.ndarray | None
+    place_colour: np.ndarray | None
+    J: float
+    seconds: float
+    variables: int = 0
+    constraints: int = 0
+    notes: tuple = ()
+
+
+def _exact_auxiliaries(cm: CellModel) -> None:
+    r"""Tie every auxiliary Boolean of a feasibility model to the colours (both directions).
+
+    The model forces only ``y``, ``u`` and ``v`` *up*; for enumeration each valid colouring
+    must have exactly one model solution, so ``y_{c,c',a}`` also implies that some
+    ``a``-transition runs from a ``c``- to a ``c'``-observation (``e_{t,c,c'} = x_{s,c} \wedge
+    x_{d,c'}``, defined both ways), and ``u_{c,a}`` / ``v_{c,a}`` imply some member with that
+    outgoing / incoming action. Prefix literals are already defined by equivalences.
+    """
+    p, model = cm.problem, cm.model
+    roles, local = p.roles, p.local
+    trans = [(int(s), int(a), int(d)) for s, a, d in zip(p.src, p.act, p.dst)]
+    support: dict = {}
+    e_vars: dict = {}
+    for t, (s, a, d) in enumerate(trans):
+        r = int(roles[s])
+        xs, xd = cm.roles[r].x[local[s]], cm.roles[1 - r].x[local[d]]
+        for c, vs in enumerate(xs):
+            for c2, vd in enumerate(xd):
+                key = (r, c, c2, a)
+                if vs is None or vd is None or key not in cm.y:
+                    continue
+                e = model.new_bool_var(f"e{t}_{c}_{c2}")
+                model.add_implication(e, vs)
+                model.add_implication(e, vd)
+                model.add_bool_or([~vs, ~vd, e])
+                e_vars[(t, c, c2)] = e
+                support.setdefault(key, []).append(e)
+    for key, yv in cm.y.items():
+        model.add_bool_or([~yv] + support.get(key, []))
+    out_obs: dict = {}
+    in_obs: dict = {}
+    for s, a, d in trans:
+        out_obs.setdefault((int(roles[s]), a), []).append(s)
+        in_obs.setdefault((int(roles[d]), a), []).append(d)
+    for table, obs_of in ((cm.out_used, out_obs), (cm.in_used, in_obs)):
+        for (side, c, a), uv in table.items():
+            lits = [cm.roles[side].x[local[o]][c] for o in obs_of.get((side, a), [])]
+            model.add_bool_or([~uv] + [v for v in lits if v is not None])
+
+
+def _role_scorer(dist: np.ndarray, k: int):
+    """``colours (n,) -> J of the role`` (the paper's J), memoized on the colouring."""
+    d = np.asarray(dist, dtype=np.float64).copy()
+    np.fill_diagonal(d, 0.0)
+    eye = np.eye(max(k, 1))
+    memo: dict[bytes, float] = {}
+
+    def score(col: np.ndarray) -> float:
+        key = col.tobytes()
+        got = memo.get(key)
+        if got is not None:
+            return got
+        value = 0.0
+        if len(col):
+            x = eye[col]
+            n = x.sum(axis=0)
+            s = ((d @ x) * x).sum(axis=0)
+            q = n * (n - 1)
+            value = float(np.sum(s[q > 0] / q[q > 0]))
+        if len(memo) < 1_000_000:
+            memo[key] = value
+        return value
+
+    return score
+
+
+def enumerate_colourings(problem: Problem, k_pick: int, k_place: int,
+                         options: CpSatOptions = CpSatOptions(), limit: int = 20_000,
+                         max_seconds: float = 10.0) -> Enumeration:
+    """Visit every valid colouring of a cell (up to renaming) with CP-SAT; keep the lowest J.
+
+    The feasibility model of the cell (objective none, symmetry breaking on, which leaves one
+    representative per partition) with :func:`_exact_auxiliaries` has exactly one solution
+    per valid colouring, so ``enumerate_all_solutions`` lists them without repetition. Stops
+    (``complete=False``) after ``limit`` colourings or ``max_seconds``.
+    """
+    t0 = time.perf_counter()
+    opts = dataclasses.replace(options, objective="none", symmetry=True)  # one per partition
+    cm = build_cell_model(problem, k_pick, k_place, opts)
+    if cm.model is None:
+        return Enumeration(True, 0, None, None, math.nan, time.perf_counter() - t0,
+                           notes=cm.notes)
+    _exact_auxiliaries(cm)
+    # one integer colour per observation (defined by its x row) is read back per solution
+    index = []
+    for r in cm.roles:
+        ids = []
+        for i, row in enumerate(r.x):
+            col = cm.model.new_int_var(0, max(r.k - 1, 0), f"col{r.role}_{i}")
+            cm.model.add(col == sum(c * v for c, v in enumerate(row) if v is not None))
+            ids.append(col.index)
+        index.append(ids)
+    scorers = [_role_scorer(problem.dist_pick, cm.roles[0].k),
+               _role_scorer(problem.dist_place, cm.roles[1].k)]
+
+    class _Visit(cp_model.CpSolverSolutionCallback):
+        def __init__(self):
+            super().__init__()
+            self.count = 0
+            self.best = (math.inf, None, None)
+            self.overflow = False
+
+        def on_solution_callback(self):
+            if self.count >= limit:
+                self.overflow = True
+                self.stop_search()
+                return
+            self.count += 1
+            value = self.SolutionIntegerValue
+            cols = [np.array([value(i) for i in ids], dtype=np.int64) for ids in index]
+            J = scorers[0](cols[0]) + scorers[1](cols[1])
+            if J < self.best[0]:
+                self.best = (J, cols[0], cols[1])
+
+    solver = cp_model.CpSolver()
+    solver.parameters.enumerate_all_solutions = True
+    solver.parameters.num_workers = 1
+    solver.parameters.max_time_in_seconds = max(float(max_seconds), 0.01)
+    visit = _Visit()
+    code = solver.solve(cm.model, visit)
+    if code == cp_model.MODEL_INVALID:
+        raise RuntimeError(f"CP-SAT model invalid: {cm.model.validate()}")
+    complete = (not visit.overflow) and code in (cp_model.OPTIMAL, cp_model.INFEASIBLE)
+    J, pc, qc = visit.best
+    return Enumeration(complete, visit.count, pc, qc, J if pc is not None else math.nan,
+                       time.perf_counter() - t0, cm.n_variables, cm.n_constraints, cm.notes)
+
+
 # ---------------------------------------------------------------- solver
 
 
@@ -706,7 +893,7 @@ class CpSatSolver(Solver):
     Parameters
     ----------
     objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry,
-    size_cuts :
+    size_cuts, enumerate_limit :
         See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
@@ -717,9 +904,10 @@ class CpSatSolver(Solver):
     def __init__(self, objective: str = "J", deterministic: bool = False,
                  max_actions: int | None = None, params: str = "", resolution: int = 1000,
                  max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
-                 size_cuts: bool = True, greedy_options: dict | None = None):
+                 size_cuts: bool = True, enumerate_limit: int = 20_000,
+                 greedy_options: dict | None = None):
         self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
-                                    max_pair_terms, hint, symmetry, size_cuts)
+                                    max_pair_terms, hint, symmetry, size_cuts, enumerate_limit)
         self.params_text = self.options.sat_parameters_text()
         self.greedy_options = dict(greedy_options or {})
 
@@ -745,11 +933,32 @@ class CpSatSolver(Solver):
 
     def _solve_hinted(self, problem: Problem, k_pick: int, k_place: int,
                       hints: list[tuple[str, np.ndarray]]) -> SolveResult:
+        t0 = time.perf_counter()
+        params = sat_parameters_pb2.SatParameters()
+        text_format.Merge(self.params_text, params)
+        max_time = params.max_time_in_seconds
+        enum = None
+        if (self.options.objective == "J" and self.options.enumerate_limit > 0
+                and self.options.symmetry):
+            enum = enumerate_colourings(problem, k_pick, k_place, self.options,
+                                        self.options.enumerate_limit, max_time / 2)
+            if enum.complete:
+                return self._enumerated(problem, k_pick, k_place, hints, enum)
         cm = build_cell_model(problem, k_pick, k_place, self.options)
         stats: dict = {"objective_mode": cm.objective_mode, "scale": cm.scale,
                        "quantization_margin": cm.quantization_margin, "notes": list(cm.notes),
-                       "fell_back_to_hint": False, "hint_source": None, "hint_J": None}
+                       "fell_back_to_hint": False, "hint_source": None, "hint_J": None,
+                       "method": "cpsat"}
+        if enum is not None:
+            stats["enumerated"] = enum.count
+            stats["notes"].append(f"enumeration stopped after {enum.count} colourings "
+                                  f"({enum.seconds:.1f} s)")
         best_hint = self._pick_hint(problem, k_pick, k_place, hints, stats)
+        if enum is not None and enum.pick_colour is not None:
+            lab = problem.labels_from_colours(enum.pick_colour, enum.place_colour)
+            if best_hint is None or enum.J < best_hint[2]:
+                best_hint = ("enumeration", lab, problem.visual_score(lab))
+                stats["hint_source"], stats["hint_J"] = best_hint[0], best_hint[2]
         if cm.model is None:
             stats.update(status_name="PRESOLVE_INFEASIBLE", variables=0, constraints=0,
                          wall_time=0.0, conflicts=0, branches=0)
@@ -769,6 +978,9 @@ class CpSatSolver(Solver):
         solver = cp_model.CpSolver()
         if not solver.parameters.merge_text_format(self.params_text):
             raise VggcError(f"--cpsat-params rejected by OR-Tools: {self.params_text!r}")
+        if enum is not None and math.isfinite(max_time):  # the limit covers the whole cell
+            solver.parameters.max_time_in_seconds = max(max_time - (time.perf_counter() - t0),
+                                                        0.01)
         code = solver.solve(cm.model)
         if code == cp_model.MODEL_INVALID:
             raise RuntimeError(f"CP-SAT model invalid: {cm.model.validate()}")
@@ -800,6 +1012,32 @@ class CpSatSolver(Solver):
         bound = None
         if labels is not None and bound_int is not None:
             bound = bound_int / cm.scale
+        return self._result(problem, k_pick, k_place, labels, status, bound, stats)
+
+    def _enumerated(self, problem, k_pick, k_place, hints, enum: Enumeration) -> SolveResult:
+        """The result of a complete enumeration: exact float optimum, or proved infeasible."""
+        stats: dict = {"objective_mode": "J", "method": "enumeration",
+                       "enumerated": enum.count, "variables": enum.variables,
+                       "constraints": enum.constraints,
+                       "status_name": "ENUMERATED" if enum.variables else "PRESOLVE_INFEASIBLE",
+                       "wall_time": enum.seconds, "conflicts": 0, "branches": 0,
+                       "quantization_margin": 0.0, "notes": list(enum.notes),
+                       "fell_back_to_hint": False, "hint_source": None, "hint_J": None}
+        best_hint = self._pick_hint(problem, k_pick, k_place, hints, stats)
+        if enum.pick_colour is None:
+            if best_hint is not None:  # a valid colouring contradicts the enumeration: keep it
+                stats["contradiction"] = "enumeration found no colouring but the hint is valid"
+                return self._result(problem, k_pick, k_place, best_hint[1], FEASIBLE, None, stats)
+            return SolveResult(None, k_pick, k_place, math.nan, INFEASIBLE, self.name,
+                               stats=stats)
+        labels = problem.labels_from_colours(enum.pick_colour, enum.place_colour)
+        J = problem.visual_score(labels)
+        status, bound = OPTIMAL, J
+        if best_hint is not None and best_hint[2] < J - 1e-12:  # cannot happen if exact
+            stats["fell_back_to_hint"] = True
+            stats["contradiction"] = "a hint beats the enumerated optimum"
+            labels, status, bound = best_hint[1], FEASIBLE, None
+        stats["gap"] = 0.0 if status == OPTIMAL else None
         return self._result(problem, k_pick, k_place, labels, status, bound, stats)
 
     def _pick_hint(self, problem, k_pick, k_place, hints, stats):
