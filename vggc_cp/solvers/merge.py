@@ -33,78 +33,144 @@ from vggc_cp.solvers.base import FEASIBLE, Problem, Solver, SolveResult, registe
 
 @dataclass(frozen=True)
 class MergeStats:
-    """Counters of one merge run."""
+    """Counters of one merge run.
+
+    ``attempts`` and the veto counters count every candidate pair between two clusters that
+    was examined; ``vetoes_replayed`` says how many of the vetoes were not recomputed because
+    nothing their closure read had changed since the same attempt was vetoed.
+    """
 
     attempts: int
     accepted: int
     vetoed_distance: int
     vetoed_exactly_one: int
     vetoed_work: int
+    vetoes_replayed: int = 0
 
 
 class _Clusters:
-    """Union-find over all observations with per-role cluster distance sums."""
+    """Union-find over all observations with per-role cluster distance sums.
+
+    Every root keeps, per direction (outgoing, incoming), the *signature* of its members'
+    transitions: the distinct ``(action, other end)`` pairs in the order of their last
+    occurrence in the members' transitions (members in cluster order), and the other end of the
+    first transition of each action. Two transitions whose other ends lie in one cluster are
+    one pair (they lead to one node now and after any later merge), so scanning a signature
+    instead of all transitions gives the closure exactly the same forced merges in the same
+    order (see :func:`_try_merge`) while skipping repeats. Plain Python lists hold the
+    per-observation state: the closure touches single elements millions of times.
+    """
 
     def __init__(self, problem: Problem):
         self.p = problem
         n = problem.n_obs
-        self.parent = np.arange(n)
-        self.size = np.ones(n, dtype=np.int64)
-        self.out: list[list[tuple[int, int]]] = [[] for _ in range(n)]
-        self.inn: list[list[tuple[int, int]]] = [[] for _ in range(n)]
+        self.roles: list[int] = problem.roles.tolist()
+        self.local: list[int] = problem.local.tolist()
+        self.parent: list[int] = list(range(n))
+        self.size: list[int] = [1] * n
+        # sig[d][r]: (action, observation) pairs; first[d][r]: action -> observation
+        self.sig: tuple[list[list[tuple[int, int]]], ...] = ([[] for _ in range(n)],
+                                                             [[] for _ in range(n)])
+        self.first: tuple[list[dict[int, int]], ...] = ([{} for _ in range(n)],
+                                                        [{} for _ in range(n)])
         for s, a, d in zip(problem.src.tolist(), problem.act.tolist(), problem.dst.tolist()):
-            self.out[s].append((a, d))
-            self.inn[d].append((a, s))
+            for k, (x, y) in enumerate(((s, d), (d, s))):
+                self.sig[k][x].append((a, y))
+                self.first[k][x].setdefault(a, y)
+        for k in (0, 1):
+            self.sig[k][:] = [self._compress(lst) for lst in self.sig[k]]
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
         # distance sums between clusters, per role, indexed by the local index of the root
         self.sums = (problem.dist_pick.copy(), problem.dist_place.copy())
 
     def find(self, x: int) -> int:
+        parent = self.parent
         root = x
-        while self.parent[root] != root:
-            root = self.parent[root]
-        while self.parent[x] != root:
-            self.parent[x], x = root, self.parent[x]
+        while parent[root] != root:
+            root = parent[root]
+        while parent[x] != root:
+            parent[x], x = root, parent[x]
         return root
 
+    def _compress(self, pairs: list[tuple[int, int]]) -> list[tuple[int, int]]:
+        """Distinct (action, root of the other end), ordered by last occurrence."""
+        last: dict[tuple[int, int], None] = {}
+        for a, y in pairs:
+            key = (a, self.find(y))
+            last.pop(key, None)
+            last[key] = None
+        return list(last)
+
     def link_sum(self, roots_a: list[int], roots_b: list[int]) -> float:
-        role = self.p.roles[roots_a[0]]
-        la = self.p.local[roots_a]
-        lb = self.p.local[roots_b]
-        return float(self.sums[role][np.ix_(la, lb)].sum())
+        s = self.sums[self.roles[roots_a[0]]]
+        if len(roots_a) == 1 and len(roots_b) == 1:
+            return float(s[self.local[roots_a[0]], self.local[roots_b[0]]])
+        la = [self.local[r] for r in roots_a]
+        lb = [self.local[r] for r in roots_b]
+        return float(s[np.ix_(la, lb)].sum())
 
     def commit(self, groups: dict[int, list[int]]) -> None:
         """Make each tentative group (head root -> absorbed roots) one cluster."""
         for head, absorbed in groups.items():
-            role = self.p.roles[head]
-            s = self.sums[role]
-            h = self.p.local[head]
+            s = self.sums[self.roles[head]]
+            h = self.local[head]
             for r in absorbed:
-                lr = self.p.local[r]
+                lr = self.local[r]
                 s[h, :] += s[lr, :]
                 s[:, h] += s[:, lr]
                 self.parent[r] = head
                 self.size[head] += self.size[r]
                 self.members[head].extend(self.members.pop(r))
+        for head, absorbed in groups.items():
+            for k in (0, 1):
+                sig, first = self.sig[k], self.first[k]
+                pairs = list(sig[head])
+                fh = first[head]
+                for r in absorbed:
+                    pairs.extend(sig[r])
+                    for a, y in first[r].items():
+                        fh.setdefault(a, y)
+                    sig[r] = []
+                    first[r] = {}
+                sig[head] = self._compress(pairs)
 
 
 def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: bool,
-               max_work: int) -> tuple[dict[int, list[int]] | None, str]:
+               max_work: int, read: set[int] | None = None
+               ) -> tuple[dict[int, list[int]] | None, str]:
     """Close the merge of the clusters of ``i`` and ``j`` under congruence; return the groups
-    to commit (head root -> absorbed roots) or None with the reason of the veto."""
+    to commit (head root -> absorbed roots) or None with the reason of the veto.
+
+    After each forced merge the transitions of the merged group are scanned in member order;
+    per direction and action, the first one fixes the target and each later one with another
+    target pushes that pair on a stack (last in, first out). A pair pushed twice is a no-op the
+    second time it is popped, so only the last push of each pair matters, and the signatures
+    (:class:`_Clusters`) yield exactly those.
+
+    ``read``, when given, collects every committed root the closure looked at: the outcome
+    depends on nothing else, so it repeats exactly while none of them changes.
+    """
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
+    parent = cl.parent
+    find = cl.find
+    size = cl.size
+    roles = cl.roles
+    read = read if read is not None else set()
+    add_root = read.add
 
     def head(x: int) -> int:
-        r = cl.find(x)
+        r = x if parent[x] == x else find(x)
+        add_root(r)
         return over.get(r, r)
 
-    def roots(h: int) -> list[int]:
-        return groups.get(h, [h])
-
     queue = [(i, j)]
+    push = queue.append
     touched: set[int] = set()
     work = 0
+    directions = ((cl.sig[0], cl.first[0], {}, {}), (cl.sig[1], cl.first[1], {}, {}))
+    if not bidirectional:
+        directions = directions[:1]
     while queue:
         a, b = queue.pop()
         ha, hb = head(a), head(b)
@@ -113,48 +179,149 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
         work += 1
         if work > max_work:
             return None, "work"
-        if cl.p.roles[ha] != cl.p.roles[hb]:
+        if roles[ha] != roles[hb]:
             return None, "distance"
-        ra, rb = roots(ha), roots(hb)
-        na = sum(int(cl.size[r]) for r in ra)
-        nb = sum(int(cl.size[r]) for r in rb)
+        ra = groups.get(ha) or [ha]
+        rb = groups.get(hb) or [hb]
+        na = sum(size[r] for r in ra)
+        nb = sum(size[r] for r in rb)
         if cl.link_sum(ra, rb) / (na * nb) > threshold:
             return None, "distance"
-        merged = ra + rb
-        groups[ha] = merged
+        groups[ha] = ra + rb
         groups.pop(hb, None)
         for r in rb:
             over[r] = ha
         over.pop(ha, None)
         touched.discard(hb)
         touched.add(ha)
-        # congruence: one action from the merged cluster leads to one cluster
-        for edges in ((cl.out,) + ((cl.inn,) if bidirectional else ())):
+        # congruence: one action from the merged cluster leads to one cluster. The scan of
+        # the merged group's signatures (ra's roots, then rb's) pushes, per action, every
+        # entry whose target differs from that of the action's first entry. Committed
+        # clusters are closed, and targets only ever merge, so in the ra part exactly the
+        # entries that mismatched at ra's last scan (``mism``) can still mismatch: only those
+        # and the rb part are looked at, in the same order.
+        for sig, first, gfirst, mism in directions:
+            fa = gfirst.get(ha)
+            if fa is None:
+                fa = gfirst[ha] = dict(first[ha])
+            fb = gfirst.pop(hb, None) or first[hb]
+            for act, y in fb.items():
+                fa.setdefault(act, y)
             seen: dict[int, int] = {}
-            for r in merged:
-                for o in cl.members[r]:
-                    for act, o2 in edges[o]:
-                        h2 = head(o2)
-                        first = seen.setdefault(act, h2)
-                        if first != h2:
-                            queue.append((first, h2))
+            still: list[tuple[int, int]] = []
+            keep = still.append
+            for act, y in mism.pop(ha, ()):
+                h2 = head(y)
+                f = seen.get(act)
+                if f is None:
+                    f = seen[act] = head(fa[act])
+                if f != h2:
+                    push((f, h2))
+                    keep((act, y))
+            mism.pop(hb, None)
+            for r in rb:
+                for act, y in sig[r]:
+                    h2 = head(y)
+                    f = seen.get(act)
+                    if f is None:
+                        f = seen[act] = head(fa[act])
+                    if f != h2:
+                        push((f, h2))
+                        keep((act, y))
+            if still:
+                mism[ha] = still
     # Exactly-One around every touched cluster, in both directions
     for h in touched:
         if head(h) != h:
             continue
-        for edges in (cl.out, cl.inn):
+        for sig in cl.sig:
             labels_to: dict[int, int] = {}
-            for r in roots(h):
-                for o in cl.members[r]:
-                    for act, o2 in edges[o]:
-                        h2 = head(o2)
-                        if labels_to.setdefault(h2, act) != act:
-                            return None, "exactly_one"
+            for r in groups.get(h) or [h]:
+                for act, y in sig[r]:
+                    if labels_to.setdefault(head(y), act) != act:
+                        return None, "exactly_one"
     result: dict[int, list[int]] = {}
     for h, rs in groups.items():
         if head(h) == h:
             result[h] = [r for r in rs if r != h]
     return result, ""
+
+
+def _candidates(problem: Problem, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Within-role pairs ``(i, j)`` (observation ids, ``i < j``) at distance <= ``threshold``,
+    sorted by distance, then ``i``, then ``j``; returns ``(d, i, j)``."""
+    ds, iis, jjs = [], [], []
+    for obs, dist in ((problem.pick_obs, problem.dist_pick),
+                      (problem.place_obs, problem.dist_place)):
+        iu, ju = np.triu_indices(len(obs), k=1)
+        d = dist[iu, ju]
+        keep = d <= threshold
+        ds.append(d[keep])
+        iis.append(obs[iu[keep]])
+        jjs.append(obs[ju[keep]])
+    d = np.concatenate(ds).astype(np.float64)
+    i = np.concatenate(iis).astype(np.int64)
+    j = np.concatenate(jjs).astype(np.int64)
+    order = np.lexsort((j, i, d))
+    return d[order], i[order], j[order]
+
+
+def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int],
+                  threshold: float, bidirectional: bool, max_work: int
+                  ) -> tuple[np.ndarray, MergeStats]:
+    """:func:`congruence_merge` on candidate pairs already filtered and sorted."""
+    cl = _Clusters(problem)
+    find = cl.find
+    attempts = accepted = replayed = 0
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0}
+    # A veto depends only on the clusters its closure read. Two memories, both exact:
+    # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
+    #   clusters (either way round) is skipped and not counted;
+    # * ``replay``: an attempt (ri, rj) vetoed earlier is vetoed again, for the same reason,
+    #   while none of the roots its closure read has been merged since; it is counted as an
+    #   attempt but not recomputed. ``depends[r]`` lists the memories that root r invalidates.
+    epoch = 0
+    vetoed: dict[tuple[int, int], int] = {}
+    replay: dict[tuple[int, int], tuple[int, str]] = {}
+    depends: dict[int, list[tuple[tuple[int, int], int]]] = {}
+    token = 0
+    for i, j in zip(cand_i, cand_j):
+        ri, rj = find(i), find(j)
+        if ri == rj:
+            continue
+        key = (ri, rj) if ri < rj else (rj, ri)
+        if vetoed.get(key) == epoch:
+            continue
+        attempts += 1
+        memo = replay.get((ri, rj))
+        if memo is not None:
+            vetoed[key] = epoch
+            vetoes[memo[1]] += 1
+            replayed += 1
+            continue
+        read: set[int] = set()
+        groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read)
+        if groups is None:
+            vetoed[key] = epoch
+            vetoes[why] += 1
+            token += 1
+            replay[(ri, rj)] = (token, why)
+            for r in read:
+                depends.setdefault(r, []).append(((ri, rj), token))
+            continue
+        for h, absorbed in groups.items():
+            for r in (h, *absorbed):
+                for k, t in depends.pop(r, ()):
+                    m = replay.get(k)
+                    if m is not None and m[0] == t:
+                        del replay[k]
+        cl.commit(groups)
+        epoch += 1
+        accepted += 1
+    roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
+    labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
+    return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
+                              vetoes["work"], replayed)
 
 
 def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = True,
@@ -176,44 +343,8 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
     labels : ndarray of int64, shape (N,)
     stats : MergeStats
     """
-    cl = _Clusters(problem)
-    candidates = []
-    for obs, dist in ((problem.pick_obs, problem.dist_pick),
-                      (problem.place_obs, problem.dist_place)):
-        iu, ju = np.triu_indices(len(obs), k=1)
-        d = dist[iu, ju]
-        keep = d <= threshold
-        candidates.append(np.stack([d[keep], obs[iu[keep]], obs[ju[keep]]], axis=1))
-    cand = np.concatenate(candidates) if candidates else np.zeros((0, 3))
-    order = np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))
-    attempts = accepted = veto_d = veto_e = veto_w = 0
-    # A veto depends only on the current clusters: while nothing is committed, the same pair of
-    # clusters is vetoed again, so remember vetoes until the next commit (exact, and most
-    # candidate pairs fall between clusters that already failed to merge).
-    epoch = 0
-    vetoed: dict[tuple[int, int], int] = {}
-    for k in order:
-        i, j = int(cand[k, 1]), int(cand[k, 2])
-        ri, rj = cl.find(i), cl.find(j)
-        if ri == rj:
-            continue
-        key = (ri, rj) if ri < rj else (rj, ri)
-        if vetoed.get(key) == epoch:
-            continue
-        attempts += 1
-        groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work)
-        if groups is None:
-            vetoed[key] = epoch
-            veto_d += why == "distance"
-            veto_e += why == "exactly_one"
-            veto_w += why == "work"
-            continue
-        cl.commit(groups)
-        epoch += 1
-        accepted += 1
-    roots = np.array([cl.find(x) for x in range(problem.n_obs)])
-    labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
-    return labels, MergeStats(attempts, accepted, veto_d, veto_e, veto_w)
+    _, ci, cj = _candidates(problem, threshold)
+    return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work)
 
 
 @register_solver
