@@ -228,6 +228,21 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
                     if f != h2:
                         push((f, h2))
                         keep((act, y))
+            # Exactly-One, early: merges never split, so two actions from (or into) the
+            # merged group that already meet one group make the closure fail whatever follows;
+            # refuse it now (the final check below would refuse it anyway, at most later and
+            # perhaps under another reason). Checked: the first target of each action, and
+            # the targets that must still merge into it.
+            by_head: dict[int, int] = {}
+            for act, y in fa.items():
+                f = seen.get(act)
+                if f is None:
+                    f = head(y)
+                if by_head.setdefault(f, act) != act:
+                    return None, "exactly_one"
+            for act, y in still:
+                if by_head.get(head(y), act) != act:
+                    return None, "exactly_one"
             if still:
                 mism[ha] = still
     # Exactly-One around every touched cluster, in both directions
