@@ -144,3 +144,154 @@ def test_solve_cli_merge(tmp_path, capsys):
                  "0,-1", "--grid", "4"]) == 2
     assert main(["solve", str(path), "-o", str(out), "--solver", "merge", "--select",
                  "nope", "--grid", "4"]) == 2
+
+
+def _reference_merge(problem, threshold, max_work=2_000):
+    """The plain closure (every forced merge rescans all transitions of the merged group,
+    Exactly-One checked once at the end, no memory of vetoes beyond the current clusters):
+    the definition the fast implementation must reproduce partition for partition."""
+    n = problem.n_obs
+    parent = list(range(n))
+    members = {i: [i] for i in range(n)}
+    out = [[] for _ in range(n)]
+    inn = [[] for _ in range(n)]
+    for s, a, d in zip(problem.src.tolist(), problem.act.tolist(), problem.dst.tolist()):
+        out[s].append((a, d))
+        inn[d].append((a, s))
+    dist = {}
+    for obs, mat in ((problem.pick_obs, problem.dist_pick), (problem.place_obs, problem.dist_place)):
+        for x, ox in enumerate(obs.tolist()):
+            for y, oy in enumerate(obs.tolist()):
+                dist[ox, oy] = mat[x, y]
+
+    def find(x):
+        while parent[x] != x:
+            x = parent[x]
+        return x
+
+    def attempt(i, j):
+        over, groups, touched, queue, work = {}, {}, set(), [(i, j)], 0
+
+        def head(x):
+            r = find(x)
+            return over.get(r, r)
+
+        while queue:
+            a, b = queue.pop()
+            ha, hb = head(a), head(b)
+            if ha == hb:
+                continue
+            work += 1
+            if work > max_work:
+                return None
+            ra, rb = groups.get(ha, [ha]), groups.get(hb, [hb])
+            ma = [o for r in ra for o in members[r]]
+            mb = [o for r in rb for o in members[r]]
+            if sum(dist[x, y] for x in ma for y in mb) / (len(ma) * len(mb)) > threshold:
+                return None
+            groups[ha] = ra + rb
+            groups.pop(hb, None)
+            for r in rb:
+                over[r] = ha
+            over.pop(ha, None)
+            touched.discard(hb)
+            touched.add(ha)
+            for edges in (out, inn):
+                seen = {}
+                for o in ma + mb:
+                    for act, o2 in edges[o]:
+                        first = seen.setdefault(act, head(o2))
+                        if first != head(o2):
+                            queue.append((first, head(o2)))
+        for h in touched:
+            if head(h) != h:
+                continue
+            for edges in (out, inn):
+                labels_to = {}
+                for o in (o for r in groups.get(h, [h]) for o in members[r]):
+                    for act, o2 in edges[o]:
+                        if labels_to.setdefault(head(o2), act) != act:
+                            return None
+        return {h: [r for r in rs if r != h] for h, rs in groups.items() if head(h) == h}
+
+    pairs = []
+    for obs, mat in ((problem.pick_obs, problem.dist_pick), (problem.place_obs, problem.dist_place)):
+        for x in range(len(obs)):
+            for y in range(x + 1, len(obs)):
+                if mat[x, y] <= threshold:
+                    pairs.append((mat[x, y], int(obs[x]), int(obs[y])))
+    attempts = accepted = 0
+    vetoed, epoch = {}, 0
+    for _, i, j in sorted(pairs):
+        ri, rj = find(i), find(j)
+        if ri == rj or vetoed.get((min(ri, rj), max(ri, rj))) == epoch:
+            continue
+        attempts += 1
+        groups = attempt(i, j)
+        if groups is None:
+            vetoed[min(ri, rj), max(ri, rj)] = epoch
+            continue
+        for h, absorbed in groups.items():
+            for r in absorbed:
+                parent[r] = h
+                members[h].extend(members.pop(r))
+        epoch += 1
+        accepted += 1
+    roots = np.array([find(x) for x in range(n)])
+    return problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs]), \
+        attempts, accepted
+
+
+def test_fast_closure_matches_the_plain_definition():
+    # overlapping noise and between-state distances: wrong merges are tried, and refused for
+    # distance and for Exactly-One, some again and again (replayed vetoes)
+    rng = np.random.default_rng(7)
+    replayed = exactly_one = distance = 0
+    for seed in range(6):
+        trace = make_trace([fruit_episode(rng, 6) for _ in range(4)], NAMES)
+        problem = problem_with_distances(trace, noise=0.3, between=0.15, seed=seed)
+        for threshold in (0.1, 0.2, 0.3, 0.5):
+            labels, stats = congruence_merge(problem, threshold)
+            ref, attempts, accepted = _reference_merge(problem, threshold)
+            assert np.array_equal(labels, ref), (seed, threshold)
+            assert (stats.attempts, stats.accepted) == (attempts, accepted)
+            assert check(problem.graph(labels)).ok
+            replayed += stats.vetoes_replayed
+            exactly_one += stats.vetoed_exactly_one
+            distance += stats.vetoed_distance
+    assert replayed > 0 and exactly_one > 0 and distance > 0
+
+
+def test_exactly_one_refuses_the_closure_before_it_goes_on():
+    # X and Y (place) merge first. Merging A and B then sends pick_1 and pick_2 from one node
+    # to one node (Exactly-One broken at once) and co-determinism would still force P with Q,
+    # which are far apart: the closure stops at the Exactly-One break
+    trace = make_trace([["P", "place_1", "A", "pick_1", "X"],
+                        ["Q", "place_1", "B", "pick_2", "Y"]], NAMES)
+    roles = trace.roles()
+    assert roles.tolist() == [1, 0, 1, 1, 0, 1]  # P A X Q B Y
+    dist_pick = np.array([[0, 0.02], [0.02, 0]])
+    dist_place = np.full((4, 4), 0.9) - np.diag(np.full(4, 0.9))  # P X Q Y
+    dist_place[1, 3] = dist_place[3, 1] = 0.01
+    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    labels, stats = congruence_merge(problem, threshold=0.1)
+    assert stats.accepted == 1 and stats.vetoed_exactly_one == 1 and stats.vetoed_distance == 0
+    assert len(set(labels)) == 5 and labels[2] == labels[5]
+    assert np.array_equal(labels, _reference_merge(problem, 0.1)[0])
+
+
+def test_threshold_path_equals_separate_runs():
+    from vggc_cp.solvers.merge import default_thresholds, threshold_path
+
+    rng = np.random.default_rng(8)
+    trace = make_trace([fruit_episode(rng, 6) for _ in range(4)], NAMES)
+    problem = problem_with_distances(trace, noise=0.3, between=0.15, seed=3)
+    # thresholds on the grid and exactly at candidate distances (a pair at the threshold is in)
+    d = np.unique(problem.dist_pick[np.triu_indices(problem.n_pick, 1)])
+    ts = np.concatenate([default_thresholds(problem, steps=6), d[[3, 10, 30, 60, 100]]])
+    path = threshold_path(problem, ts[::-1])  # any order: sorted ascending
+    assert path.thresholds == tuple(sorted(float(t) for t in ts))
+    for t, res in zip(path.thresholds, path.results):
+        single = get_solver("merge", threshold=t).solve(problem, 0, 0)
+        assert np.array_equal(res.labels, single.labels)
+        assert res.stats == single.stats and res.J == single.J and res.seconds > 0

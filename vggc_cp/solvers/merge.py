@@ -362,6 +362,17 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
     return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work)
 
 
+def _solve_prefix(problem: Problem, threshold: float, bidirectional: bool, d: np.ndarray,
+                  ci: list[int], cj: list[int]) -> SolveResult:
+    """:meth:`MergeSolver.solve` at ``threshold`` from candidates sorted for a larger one."""
+    t0 = time.perf_counter()
+    n = int(np.searchsorted(d, threshold, side="right"))
+    labels, stats = _merge_sorted(problem, ci[:n], cj[:n], threshold, bidirectional, 2_000)
+    res = MergeSolver(threshold, bidirectional)._result(problem, labels, stats)
+    return SolveResult(res.labels, res.k_pick, res.k_place, res.J, res.status, res.solver,
+                       time.perf_counter() - t0, res.bound, res.stats)
+
+
 @register_solver
 class MergeSolver(Solver):
     """Congruence-closure merging at one threshold (``k_pick``/``k_place`` are not used)."""
@@ -374,6 +385,9 @@ class MergeSolver(Solver):
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
         labels, stats = congruence_merge(problem, self.threshold, self.bidirectional)
+        return self._result(problem, labels, stats)
+
+    def _result(self, problem: Problem, labels: np.ndarray, stats: MergeStats) -> SolveResult:
         n_pick = len(np.unique(labels[problem.pick_obs]))
         n_place = len(np.unique(labels[problem.place_obs]))
         return SolveResult(labels, n_pick, n_place, problem.visual_score(labels), FEASIBLE,
@@ -482,6 +496,9 @@ def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
         from tqdm.auto import tqdm
 
         iterator = tqdm(ts, desc="merge thresholds", unit="thr")
-    results = tuple(MergeSolver(float(t), bidirectional).solve(problem, 0, 0) for t in iterator)
+    # the candidates of a threshold are a prefix of those of the largest one: sort them once
+    d, ci, cj = _candidates(problem, float(ts[-1]) if len(ts) else 0.0)
+    ci, cj = ci.tolist(), cj.tolist()
+    results = tuple(_solve_prefix(problem, float(t), bidirectional, d, ci, cj) for t in iterator)
     return ThresholdPath(tuple(float(t) for t in ts), results, fn(results), rule,
                          time.perf_counter() - t0)
