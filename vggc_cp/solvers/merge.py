@@ -12,6 +12,14 @@ or when the result breaks Exactly-One (two labels between one ordered pair of no
 
 The result satisfies bipartiteness, Exactly-One and determinism by construction.
 
+Cost. Most attempts are refused, so refusals are made cheap without changing any partition:
+each cluster keeps a compressed signature of its transitions, a forced merge rescans only the
+transitions that can still disagree, a closure stops as soon as it breaks Exactly-One (merges
+never split, so it could not succeed; the veto then counts as ``exactly_one`` even where the
+plain closure would have hit the distance or work limit first), and an attempt vetoed before is
+replayed, not recomputed, while none of the clusters its closure read has changed.
+:func:`threshold_path` sorts the candidate pairs once for all thresholds.
+
 References
 ----------
 K. J. Lang, B. A. Pearlmutter, R. A. Price. *Results of the Abbadingo One DFA Learning
