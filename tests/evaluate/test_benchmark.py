@@ -115,3 +115,34 @@ def test_table_only_marks_unfinished_cells(tmp_path, capsys):
     assert "1 cached, 1 not finished" in out
     assert "| LSR (ours) | not finished |" in out
     assert "| PCA-HDBSCAN (ours) | " in out and not (tmp_path / "cells" / "fruit-2x3__lsr__s0.json").exists()
+
+
+def test_i2p_phase_trains_evaluates_and_resumes(tmp_path, capsys):
+    out = tmp_path / "bench"
+    argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan",
+            "--transitions", "16", "-Q", "50", "--jobs", "1", "--out", str(out), "--quiet",
+            "--i2p", "pca-hdbscan", "--novel", "12", "--i2p-queries", "20"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "| Localization | I2P | Exec-I2P |" in text
+    figures = json.loads((out / "i2p" / "fruit-2x3__pca-hdbscan__s0.json").read_text())
+    fig = figures["figures"]
+    assert fig["i2p_images"] == 12 and fig["i2p_queries"] == 20
+    for k in ("localization", "i2p", "exec_i2p"):
+        assert 0.0 <= fig[k] <= 1.0
+    assert fig["i2p"] <= fig["localization"] or fig["i2p"] <= 1.0
+    assert (out / "models" / "fruit-2x3__pca-hdbscan__s0.pt").is_file()
+    row = next(r for r in __import__("csv").DictReader(open(out / "table1.csv"))
+               if r["method"] == "pca-hdbscan")
+    assert float(row["localization"]) == pytest.approx(fig["localization"])
+    mtime = (out / "i2p" / "fruit-2x3__pca-hdbscan__s0.json").stat().st_mtime_ns
+    assert main(argv) == 0  # resumed: nothing retrained
+    assert (out / "i2p" / "fruit-2x3__pca-hdbscan__s0.json").stat().st_mtime_ns == mtime
+    assert "| Localization | I2P | Exec-I2P |" in capsys.readouterr().out
+    assert main(argv + ["--table-only"]) == 0
+    assert "| Localization | I2P | Exec-I2P |" in capsys.readouterr().out
+
+
+def test_i2p_needs_a_method_of_the_run(tmp_path):
+    with pytest.raises(VggcError, match="--i2p lsr"):
+        BenchmarkConfig(tmp_path, ("fruit-2x3",), ("pca-hdbscan",), i2p=("lsr",))

@@ -104,6 +104,13 @@ def register_benchmark(sub) -> None:
     p.add_argument("--param", action="append", default=[], metavar="METHOD.KEY=VALUE",
                    help="method option, e.g. cpsat.params=max_time_in_seconds:5 or "
                         "lsr.steps=300; repeatable")
+    p.add_argument("--i2p", default="", metavar="METHODS",
+                   help="comma-separated methods whose graphs also get a trained localizer and "
+                        "localization / I2P / Exec-I2P on novel renders (default none)")
+    p.add_argument("--novel", type=int, default=150,
+                   help="novel renders per trace for --i2p (default 150)")
+    p.add_argument("--i2p-queries", type=int, default=150,
+                   help="start/goal image pairs for --i2p (default 150, the paper's Q)")
     p.add_argument("--force", action="store_true", help="recompute cached cells")
     p.add_argument("--table-only", action="store_true",
                    help="run nothing: write the tables from the cells cached so far "
@@ -131,7 +138,9 @@ def cmd_benchmark(args) -> int:
         raise VggcError(f"--seeds {args.seeds!r}: expected comma-separated integers") from None
     cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
                           args.transitions, args.queries, args.jobs, args.backend,
-                          args.scheduler, method_options(args.param), args.force)
+                          args.scheduler, method_options(args.param), args.force,
+                          tuple(_split(args.i2p)) if args.i2p else (), args.novel,
+                          args.i2p_queries)
     if args.table_only:
         rows, missing = collect_rows(cfg)
         csv, md = write_tables(rows, cfg.out)

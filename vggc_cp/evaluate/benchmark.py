@@ -13,7 +13,13 @@
    ``DIR/solutions/``, evaluate it with Q queries (:func:`vggc_cp.evaluate.evaluate_trace`,
    Exec on the simulator's dynamics) and cache the row as ``DIR/cells/<cell>.json``. A rerun
    skips every cell whose cached row was made with the same settings, so an interrupted run
-   resumes where it stopped.
+   resumes where it stopped;
+4. **image to plan** (optional, ``i2p`` methods) — for each of their graphs: ``novel`` fresh
+   renders of the trace's states (``DIR/traces/<trace>.novel<K>.npz``), a localizer trained on
+   the solution's labels with the default :class:`vggc_cp.localize.TrainConfig`
+   (``DIR/models/<cell>.pt``), and localization accuracy, I2P and Exec-I2P over
+   ``i2p_queries`` start/goal pairs (:func:`vggc_cp.evaluate.i2p.evaluate_localizer`), cached
+   as ``DIR/i2p/<cell>.json`` and added to the cell's row.
 
 Methods (:data:`METHODS`):
 
@@ -47,6 +53,9 @@ from vggc_cp.solvers.base import SolveResult
 from vggc_cp.trace import Trace, load_trace, save_trace
 
 CELL_FORMAT = "vggc-benchmark-cell/1"
+I2P_FORMAT = "vggc-benchmark-i2p/1"
+#: Columns the image-to-plan phase adds to a row.
+I2P_COLUMNS = ("localization", "i2p", "exec_i2p", "i2p_plan_found", "seconds_localizer")
 #: Status of a cell that has no cached row yet (tables written from a partial run).
 NOT_FINISHED = "not finished"
 BACKENDS = ("loky", "dask", "ray")
@@ -96,6 +105,14 @@ class BenchmarkConfig:
         "lsr": {"steps": 300}, ...}`` (baseline options are fields of their config class).
     force : bool
         Recompute cached cells.
+    i2p : tuple of str
+        Methods whose graphs also get the image-to-plan phase (phase 4): a localizer trained
+        on the solution's labels, scored on ``novel`` fresh renders with ``i2p_queries``
+        start/goal pairs (:func:`vggc_cp.evaluate.i2p.evaluate_localizer`).
+    novel : int
+        Novel renders per trace for the I2P phase.
+    i2p_queries : int
+        Q of the I2P phase (the paper's 150).
     """
 
     out: Path
@@ -109,6 +126,9 @@ class BenchmarkConfig:
     scheduler: str | None = None
     options: dict = field(default_factory=dict)
     force: bool = False
+    i2p: tuple[str, ...] = ()
+    novel: int = 150
+    i2p_queries: int = 150
 
     def __post_init__(self) -> None:
         from vggc_cp.sim import get_spec
@@ -125,6 +145,13 @@ class BenchmarkConfig:
             raise VggcError(f"--queries must be positive, got {self.queries}")
         if self.transitions is not None and self.transitions < 1:
             raise VggcError(f"--transitions must be at least 1, got {self.transitions}")
+        for m in self.i2p:
+            if m not in self.methods:
+                raise VggcError(f"--i2p {m}: not among the run's methods "
+                                f"({', '.join(self.methods)})")
+        if self.i2p and (self.novel < 2 or self.i2p_queries < 1):
+            raise VggcError(f"--novel must be at least 2 and --i2p-queries positive, got "
+                            f"{self.novel} and {self.i2p_queries}")
         lookup({b: b for b in BACKENDS}, self.backend, "backend")
 
     def n_transitions(self, benchmark: str) -> int:
@@ -134,6 +161,10 @@ class BenchmarkConfig:
 
     def trace_path(self, benchmark: str, seed: int) -> Path:
         return Path(self.out) / "traces" / f"{benchmark}-d{self.n_transitions(benchmark)}-s{seed}.npz"
+
+    def novel_path(self, benchmark: str, seed: int) -> Path:
+        """Novel renders of the trace's states (``novel`` of them) for the I2P phase."""
+        return self.trace_path(benchmark, seed).with_suffix(f".novel{self.novel}.npz")
 
 
 @dataclass(frozen=True)
@@ -507,6 +538,120 @@ def _distances(args: tuple[str, str]) -> str:
     return args[1]
 
 
+# ---------------------------------------------------------------- image to plan (phase 4)
+
+
+@dataclass(frozen=True)
+class I2PJob:
+    """One localizer + I2P evaluation of a cell's graph (picklable)."""
+
+    benchmark: str
+    method: str
+    seed: int
+    trace_path: Path
+    novel_path: Path
+    solution_path: Path
+    model_path: Path
+    i2p_path: Path
+    queries: int
+    threads: int
+    key: dict
+
+
+def i2p_jobs(cfg: BenchmarkConfig, rows: list[dict]) -> list[I2PJob]:
+    """The I2P jobs of ``cfg.i2p`` methods whose cells found a graph (rows as
+    :func:`cell_jobs` orders them)."""
+    import os
+
+    from vggc_cp.localize import TrainConfig
+
+    out = Path(cfg.out)
+    by_cell = {(r["benchmark"], r["method"], r["seed"]): r for r in rows}
+    threads = max(1, (os.cpu_count() or 1) // max(1, cfg.jobs))
+    jobs = []
+    for cell in cell_jobs(cfg):
+        row = by_cell.get((cell.benchmark, cell.method, cell.seed))
+        if cell.method not in cfg.i2p or not row or not row.get("nodes"):
+            continue
+        name = cell.cell_path.stem
+        key = {"format": I2P_FORMAT, "cell": cell.key, "novel": cfg.novel,
+               "queries": cfg.i2p_queries,
+               "train": _jsonable(TrainConfig(seed=cell.seed).as_dict())}
+        jobs.append(I2PJob(cell.benchmark, cell.method, cell.seed, cell.trace_path,
+                           cfg.novel_path(cell.benchmark, cell.seed), cell.solution_path,
+                           out / "models" / f"{name}.pt", out / "i2p" / f"{name}.json",
+                           cfg.i2p_queries, threads, key))
+    return jobs
+
+
+def cached_i2p(job: I2PJob) -> dict | None:
+    """The cached I2P figures of ``job`` when made with the same settings, else None."""
+    if not job.i2p_path.is_file():
+        return None
+    try:
+        data = json.loads(job.i2p_path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+    return data.get("figures") if data.get("key") == job.key else None
+
+
+def run_i2p(job: I2PJob) -> tuple[tuple[str, str, int], dict]:
+    """Train the cell's localizer, evaluate it on the novel renders, cache the figures."""
+    import torch
+
+    from vggc_cp.evaluate.i2p import evaluate_localizer
+    from vggc_cp.localize import TrainConfig, save_localizer, train_localizer
+    from vggc_cp.sim.novel import load_novel
+    from vggc_cp.solution import read_solution
+
+    torch.set_num_threads(job.threads)
+    trace = load_trace(job.trace_path)
+    solution = read_solution(job.solution_path)
+    localizer, report = train_localizer(trace, solution, TrainConfig(seed=job.seed),
+                                        trace_path=job.trace_path,
+                                        solution_path=job.solution_path)
+    save_localizer(job.model_path, localizer)
+    obs, states = load_novel(job.novel_path)
+    m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=job.queries,
+                           seed=0)
+    figures = {"localization": m.localization, "i2p": m.i2p, "exec_i2p": m.exec_i2p,
+               "i2p_plan_found": m.plan_found, "seconds_localizer": round(report.seconds, 3),
+               "i2p_images": m.images, "i2p_queries": m.queries, "i2p_dynamics": m.dynamics,
+               "model": str(job.model_path)}
+    write_text(job.i2p_path, json.dumps({"key": job.key, "figures": _jsonable(figures)},
+                                        indent=1) + "\n")
+    return (job.benchmark, job.method, job.seed), _jsonable(figures)
+
+
+def _novel(args: tuple[str, int, int, int, str]) -> str:
+    from vggc_cp.sim.explore import generate
+    from vggc_cp.sim.novel import save_novel
+
+    bench, transitions, seed, novel, path = args
+    g = generate(bench, transitions, seed, novel=novel)
+    save_novel(path, g.novel_observations, g.novel_states)
+    return path
+
+
+def attach_i2p(cfg: BenchmarkConfig, rows: list[dict]) -> list[dict]:
+    """``rows`` with the cached I2P figures of their cells added (no computation)."""
+    found = {}
+    for job in i2p_jobs(cfg, rows):
+        figures = cached_i2p(job)
+        if figures is not None:
+            found[(job.benchmark, job.method, job.seed)] = figures
+    return [r | found.get((r["benchmark"], r["method"], r["seed"]), {}) for r in rows]
+
+
+def _run_i2p_phase(cfg: BenchmarkConfig, rows: list[dict], progress: bool) -> list[dict]:
+    todo = [j for j in i2p_jobs(cfg, rows) if cfg.force or cached_i2p(j) is None]
+    novel = sorted({(j.benchmark, cfg.n_transitions(j.benchmark), j.seed, cfg.novel,
+                     str(j.novel_path)) for j in todo if not j.novel_path.is_file()})
+    list(_spread(_novel, novel, cfg, "novel renders", progress))
+    list(_spread(run_i2p, todo, cfg, "localizers", progress))
+    return attach_i2p(cfg, rows)
+
+
 @dataclass(frozen=True)
 class BenchmarkRun:
     """What :func:`run_benchmark` did: the rows (cached and new), and counts and time."""
@@ -540,6 +685,8 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     for row in _spread(run_cell, todo, cfg, "cells", progress):
         rows[(row["benchmark"], row["method"], row["seed"])] = row
     ordered = [rows[(j.benchmark, j.method, j.seed)] for j in jobs]
+    if cfg.i2p:
+        ordered = _run_i2p_phase(cfg, ordered, progress)
     return BenchmarkRun(ordered, len(todo), len(jobs) - len(todo), time.perf_counter() - t0)
 
 
@@ -561,7 +708,7 @@ def collect_rows(cfg: BenchmarkConfig) -> tuple[list[dict], int]:
                    "paper_states": get_spec(job.benchmark).paper_states,
                    "status": NOT_FINISHED}
         rows.append(row)
-    return rows, missing
+    return attach_i2p(cfg, rows) if cfg.i2p else rows, missing
 
 
 # ---------------------------------------------------------------- tables
@@ -624,8 +771,28 @@ def write_tables(rows: list[dict], out: Path, wall_seconds: float | None = None)
             "(Exec); '–' where a method found no graph.")
     if wall_seconds is not None:
         note += f" Wall time of the run: {wall_seconds:.0f} s."
-    write_text(md, table_markdown(rows) + "\n" + note + "\n")
+    text = table_markdown(rows) + "\n" + note + "\n"
+    if any("i2p" in r for r in rows):
+        text += "\n" + i2p_markdown(rows)
+    write_text(md, text)
     return csv, md
+
+
+def i2p_markdown(rows: list[dict]) -> str:
+    """The image-to-plan table: per benchmark and localized method, localization accuracy,
+    I2P and Exec-I2P (%, means over seeds) and the localizer's training seconds."""
+    import pandas as pd
+
+    df = pd.DataFrame.from_records([r for r in rows if "i2p" in r])
+    lines = ["| benchmark | method | Localization | I2P | Exec-I2P | nodes / \\|V*\\| "
+             "| training seconds |", "|" + "---|" * 7]
+    for (bench, method), g in df.groupby(["benchmark", "method"], sort=False):
+        lines.append(f"| {bench} | {METHOD_TITLES.get(method, method)} | "
+                     + " | ".join(_pct(g[m].astype(float).mean())
+                                  for m in ("localization", "i2p", "exec_i2p"))
+                     + f" | {g['nodes'].mean():.0f} / {g['true_states'].mean():.0f} "
+                     f"| {g['seconds_localizer'].mean():.1f} |")
+    return "\n".join(lines) + "\n"
 
 
 def _jsonable(obj):
