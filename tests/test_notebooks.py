@@ -31,8 +31,8 @@ CASES = {
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_notebook_runs_small(name, tmp_path):
     out = tmp_path / f"{name}.ipynb"
-    run = run_notebook(NOTEBOOKS / f"{name}.ipynb", small(tmp_path, **CASES[name]), out,
-                       timeout=300)
+    run_notebook(NOTEBOOKS / f"{name}.ipynb", small(tmp_path, **CASES[name]), out,
+                 timeout=300)
     nb = nbformat.read(out, as_version=4)
     pngs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
             if "image/png" in o.get("data", {})]
