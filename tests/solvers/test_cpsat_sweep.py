@@ -91,3 +91,23 @@ def test_compare_plot(tmp_path):
     plot_compare_grids(k1, k2, jg, jc, {(r.k_pick, r.k_place): r.status for r in sweep.results},
                        out, selected=[None, (sweep.best.k_pick, sweep.best.k_place)], title="t")
     assert out.stat().st_size > 1000
+
+
+def test_sweep_with_undecided_cells_stays_sound():
+    """Starved of time, cells end undecided; the bisection past them claims nothing false."""
+    p = _problem()
+    kp, kq = range(1, 5), range(1, 6)
+    greedy = run_sweep(p, GreedySolver(), kp, kq)
+    starved = CpSatSolver(params="max_time_in_seconds:0.0,num_workers:1")
+    sweep = exact_sweep(p, kp, kq, starved, greedy.results)
+    assert len(sweep.results) == len(kp) * len(kq)
+    for r in sweep.results:
+        brute = enumerate_cell(p, r.k_pick, r.k_place)
+        if r.status == INFEASIBLE:
+            assert not brute.feasible
+        if r.found:
+            assert brute.feasible and check(p.graph(r.labels)).ok
+            assert r.J >= brute.J - 1e-9
+        g = greedy.cell(r.k_pick, r.k_place)
+        if g.found:
+            assert r.found and r.J <= g.J + 1e-12

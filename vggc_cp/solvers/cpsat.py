@@ -1101,7 +1101,10 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
     1. **Frontier** (objective none): rows ``k_pick = a`` are walked from the largest ``a`` down,
        ``k_place`` upwards, skipping cells already decided by dominance (a greedy colouring of a
        smaller cell, or a proof for a larger one), until the row's first feasible cell: a
-       staircase of ``O(|k_pick| + |k_place|)`` solves decides the whole grid.
+       staircase of ``O(|k_pick| + |k_place|)`` solves decides the whole grid. When a cell of
+       the row ends undecided (time limit), the rest of the row is bisected for its lowest
+       feasible cell instead (``O(log |k_place|)`` solves, each of which may also prove the
+       cells below it infeasible); cells between stay undecided unless a proof covers them.
     2. **J** (objective ``J``): cells of the minimal feasible ``k_pick + k_place``
        (``optimize="minimal"``, the candidates of the fewest-nodes rule) or every feasible cell
        (``"all"``) are optimized in increasing order, hinted by the greedy colouring and the
@@ -1178,7 +1181,8 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
         bar = tqdm(desc="cpsat frontier", unit="cell", leave=False)
     try:
         for a in reversed(kp):
-            for b in kq:
+            undecided_at = None
+            for j, b in enumerate(kq):
                 cell = (a, b)
                 if infeasible_by(cell) is not None:
                     continue
@@ -1189,6 +1193,23 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
                     bar.update(1)
                 if res.found:
                     break
+                if res.status != INFEASIBLE:
+                    undecided_at = j
+                    break
+            if undecided_at is None:
+                continue
+            # past an undecided cell, bisect for the row's lowest feasible cell
+            lo = undecided_at
+            hi = next((j for j in range(lo + 1, len(kq)) if below((a, kq[j]))), len(kq))
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                res = run(feas_solver, (a, kq[mid]))
+                if bar is not None:
+                    bar.update(1)
+                if res.found:
+                    hi = mid
+                else:
+                    lo = mid
         todo = []
         if opts.objective == "J":
             feasible = [(a, b) for a in kp for b in kq if below((a, b))]
