@@ -34,7 +34,7 @@ FAST = ("--sinkhorn-device", "numpy")  # no torch start-up for a ten-image trace
 
 
 def solve(trace_path, out, *extra):
-    return main(["solve", str(trace_path), "-o", str(out), "--quiet",
+    return main(["solve", str(trace_path), "-o", str(out), "--quiet", "--solver", "greedy",
                  "--k-pick", "1:3", "--k-place", "1:2", *FAST, *extra])
 
 
@@ -70,7 +70,8 @@ def test_states_removed_solves_identically(toy_path, tmp_path):
 def test_solve_grid_table_and_plot(toy_path, tmp_path, capsys):
     path, _ = toy_path
     png = tmp_path / "grid.png"
-    assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--k-pick", "1:3",
+    assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--solver", "greedy",
+                 "--k-pick", "1:3",
                  "--k-place", "1:2", "--plot", str(png), "--table", "cells", *FAST]) == 0
     out = capsys.readouterr().out
     assert "| k_pick" in out.replace("|   k_pick", "| k_pick") and "feasible" in out
@@ -113,7 +114,8 @@ def test_bad_input_exits_2(toy_path, tmp_path, capsys):
     assert "fewest" in capsys.readouterr().err
     assert solve(path, out, "--solver", "nope") == 2
     assert "greedy" in capsys.readouterr().err
-    assert main(["solve", str(path), "-o", str(out), "--k-pick", "3:1"]) == 2
+    assert main(["solve", str(path), "-o", str(out), "--solver", "greedy",
+                 "--k-pick", "3:1"]) == 2
     assert main(["plan", str(tmp_path / "missing.json"), "--start-obs", "0",
                  "--goal-obs", "0"]) == 2
     assert not out.exists()
@@ -123,8 +125,8 @@ def test_no_colouring_in_the_grid_is_an_error(toy_path, tmp_path, capsys):
     path, _ = toy_path
     out = tmp_path / "none.json"
     # one pick and one place colour cannot hold both pick actions
-    assert main(["solve", str(path), "-o", str(out), "--quiet", "--k-pick", "1",
-                 "--k-place", "1", *FAST]) == 2
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--solver", "greedy",
+                 "--k-pick", "1", "--k-place", "1", *FAST]) == 2
     assert "no cell" in capsys.readouterr().err and not out.exists()
 
 
@@ -138,3 +140,15 @@ def test_bench_sweep_runs_on_a_short_trace(tmp_path, monkeypatch, capsys):
     assert "ratio" in out and "jobs=2" in out and "target" in out
     assert main(args) == 0  # second run: the trace comes from the cache
     assert "cached" in capsys.readouterr().err
+
+
+def test_default_solver_is_merge_and_recovers_the_toy(toy_path, tmp_path, capsys):
+    path, trace = toy_path
+    out = tmp_path / "default.json"
+    assert main(["solve", str(path), "-o", str(out), "--quiet", *FAST]) == 0
+    assert "(cascade)" in capsys.readouterr().out
+    sol = read_solution(out)
+    verify_solution(sol, trace, str(out))
+    assert sol.solver == "merge" and sol.extra["select"] == "cascade"
+    same = sol.labels[:, None] == sol.labels[None, :]
+    np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])

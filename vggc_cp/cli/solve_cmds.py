@@ -10,6 +10,9 @@ from pathlib import Path
 
 from vggc_cp.errors import VggcError
 
+#: ``solve``'s solver when none is named: congruence-closure merging with the ``cascade``
+#: threshold rule, chosen on the benchmarks' Exec (README, "Choosing a solver and a rule").
+DEFAULT_SOLVER = "merge"
 BENCH_NAME = "fruit-4x6"
 BENCH_TRANSITIONS = 700
 BENCH_LIMIT_S = 120.0
@@ -35,11 +38,14 @@ def register(sub) -> None:
                                      "selection; writes the solution JSON")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("-o", "--output", required=True, help="solution .json to write")
-    p.add_argument("--solver", default="greedy",
+    p.add_argument("--solver", default=DEFAULT_SOLVER,
                    help=f"colouring solver: {', '.join(sorted(SOLVERS))}, or both (greedy, then "
-                        f"CP-SAT warm-started by it; cpsat does the same) (default greedy)")
+                        f"CP-SAT warm-started by it; cpsat does the same) (default "
+                        f"{DEFAULT_SOLVER}: the rule whose plans execute best on the seven "
+                        f"benchmarks; greedy with --select fewest is the paper's VGGC)")
     p.add_argument("--k-pick", default=None, metavar="A:B",
-                   help="k_pick values, inclusive (default: derived from the actions)")
+                   help="k_pick values, inclusive (default: derived from the actions; "
+                        "grid solvers only)")
     p.add_argument("--k-place", default=None, metavar="A:B",
                    help="k_place values, inclusive (default: derived from the actions)")
     p.add_argument("--jobs", type=int, default=1, help="parallel worker processes (default 1)")

@@ -90,26 +90,24 @@ def choose_pair(bench, states: np.ndarray, rng: np.random.Generator) -> tuple[in
 
 def compute_solution(trace, *, cache_dir: str | Path | None = None,
                      progress: bool = False) -> dict:
-    """Default visual distances, greedy sweep over the default grid, ``fewest`` selection;
-    the solution JSON object (what ``vggc-cp solve`` writes with default options). The
-    distance cache goes to ``cache_dir`` (default: the vision package's)."""
+    """Default visual distances and the default solver of ``vggc-cp solve`` (congruence-closure
+    merging over the threshold path, ``cascade`` rule); the solution JSON object (what
+    ``vggc-cp solve`` writes with default options). The distance cache goes to ``cache_dir``
+    (default: the vision package's)."""
     from vggc_cp.solution import solution_dict
-    from vggc_cp.solvers import Problem, get_solver
-    from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
+    from vggc_cp.solvers import Problem
+    from vggc_cp.solvers.merge import threshold_path
     from vggc_cp.vision import DistanceConfig, compute_distances
 
     dist_pick, dist_place = compute_distances(trace, DistanceConfig(), cache_dir=cache_dir,
                                               progress=progress)
-    problem = Problem.from_trace(trace, dist_pick, dist_place)
-    kp, kq = default_grid(problem)
-    sweep = run_sweep(problem, get_solver("greedy"), kp, kq, select="fewest", progress=progress)
-    best = sweep.best
-    if best is None:
-        raise VggcError("demo: the greedy sweep found no colouring")
+    problem = Problem.from_trace(trace.without_states(), dist_pick, dist_place)
+    path = threshold_path(problem, rule="cascade", progress=progress)
+    best = path.best
     return solution_dict(best.labels, problem.roles, problem.graph(best.labels),
                          k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-                         solver=best.solver, status=best.status, select="fewest")
+                         solver=best.solver, status=best.status, select=path.rule,
+                         threshold=best.stats["threshold"])
 
 
 def execute(bench, start_state: str, actions, size: int, rng: np.random.Generator
