@@ -29,6 +29,7 @@ determinisation).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -54,6 +55,44 @@ class MergeStats:
     vetoed_exactly_one: int
     vetoed_work: int
     vetoes_replayed: int = 0
+    vetoed_support: int = 0
+    vetoed_nearest: int = 0
+
+
+LINKAGES = ("average", "energy", "ward", "pooled", "pooled_ward")
+
+
+@dataclass(frozen=True)
+class MergeOptions:
+    """Variants of the veto (the defaults give the plain average-linkage closure).
+
+    ``linkage``: the statistic of a forced merge compared with the threshold (see
+    :func:`_linkage_stat`); ``pooled*`` compare the closure's pooled statistic with the
+    threshold and each forced merge with ``cap`` times the threshold. ``support``: a closure of
+    fewer forced merges is accepted only when every statistic in it is within ``lone`` (None:
+    the noise scale, or the smallest threshold of a path). ``passes``: sweeps over the
+    candidates, repeated while a sweep accepts something.
+    """
+
+    linkage: str = "average"
+    cap: float = 2.0
+    support: int = 1
+    lone: float | None = None
+    passes: int = 1
+    nearest: float = 0.0
+    ramp: bool = False
+    anneal: bool = False
+    nearest_size: int = 1_000_000_000
+
+    def __post_init__(self):
+        lookup({k: k for k in LINKAGES}, self.linkage, "linkage")
+        if self.support < 1 or self.passes < 1 or self.cap <= 0:
+            raise ValueError("support and passes must be >= 1 and cap > 0")
+
+    def changed(self) -> dict:
+        """The options that differ from the defaults (for the result's stats)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if getattr(self, f.name) != f.default}
 
 
 class _Clusters:
@@ -90,6 +129,9 @@ class _Clusters:
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
         # distance sums between clusters, per role, indexed by the local index of the root
         self.sums = (problem.dist_pick.copy(), problem.dist_place.copy())
+        # per role and local index: live roots and their sizes (the ``nearest`` option)
+        self.live = tuple(np.ones(len(m), dtype=bool) for m in self.sums)
+        self.lsize = tuple(np.ones(len(m)) for m in self.sums)
 
     def find(self, x: int) -> int:
         parent = self.parent
@@ -117,6 +159,23 @@ class _Clusters:
         lb = [self.local[r] for r in roots_b]
         return float(s[np.ix_(la, lb)].sum())
 
+    def nearest_stat(self, roots: list[int], n: int, linkage: str) -> float:
+        """Smallest statistic between the group ``roots`` (``n`` observations) and any other
+        committed cluster of its role."""
+        role = self.roles[roots[0]]
+        s, live, size = self.sums[role], self.live[role], self.lsize[role]
+        la = [self.local[r] for r in roots]
+        cross = s[la].sum(axis=0) / (n * size)
+        if linkage in ("average", "pooled"):
+            stat = cross
+        else:
+            within = s[np.ix_(la, la)].sum() / (n * n)
+            e = cross - 0.5 * (within + np.diagonal(s) / (size * size))
+            stat = e if linkage == "energy" else 2.0 * e / (1.0 / n + 1.0 / size)
+        mask = live.copy()
+        mask[la] = False
+        return float(stat[mask].min()) if mask.any() else np.inf
+
     def commit(self, groups: dict[int, list[int]]) -> None:
         """Make each tentative group (head root -> absorbed roots) one cluster."""
         for head, absorbed in groups.items():
@@ -128,7 +187,9 @@ class _Clusters:
                 s[:, h] += s[:, lr]
                 self.parent[r] = head
                 self.size[head] += self.size[r]
+                self.live[self.roles[head]][lr] = False
                 self.members[head].extend(self.members.pop(r))
+            self.lsize[self.roles[head]][h] = self.size[head]
         for head, absorbed in groups.items():
             for k in (0, 1):
                 sig, first = self.sig[k], self.first[k]
@@ -144,8 +205,8 @@ class _Clusters:
 
 
 def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: bool,
-               max_work: int, read: set[int] | None = None
-               ) -> tuple[dict[int, list[int]] | None, str]:
+               max_work: int, read: set[int] | None = None,
+               opts: MergeOptions | None = None) -> tuple[dict[int, list[int]] | None, str]:
     """Close the merge of the clusters of ``i`` and ``j`` under congruence; return the groups
     to commit (head root -> absorbed roots) or None with the reason of the veto.
 
@@ -158,6 +219,10 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
     ``read``, when given, collects every committed root the closure looked at: the outcome
     depends on nothing else, so it repeats exactly while none of them changes.
     """
+    opts = opts or MergeOptions()
+    linkage, cap, support = opts.linkage, opts.cap, opts.support
+    lone = np.inf if opts.lone is None else opts.lone
+    nearest, nearest_size = opts.nearest, opts.nearest_size
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
     parent = cl.parent
@@ -174,6 +239,8 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
 
     queue = [(i, j)]
     push = queue.append
+    pooled_sum, pooled_n = 0.0, 0
+    max_stat = 0.0
     touched: set[int] = set()
     work = 0
     directions = ((cl.sig[0], cl.first[0], {}, {}), (cl.sig[1], cl.first[1], {}, {}))
@@ -193,8 +260,26 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
         rb = groups.get(hb) or [hb]
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
-        if cl.link_sum(ra, rb) / (na * nb) > threshold:
-            return None, "distance"
+        if linkage == "average":
+            stat = cl.link_sum(ra, rb) / (na * nb)
+            if stat > threshold:
+                return None, "distance"
+        else:
+            stat = _linkage_stat(cl, ra, rb, na, nb, linkage)
+            if linkage.startswith("pooled"):
+                if stat > cap * threshold:
+                    return None, "distance"
+                w = na * nb if linkage == "pooled" else 1
+                pooled_sum += stat * w
+                pooled_n += w
+            elif stat > threshold:
+                return None, "distance"
+        if nearest and min(na, nb) <= nearest_size:
+            small, n_small = (ra, na) if na <= nb else (rb, nb)
+            if stat > nearest * cl.nearest_stat(small, n_small, linkage):
+                return None, "nearest"
+        if stat > max_stat:
+            max_stat = stat
         groups[ha] = ra + rb
         groups.pop(hb, None)
         for r in rb:
@@ -253,6 +338,16 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
                     return None, "exactly_one"
             if still:
                 mism[ha] = still
+    if pooled_n and pooled_sum / pooled_n > threshold:
+        return None, "distance"
+    # support: a closure of fewer than ``support`` merges carries no evidence beyond its own
+    # distances; it is accepted only when all of them are within ``lone``
+    if work < support:
+        allowed = lone
+        if opts.ramp and support > 1:
+            allowed = lone + max(threshold - lone, 0.0) * (work - 1) / (support - 1)
+        if (pooled_sum / pooled_n if opts.ramp and pooled_n else max_stat) > allowed:
+            return None, "support"
     # Exactly-One around every touched cluster, in both directions
     for h in touched:
         if head(h) != h:
@@ -268,6 +363,27 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
         if head(h) == h:
             result[h] = [r for r in rs if r != h]
     return result, ""
+
+
+def _linkage_stat(cl: _Clusters, ra: list[int], rb: list[int], na: int, nb: int,
+                  linkage: str) -> float:
+    """Cluster-level statistic of a forced merge of the groups ``ra`` and ``rb`` (roots).
+
+    * ``energy``: ``E = cross mean - (within mean A + within mean B) / 2`` (means over all
+      ordered pairs, zero diagonal included); ``E = d`` for singletons and, for a squared
+      distance, the squared distance of the group means;
+    * ``ward`` (and ``pooled_ward``): ``2 E / (1/na + 1/nb)``, the Ward increase scaled so that
+      it is ``d`` for singletons and about the within-state distance for two groups of one
+      state whatever their sizes, while between states it grows with the sizes;
+    * ``pooled``: the average linkage (pooled over the closure by the caller).
+    """
+    cross = cl.link_sum(ra, rb) / (na * nb)
+    if linkage == "pooled":
+        return cross
+    e = cross - 0.5 * (cl.link_sum(ra, ra) / (na * na) + cl.link_sum(rb, rb) / (nb * nb))
+    if linkage == "energy":
+        return e
+    return 2.0 * e / (1.0 / na + 1.0 / nb)
 
 
 def _candidates(problem: Problem, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -290,13 +406,17 @@ def _candidates(problem: Problem, threshold: float) -> tuple[np.ndarray, np.ndar
 
 
 def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int],
-                  threshold: float, bidirectional: bool, max_work: int
+                  threshold: float, bidirectional: bool, max_work: int,
+                  opts: MergeOptions | None = None, cl: _Clusters | None = None
                   ) -> tuple[np.ndarray, MergeStats]:
-    """:func:`congruence_merge` on candidate pairs already filtered and sorted."""
-    cl = _Clusters(problem)
+    """:func:`congruence_merge` on candidate pairs already filtered and sorted; ``cl``, when
+    given, is the clustering to continue from (it is updated in place)."""
+    cl = _Clusters(problem) if cl is None else cl
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0}
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "support": 0, "nearest": 0}
+    # with ``nearest`` a veto depends on every cluster of the role: no replay
+    use_replay = opts is None or not opts.nearest
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -308,47 +428,54 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     replay: dict[tuple[int, int], tuple[int, str]] = {}
     depends: dict[int, list[tuple[tuple[int, int], int]]] = {}
     token = 0
-    for i, j in zip(cand_i, cand_j):
-        ri, rj = find(i), find(j)
-        if ri == rj:
-            continue
-        key = (ri, rj) if ri < rj else (rj, ri)
-        if vetoed.get(key) == epoch:
-            continue
-        attempts += 1
-        memo = replay.get((ri, rj))
-        if memo is not None:
-            vetoed[key] = epoch
-            vetoes[memo[1]] += 1
-            replayed += 1
-            continue
-        read: set[int] = set()
-        groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read)
-        if groups is None:
-            vetoed[key] = epoch
-            vetoes[why] += 1
-            token += 1
-            replay[(ri, rj)] = (token, why)
-            for r in read:
-                depends.setdefault(r, []).append(((ri, rj), token))
-            continue
-        for h, absorbed in groups.items():
-            for r in (h, *absorbed):
-                for k, t in depends.pop(r, ()):
-                    m = replay.get(k)
-                    if m is not None and m[0] == t:
-                        del replay[k]
-        cl.commit(groups)
-        epoch += 1
-        accepted += 1
+    passes = 1 if opts is None else opts.passes
+    for _ in range(passes):
+        before = accepted
+        for i, j in zip(cand_i, cand_j):
+            ri, rj = find(i), find(j)
+            if ri == rj:
+                continue
+            key = (ri, rj) if ri < rj else (rj, ri)
+            if vetoed.get(key) == epoch:
+                continue
+            attempts += 1
+            memo = replay.get((ri, rj))
+            if memo is not None:
+                vetoed[key] = epoch
+                vetoes[memo[1]] += 1
+                replayed += 1
+                continue
+            read: set[int] = set()
+            groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read, opts)
+            if groups is None:
+                vetoed[key] = epoch
+                vetoes[why] += 1
+                token += 1
+                if use_replay:
+                    replay[(ri, rj)] = (token, why)
+                    for r in read:
+                        depends.setdefault(r, []).append(((ri, rj), token))
+                continue
+            for h, absorbed in groups.items():
+                for r in (h, *absorbed):
+                    for k, t in depends.pop(r, ()):
+                        m = replay.get(k)
+                        if m is not None and m[0] == t:
+                            del replay[k]
+            cl.commit(groups)
+            epoch += 1
+            accepted += 1
+        if accepted == before:
+            break
     roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
-                              vetoes["work"], replayed)
+                              vetoes["work"], replayed, vetoes["support"], vetoes["nearest"])
 
 
 def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = True,
-                     max_work: int = 2_000) -> tuple[np.ndarray, MergeStats]:
+                     max_work: int = 2_000, opts: MergeOptions | None = None
+                     ) -> tuple[np.ndarray, MergeStats]:
     """Labels of the merged clustering and counters.
 
     Parameters
@@ -367,16 +494,19 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
     stats : MergeStats
     """
     _, ci, cj = _candidates(problem, threshold)
-    return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work)
+    return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work,
+                         opts)
 
 
 def _solve_prefix(problem: Problem, threshold: float, bidirectional: bool, d: np.ndarray,
-                  ci: list[int], cj: list[int]) -> SolveResult:
+                  ci: list[int], cj: list[int], opts: MergeOptions | None = None,
+                  cl: _Clusters | None = None) -> SolveResult:
     """:meth:`MergeSolver.solve` at ``threshold`` from candidates sorted for a larger one."""
     t0 = time.perf_counter()
     n = int(np.searchsorted(d, threshold, side="right"))
-    labels, stats = _merge_sorted(problem, ci[:n], cj[:n], threshold, bidirectional, 2_000)
-    res = MergeSolver(threshold, bidirectional)._result(problem, labels, stats)
+    labels, stats = _merge_sorted(problem, ci[:n], cj[:n], threshold, bidirectional, 2_000, opts,
+                                  cl)
+    res = MergeSolver(threshold, bidirectional, opts=opts)._result(problem, labels, stats)
     return SolveResult(res.labels, res.k_pick, res.k_place, res.J, res.status, res.solver,
                        time.perf_counter() - t0, res.bound, res.stats)
 
@@ -387,12 +517,17 @@ class MergeSolver(Solver):
 
     name = "merge"
 
-    def __init__(self, threshold: float = 0.08, bidirectional: bool = True):
+    def __init__(self, threshold: float = 0.08, bidirectional: bool = True,
+                 opts: MergeOptions | None = None, **options):
         self.threshold = float(threshold)
         self.bidirectional = bool(bidirectional)
+        self.opts = opts if opts is not None else MergeOptions(**options)
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
-        labels, stats = congruence_merge(problem, self.threshold, self.bidirectional)
+        opts = self.opts
+        if opts.support > 1 and opts.lone is None:
+            opts = dataclasses.replace(opts, lone=noise_scale(problem))
+        labels, stats = congruence_merge(problem, self.threshold, self.bidirectional, opts=opts)
         return self._result(problem, labels, stats)
 
     def _result(self, problem: Problem, labels: np.ndarray, stats: MergeStats) -> SolveResult:
@@ -401,6 +536,7 @@ class MergeSolver(Solver):
         return SolveResult(labels, n_pick, n_place, problem.visual_score(labels), FEASIBLE,
                            self.name, stats={"threshold": self.threshold,
                                              "bidirectional": self.bidirectional,
+                                             **self.opts.changed(),
                                              **stats.__dict__})
 
 
@@ -493,9 +629,11 @@ class ThresholdPath:
 
 def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
                    rule: str = "cascade", bidirectional: bool = True,
-                   progress: bool = False) -> ThresholdPath:
+                   progress: bool = False, opts: MergeOptions | None = None,
+                   **options) -> ThresholdPath:
     """Run :class:`MergeSolver` at every threshold (ascending) and select one by ``rule``."""
     fn = lookup(PATH_SELECTIONS, rule, "path selection rule")
+    opts = opts if opts is not None else MergeOptions(**options)
     ts = np.sort(np.asarray(default_thresholds(problem) if thresholds is None else thresholds,
                             dtype=np.float64))
     t0 = time.perf_counter()
@@ -507,6 +645,12 @@ def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
     # the candidates of a threshold are a prefix of those of the largest one: sort them once
     d, ci, cj = _candidates(problem, float(ts[-1]) if len(ts) else 0.0)
     ci, cj = ci.tolist(), cj.tolist()
-    results = tuple(_solve_prefix(problem, float(t), bidirectional, d, ci, cj) for t in iterator)
+    if opts.support > 1 and opts.lone is None and len(ts):
+        opts = dataclasses.replace(opts, lone=float(ts[0]))
+    # ``anneal``: each threshold continues from the clustering of the one below, so merges
+    # that a lower threshold already accepts come first
+    cl = _Clusters(problem) if opts.anneal else None
+    results = tuple(_solve_prefix(problem, float(t), bidirectional, d, ci, cj, opts, cl)
+                    for t in iterator)
     return ThresholdPath(tuple(float(t) for t in ts), results, fn(results), rule,
                          time.perf_counter() - t0)
