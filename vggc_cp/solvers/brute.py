@@ -49,14 +49,25 @@ class CellConstraints:
         One node and one action lead to one node.
     max_actions : int or None
         At most this many distinct action labels on the outgoing edges of every node.
+    codeterministic : bool
+        One action into a node comes from one node (determinism of the reversed graph; holds
+        for pick/place rearrangement: the state before placing into region r is the state
+        after, with that object lifted).
+    cannot_link : float or None
+        Visual evidence: two observations whose visual distance exceeds this never share a
+        node.
     """
 
     deterministic: bool = False
     max_actions: int | None = None
+    codeterministic: bool = False
+    cannot_link: float | None = None
 
     def __post_init__(self):
         if self.max_actions is not None and self.max_actions < 1:
             raise VggcError(f"max_actions must be at least 1, got {self.max_actions}")
+        if self.cannot_link is not None and not self.cannot_link >= 0:
+            raise VggcError(f"cannot_link must be a distance >= 0, got {self.cannot_link}")
 
 
 def split_colours(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -91,12 +102,14 @@ def violations(problem: Problem, pick_colour: np.ndarray, place_colour: np.ndarr
     colour[problem.place_obs] = place_colour
     pair: dict[tuple, set] = {}
     succ: dict[tuple, set] = {}
+    pred: dict[tuple, set] = {}
     out_actions: dict[tuple, set] = {}
     for s, a, d in zip(problem.src.tolist(), problem.act.tolist(), problem.dst.tolist()):
         r = int(problem.roles[s])
         cs, cd = int(colour[s]), int(colour[d])
         pair.setdefault((r, cs, cd), set()).add(a)
         succ.setdefault((r, cs, a), set()).add(cd)
+        pred.setdefault((r, cd, a), set()).add(cs)
         out_actions.setdefault((r, cs), set()).add(a)
     role = ("pick", "place")
     out = [f"{role[r]} colour {c} -> colour {c2} carries actions {sorted(acts)}"
@@ -104,9 +117,22 @@ def violations(problem: Problem, pick_colour: np.ndarray, place_colour: np.ndarr
     if constraints.deterministic:
         out += [f"{role[r]} colour {c} with action {problem.action_names[a]} reaches colours "
                 f"{sorted(cs)}" for (r, c, a), cs in succ.items() if len(cs) > 1]
+    if constraints.codeterministic:
+        out += [f"{role[1 - r]} colour {c} is entered by action {problem.action_names[a]} from "
+                f"colours {sorted(cs)}" for (r, c, a), cs in pred.items() if len(cs) > 1]
     if constraints.max_actions is not None:
         out += [f"{role[r]} colour {c} has {len(acts)} distinct actions > {constraints.max_actions}"
                 for (r, c), acts in out_actions.items() if len(acts) > constraints.max_actions]
+    if constraints.cannot_link is not None:
+        sides = ((pick_colour, problem.dist_pick, problem.pick_obs),
+                 (place_colour, problem.dist_place, problem.place_obs))
+        for r, (cols, dist, obs) in enumerate(sides):
+            cols = np.asarray(cols)
+            far = (cols[:, None] == cols[None, :]) & (dist > constraints.cannot_link)
+            for i, j in zip(*np.nonzero(np.triu(far, 1))):
+                out.append(f"{role[r]} observations {int(obs[i])} and {int(obs[j])} share colour "
+                           f"{int(cols[i])} at distance {dist[i, j]:.4f} > "
+                           f"{constraints.cannot_link}")
     return out
 
 
@@ -201,7 +227,7 @@ class BruteSolver(Solver):
 
     Parameters
     ----------
-    deterministic, max_actions :
+    deterministic, max_actions, codeterministic, cannot_link :
         See :class:`CellConstraints`.
     max_colourings : int
         Refuse (:class:`VggcError`) cells with more colourings than this.
@@ -210,8 +236,10 @@ class BruteSolver(Solver):
     name = "brute"
 
     def __init__(self, deterministic: bool = False, max_actions: int | None = None,
-                 max_colourings: int = 2_000_000):
-        self.constraints = CellConstraints(deterministic, max_actions)
+                 max_colourings: int = 2_000_000, codeterministic: bool = False,
+                 cannot_link: float | None = None):
+        self.constraints = CellConstraints(deterministic, max_actions, codeterministic,
+                                           cannot_link)
         self.max_colourings = max_colourings
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:

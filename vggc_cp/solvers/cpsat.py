@@ -203,7 +203,7 @@ def parse_cpsat_params(text: str | None) -> str:
 
 @dataclass(frozen=True)
 class CpSatOptions:
-    """Everything that shapes the CP-SAT model of a cell and its solve.
+    r"""Everything that shapes the CP-SAT model of a cell and its solve.
 
     Attributes
     ----------
@@ -224,6 +224,11 @@ class CpSatOptions:
     size_cuts : bool
         Cluster-size indicators and the nearest-neighbour lower bound on each cluster's mean
         (see the module docstring); off: ``q_c = n_c (n_c - 1)`` by a product constraint.
+    codeterministic : bool
+        One action into a node comes from one node: :math:`\sum_{c} y_{c,c',a} \le 1`.
+    cannot_link : float or None
+        Two observations of one role farther apart than this (visual distance) never share a
+        colour: :math:`x_{o,c} + x_{o',c} \le 1`.
     enumerate_limit : int
         With objective ``J``, first enumerate the cell's valid colourings (up to renaming) and
         keep the lowest float J when there are at most this many; 0 disables, and so does
@@ -240,6 +245,8 @@ class CpSatOptions:
     symmetry: bool = True
     size_cuts: bool = True
     enumerate_limit: int = 20_000
+    codeterministic: bool = False
+    cannot_link: float | None = None
 
     def __post_init__(self):
         if self.objective not in OBJECTIVES:
@@ -250,11 +257,12 @@ class CpSatOptions:
             raise VggcError(f"resolution must be a positive integer, got {self.resolution}")
         if self.enumerate_limit < 0:
             raise VggcError(f"enumerate_limit must be >= 0, got {self.enumerate_limit}")
-        CellConstraints(self.deterministic, self.max_actions)  # validates max_actions
+        self.constraints  # noqa: B018  (validates max_actions and cannot_link)
 
     @property
     def constraints(self) -> CellConstraints:
-        return CellConstraints(self.deterministic, self.max_actions)
+        return CellConstraints(self.deterministic, self.max_actions, self.codeterministic,
+                               self.cannot_link)
 
     def sat_parameters_text(self) -> str:
         """Default parameters with the user's merged over them, as protobuf text."""
@@ -571,7 +579,8 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
     # ---- pair-action table (Exactly-One), determinism
     y: dict = {}
     for r in (PICK, PLACE):
-        needs_table = (len(dir_actions[r]) > 1 or options.deterministic)
+        needs_table = (len(dir_actions[r]) > 1 or options.deterministic
+                       or options.codeterministic)
         if not needs_table:
             notes.append(f"{('pick', 'place')[r]} direction has one action: no pair table")
             continue
@@ -591,9 +600,11 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
                     model.add_bool_or([~vs, ~vd, y[key]])
     by_pair: dict = {}
     by_succ: dict = {}
+    by_pred: dict = {}
     for (r, c, c2, a), v in y.items():
         by_pair.setdefault((r, c, c2), []).append(v)
         by_succ.setdefault((r, c, a), []).append(v)
+        by_pred.setdefault((r, c2, a), []).append(v)
     for vs in by_pair.values():
         if len(vs) > 1:
             model.add_at_most_one(vs)
@@ -601,6 +612,23 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
         for vs in by_succ.values():
             if len(vs) > 1:
                 model.add_at_most_one(vs)
+    if options.codeterministic:
+        for vs in by_pred.values():
+            if len(vs) > 1:
+                model.add_at_most_one(vs)
+
+    # ---- visual cannot-link: observations farther apart than the bound never share a colour
+    if options.cannot_link is not None:
+        n_links = 0
+        for r, dist in ((PICK, problem.dist_pick), (PLACE, problem.dist_place)):
+            x = roles[r].x
+            ii, jj = np.nonzero(np.triu((dist + dist.T) / 2.0 > options.cannot_link, 1))
+            for i, j in zip(ii.tolist(), jj.tolist()):
+                for vi, vj in zip(x[i], x[j]):
+                    if vi is not None and vj is not None:
+                        model.add_bool_or([~vi, ~vj])
+            n_links += len(ii)
+        notes.append(f"cannot-link: {n_links} pairs farther apart than {options.cannot_link:g}")
 
     # ---- action variety: implied cuts, max_actions
     has_table = [any(key[0] == r for key in y) for r in (PICK, PLACE)]
@@ -905,7 +933,7 @@ class CpSatSolver(Solver):
     Parameters
     ----------
     objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry,
-    size_cuts, enumerate_limit :
+    size_cuts, enumerate_limit, codeterministic, cannot_link :
         See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
@@ -917,9 +945,11 @@ class CpSatSolver(Solver):
                  max_actions: int | None = None, params: str = "", resolution: int = 1000,
                  max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
                  size_cuts: bool = True, enumerate_limit: int = 20_000,
-                 greedy_options: dict | None = None):
+                 greedy_options: dict | None = None, codeterministic: bool = False,
+                 cannot_link: float | None = None):
         self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
-                                    max_pair_terms, hint, symmetry, size_cuts, enumerate_limit)
+                                    max_pair_terms, hint, symmetry, size_cuts, enumerate_limit,
+                                    codeterministic, cannot_link)
         self.params_text = self.options.sat_parameters_text()
         self.greedy_options = dict(greedy_options or {})
 
