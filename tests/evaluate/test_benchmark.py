@@ -104,6 +104,21 @@ def test_colouring_methods_run(tmp_path):
         assert row["seconds_distances"] >= 0
 
 
+def test_merge_and_its_exact_counterpart(tmp_path):
+    cfg = BenchmarkConfig(tmp_path, ("fruit-2x3",), ("merge", "cpsat-merge"), (0,),
+                          transitions=24, queries=50)
+    rows = {r["method"]: r for r in run_benchmark(cfg, progress=False).rows}
+    merge, exact = rows["merge"], rows["cpsat-merge"]
+    assert merge["exactly_one"] == 0 and exact["exactly_one"] == 0
+    assert exact["merge_nodes"] == merge["nodes"]
+    # CP-SAT never needs more nodes than the merge colouring it was handed as a witness
+    assert exact["minimal_nodes"] <= merge["nodes"] and exact["nodes"] == exact["minimal_nodes"]
+    assert isinstance(exact["proved_minimal"], bool) and exact["cannot_link"] > 0
+    assert "threshold" in merge
+    md = table_markdown([merge, exact])
+    assert "merge + cascade (ours)" in md and "CP-SAT, fewest nodes under merge" in md
+
+
 def test_table_only_marks_unfinished_cells(tmp_path, capsys):
     argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan", "--seeds",
             "0", "--transitions", "12", "-Q", "50", "--jobs", "1", "--out", str(tmp_path),
