@@ -80,7 +80,7 @@ def method_options(items: list[str]) -> dict:
 def register_benchmark(sub) -> None:
     import os
 
-    from vggc_cp.evaluate.benchmark import BACKENDS, METHODS
+    from vggc_cp.evaluate.benchmark import BACKENDS, DEFAULT_METHODS, METHODS
 
     p = sub.add_parser("benchmark", help="the paper's Table 1: every method on every benchmark",
                        description="Generate or reuse traces, run every method, evaluate with "
@@ -88,7 +88,7 @@ def register_benchmark(sub) -> None:
                                    "Finished cells are cached there and skipped on a rerun.")
     p.add_argument("--benchmarks", default="all",
                    help="comma-separated benchmark names, or all (default)")
-    p.add_argument("--methods", default="greedy,cpsat,pca-hdbscan,lsr",
+    p.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                    help=f"comma-separated methods: {', '.join(METHODS)} (default all)")
     p.add_argument("--seeds", default="0", help="comma-separated trace seeds (default 0)")
     p.add_argument("--transitions", type=int, default=None,
