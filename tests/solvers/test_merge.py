@@ -295,3 +295,122 @@ def test_threshold_path_equals_separate_runs():
         single = get_solver("merge", threshold=t).solve(problem, 0, 0)
         assert np.array_equal(res.labels, single.labels)
         assert res.stats == single.stats and res.J == single.J and res.seconds > 0
+
+
+def test_options_default_is_the_plain_merge_and_bad_options_are_refused():
+    import pytest
+
+    from vggc_cp.errors import UnknownNameError
+    from vggc_cp.solvers.merge import MergeOptions
+
+    rng = np.random.default_rng(9)
+    trace = make_trace([fruit_episode(rng, 6) for _ in range(4)], NAMES)
+    problem = problem_with_distances(trace, noise=0.3, between=0.15, seed=1)
+    plain = congruence_merge(problem, 0.3)
+    explicit = congruence_merge(problem, 0.3, opts=MergeOptions())
+    assert np.array_equal(plain[0], explicit[0]) and plain[1] == explicit[1]
+    assert MergeOptions().changed() == {}
+    assert MergeOptions(linkage="ward", support=3).changed() == {"linkage": "ward",
+                                                                   "support": 3}
+    with pytest.raises(UnknownNameError):
+        MergeOptions(linkage="single")
+    with pytest.raises(ValueError):
+        MergeOptions(support=0)
+
+
+def test_energy_and_ward_statistics_of_committed_clusters():
+    # the cluster sums keep the within sums on their diagonal: the statistics of merged
+    # clusters equal those computed from the member distances
+    from vggc_cp.solvers.merge import _Clusters, _linkage_stat
+
+    rng = np.random.default_rng(10)
+    trace = make_trace([fruit_episode(rng, 5) for _ in range(3)], NAMES)
+    problem = problem_with_distances(trace, noise=0.3, between=0.2, seed=2)
+    cl = _Clusters(problem)
+    obs = problem.pick_obs.tolist()
+    cl.commit({obs[0]: [obs[1], obs[2]]})
+    cl.commit({obs[3]: [obs[4]]})
+    local = problem.local
+    a, b = [obs[0], obs[1], obs[2]], [obs[3], obs[4]]
+    d = problem.dist_pick
+    cross = d[np.ix_(local[a], local[b])].mean()
+    wa, wb = d[np.ix_(local[a], local[a])].mean(), d[np.ix_(local[b], local[b])].mean()
+    e = cross - (wa + wb) / 2
+    assert np.isclose(_linkage_stat(cl, [obs[0]], [obs[3]], 3, 2, "energy"), e)
+    assert np.isclose(_linkage_stat(cl, [obs[0]], [obs[3]], 3, 2, "ward"), 2 * e / (1 / 3 + 1 / 2))
+    assert np.isclose(_linkage_stat(cl, [obs[0]], [obs[3]], 3, 2, "pooled"), cross)
+    # a tentative group of two committed clusters against a singleton
+    c = obs[5]
+    ab = a + b
+    e2 = (d[np.ix_(local[ab], local[[c]])].mean() - d[np.ix_(local[ab], local[ab])].mean() / 2)
+    assert np.isclose(_linkage_stat(cl, [obs[0], obs[3]], [c], 5, 1, "energy"), e2)
+    # singletons: every linkage is the distance
+    x, y = obs[6], obs[7]
+    for linkage in ("energy", "ward", "pooled"):
+        assert np.isclose(_linkage_stat(cl, [x], [y], 1, 1, linkage), d[local[x], local[y]])
+
+
+def test_support_refuses_closures_without_evidence():
+    from vggc_cp.solvers.merge import MergeOptions
+
+    # A and B (pick) alike, left by different actions: their merge forces nothing
+    trace = make_trace([["A", "pick_1", "X"], ["B", "pick_2", "Y"]], NAMES)
+    far = np.array([[0, 0.9], [0.9, 0]])
+    problem = Problem.from_trace(trace, np.array([[0, 0.05], [0.05, 0]]), far)
+    assert len(set(congruence_merge(problem, 0.1)[0])) == 3
+    labels, stats = congruence_merge(problem, 0.1, opts=MergeOptions(support=2, lone=0.02))
+    assert len(set(labels)) == 4 and stats.vetoed_support == 1 and stats.accepted == 0
+    labels, _ = congruence_merge(problem, 0.1, opts=MergeOptions(support=2, lone=0.06))
+    assert len(set(labels)) == 3
+    # the same action forces X with Y: two merges, enough support within the threshold
+    trace = make_trace([["A", "pick_1", "X"], ["B", "pick_1", "Y"]], NAMES)
+    near = np.array([[0, 0.05], [0.05, 0]])
+    problem = Problem.from_trace(trace, near, near)
+    labels, stats = congruence_merge(problem, 0.1, opts=MergeOptions(support=2, lone=0.02))
+    assert len(set(labels)) == 2 and stats.vetoed_support == 0
+    # ramp: a closure of 2 merges (of 3 required) must stay within lone + (thr - lone) / 2
+    ramp = MergeOptions(support=3, lone=0.02, ramp=True)
+    assert len(set(congruence_merge(problem, 0.1, opts=ramp)[0])) == 2  # 0.05 <= 0.06
+    assert len(set(congruence_merge(problem, 0.07, opts=ramp)[0])) == 4  # 0.05 > 0.045
+
+
+def test_pooled_linkage_averages_the_closure():
+    from vggc_cp.solvers.merge import MergeOptions
+
+    # merging A and B forces X with Y, which are a bit farther apart than the threshold:
+    # average linkage refuses, the pooled mean (0.02 + 0.14) / 2 accepts within the cap
+    trace = make_trace([["A", "pick_1", "X"], ["B", "pick_1", "Y"]], NAMES)
+    problem = Problem.from_trace(trace, np.array([[0, 0.02], [0.02, 0]]),
+                                 np.array([[0, 0.14], [0.14, 0]]))
+    assert len(set(congruence_merge(problem, 0.1)[0])) == 4
+    for linkage in ("pooled", "pooled_ward"):
+        labels, _ = congruence_merge(problem, 0.1, opts=MergeOptions(linkage=linkage))
+        assert len(set(labels)) == 2
+        labels, _ = congruence_merge(problem, 0.1, opts=MergeOptions(linkage=linkage, cap=1.3))
+        assert len(set(labels)) == 4
+    assert len(set(congruence_merge(problem, 0.07, opts=MergeOptions(linkage="pooled"))[0])) == 4
+
+
+def test_annealed_path_coarsens_monotonically_and_recovers_states():
+    from vggc_cp.solvers.merge import MergeOptions, threshold_path
+
+    rng = np.random.default_rng(11)
+    trace = make_trace([fruit_episode(rng, 8) for _ in range(5)], NAMES)
+    problem = problem_with_distances(trace, noise=0.05, between=0.5)
+    plain = threshold_path(problem)
+    opts = MergeOptions(linkage="pooled_ward", support=3, ramp=True, anneal=True)
+    path = threshold_path(problem, opts=opts)
+    fresh = threshold_path(problem, opts=MergeOptions(linkage="pooled_ward", support=3,
+                                                      ramp=True))
+    assert np.array_equal(path.results[0].labels, fresh.results[0].labels)
+    # the counters of an annealed threshold count only its own merges
+    accepted = [r.stats["accepted"] for r in path.results]
+    assert accepted[0] > 0 and accepted[1] < fresh.results[1].stats["accepted"]
+    assert sum(accepted) <= problem.n_obs - path.results[-1].n_nodes
+    # each threshold continues from the one below: every cluster stays inside one cluster
+    for lo, hi in zip(path.results, path.results[1:]):
+        for c in np.unique(lo.labels):
+            assert len(set(hi.labels[lo.labels == c])) == 1
+    assert path.results[0].stats["anneal"] is True and path.results[0].stats["lone"] > 0
+    assert path.best.n_nodes == plain.best.n_nodes == len(set(trace.states))
+    assert check(problem.graph(path.best.labels)).ok

@@ -56,7 +56,6 @@ class MergeStats:
     vetoed_work: int
     vetoes_replayed: int = 0
     vetoed_support: int = 0
-    vetoed_nearest: int = 0
 
 
 LINKAGES = ("average", "energy", "ward", "pooled", "pooled_ward")
@@ -70,29 +69,32 @@ class MergeOptions:
     :func:`_linkage_stat`); ``pooled*`` compare the closure's pooled statistic with the
     threshold and each forced merge with ``cap`` times the threshold. ``support``: a closure of
     fewer forced merges is accepted only when every statistic in it is within ``lone`` (None:
-    the noise scale, or the smallest threshold of a path). ``passes``: sweeps over the
-    candidates, repeated while a sweep accepts something.
+    the noise scale, or the smallest threshold of a path); with ``ramp`` the bound rises
+    linearly from ``lone`` (one merge) to the threshold (``support`` merges) and applies to the
+    pooled statistic of the pooled linkages. ``anneal`` (threshold paths only): each threshold
+    continues from the clustering of the one below, so merges that a lower threshold already
+    accepts are made first.
     """
 
     linkage: str = "average"
     cap: float = 2.0
     support: int = 1
     lone: float | None = None
-    passes: int = 1
-    nearest: float = 0.0
     ramp: bool = False
     anneal: bool = False
-    nearest_size: int = 1_000_000_000
 
     def __post_init__(self):
         lookup({k: k for k in LINKAGES}, self.linkage, "linkage")
-        if self.support < 1 or self.passes < 1 or self.cap <= 0:
-            raise ValueError("support and passes must be >= 1 and cap > 0")
+        if self.support < 1 or self.cap <= 0:
+            raise ValueError("support must be >= 1 and cap > 0")
 
     def changed(self) -> dict:
         """The options that differ from the defaults (for the result's stats)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
                 if getattr(self, f.name) != f.default}
+
+
+_PLAIN = MergeOptions()
 
 
 class _Clusters:
@@ -129,9 +131,6 @@ class _Clusters:
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
         # distance sums between clusters, per role, indexed by the local index of the root
         self.sums = (problem.dist_pick.copy(), problem.dist_place.copy())
-        # per role and local index: live roots and their sizes (the ``nearest`` option)
-        self.live = tuple(np.ones(len(m), dtype=bool) for m in self.sums)
-        self.lsize = tuple(np.ones(len(m)) for m in self.sums)
 
     def find(self, x: int) -> int:
         parent = self.parent
@@ -159,23 +158,6 @@ class _Clusters:
         lb = [self.local[r] for r in roots_b]
         return float(s[np.ix_(la, lb)].sum())
 
-    def nearest_stat(self, roots: list[int], n: int, linkage: str) -> float:
-        """Smallest statistic between the group ``roots`` (``n`` observations) and any other
-        committed cluster of its role."""
-        role = self.roles[roots[0]]
-        s, live, size = self.sums[role], self.live[role], self.lsize[role]
-        la = [self.local[r] for r in roots]
-        cross = s[la].sum(axis=0) / (n * size)
-        if linkage in ("average", "pooled"):
-            stat = cross
-        else:
-            within = s[np.ix_(la, la)].sum() / (n * n)
-            e = cross - 0.5 * (within + np.diagonal(s) / (size * size))
-            stat = e if linkage == "energy" else 2.0 * e / (1.0 / n + 1.0 / size)
-        mask = live.copy()
-        mask[la] = False
-        return float(stat[mask].min()) if mask.any() else np.inf
-
     def commit(self, groups: dict[int, list[int]]) -> None:
         """Make each tentative group (head root -> absorbed roots) one cluster."""
         for head, absorbed in groups.items():
@@ -187,9 +169,7 @@ class _Clusters:
                 s[:, h] += s[:, lr]
                 self.parent[r] = head
                 self.size[head] += self.size[r]
-                self.live[self.roles[head]][lr] = False
                 self.members[head].extend(self.members.pop(r))
-            self.lsize[self.roles[head]][h] = self.size[head]
         for head, absorbed in groups.items():
             for k in (0, 1):
                 sig, first = self.sig[k], self.first[k]
@@ -219,10 +199,9 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
     ``read``, when given, collects every committed root the closure looked at: the outcome
     depends on nothing else, so it repeats exactly while none of them changes.
     """
-    opts = opts or MergeOptions()
+    opts = opts or _PLAIN
     linkage, cap, support = opts.linkage, opts.cap, opts.support
     lone = np.inf if opts.lone is None else opts.lone
-    nearest, nearest_size = opts.nearest, opts.nearest_size
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
     parent = cl.parent
@@ -274,10 +253,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
                 pooled_n += w
             elif stat > threshold:
                 return None, "distance"
-        if nearest and min(na, nb) <= nearest_size:
-            small, n_small = (ra, na) if na <= nb else (rb, nb)
-            if stat > nearest * cl.nearest_stat(small, n_small, linkage):
-                return None, "nearest"
         if stat > max_stat:
             max_stat = stat
         groups[ha] = ra + rb
@@ -414,9 +389,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     cl = _Clusters(problem) if cl is None else cl
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "support": 0, "nearest": 0}
-    # with ``nearest`` a veto depends on every cluster of the role: no replay
-    use_replay = opts is None or not opts.nearest
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "support": 0}
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -428,49 +401,43 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     replay: dict[tuple[int, int], tuple[int, str]] = {}
     depends: dict[int, list[tuple[tuple[int, int], int]]] = {}
     token = 0
-    passes = 1 if opts is None else opts.passes
-    for _ in range(passes):
-        before = accepted
-        for i, j in zip(cand_i, cand_j):
-            ri, rj = find(i), find(j)
-            if ri == rj:
-                continue
-            key = (ri, rj) if ri < rj else (rj, ri)
-            if vetoed.get(key) == epoch:
-                continue
-            attempts += 1
-            memo = replay.get((ri, rj))
-            if memo is not None:
-                vetoed[key] = epoch
-                vetoes[memo[1]] += 1
-                replayed += 1
-                continue
-            read: set[int] = set()
-            groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read, opts)
-            if groups is None:
-                vetoed[key] = epoch
-                vetoes[why] += 1
-                token += 1
-                if use_replay:
-                    replay[(ri, rj)] = (token, why)
-                    for r in read:
-                        depends.setdefault(r, []).append(((ri, rj), token))
-                continue
-            for h, absorbed in groups.items():
-                for r in (h, *absorbed):
-                    for k, t in depends.pop(r, ()):
-                        m = replay.get(k)
-                        if m is not None and m[0] == t:
-                            del replay[k]
-            cl.commit(groups)
-            epoch += 1
-            accepted += 1
-        if accepted == before:
-            break
+    for i, j in zip(cand_i, cand_j):
+        ri, rj = find(i), find(j)
+        if ri == rj:
+            continue
+        key = (ri, rj) if ri < rj else (rj, ri)
+        if vetoed.get(key) == epoch:
+            continue
+        attempts += 1
+        memo = replay.get((ri, rj))
+        if memo is not None:
+            vetoed[key] = epoch
+            vetoes[memo[1]] += 1
+            replayed += 1
+            continue
+        read: set[int] = set()
+        groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read, opts)
+        if groups is None:
+            vetoed[key] = epoch
+            vetoes[why] += 1
+            token += 1
+            replay[(ri, rj)] = (token, why)
+            for r in read:
+                depends.setdefault(r, []).append(((ri, rj), token))
+            continue
+        for h, absorbed in groups.items():
+            for r in (h, *absorbed):
+                for k, t in depends.pop(r, ()):
+                    m = replay.get(k)
+                    if m is not None and m[0] == t:
+                        del replay[k]
+        cl.commit(groups)
+        epoch += 1
+        accepted += 1
     roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
-                              vetoes["work"], replayed, vetoes["support"], vetoes["nearest"])
+                              vetoes["work"], replayed, vetoes["support"])
 
 
 def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = True,
@@ -487,12 +454,16 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
         Also close under co-determinism (one action into a cluster comes from one cluster).
     max_work : int
         Cap on forced merges examined per attempt (a larger closure is vetoed).
+    opts : MergeOptions, optional
+        Variants of the veto; ``lone=None`` with ``support > 1`` means the noise scale.
 
     Returns
     -------
     labels : ndarray of int64, shape (N,)
     stats : MergeStats
     """
+    if opts is not None and opts.support > 1 and opts.lone is None:
+        opts = dataclasses.replace(opts, lone=noise_scale(problem))
     _, ci, cj = _candidates(problem, threshold)
     return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work,
                          opts)
@@ -524,10 +495,8 @@ class MergeSolver(Solver):
         self.opts = opts if opts is not None else MergeOptions(**options)
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
-        opts = self.opts
-        if opts.support > 1 and opts.lone is None:
-            opts = dataclasses.replace(opts, lone=noise_scale(problem))
-        labels, stats = congruence_merge(problem, self.threshold, self.bidirectional, opts=opts)
+        labels, stats = congruence_merge(problem, self.threshold, self.bidirectional,
+                                         opts=self.opts)
         return self._result(problem, labels, stats)
 
     def _result(self, problem: Problem, labels: np.ndarray, stats: MergeStats) -> SolveResult:
