@@ -145,10 +145,23 @@ def test_bench_sweep_runs_on_a_short_trace(tmp_path, monkeypatch, capsys):
 def test_default_solver_is_merge_and_recovers_the_toy(toy_path, tmp_path, capsys):
     path, trace = toy_path
     out = tmp_path / "default.json"
-    assert main(["solve", str(path), "-o", str(out), "--quiet", *FAST]) == 0
-    assert "(cascade)" in capsys.readouterr().out
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--exact", *FAST]) == 0
+    text = capsys.readouterr().out
+    assert "(cascade)" in text and "merge is node-minimal; proved" in text
     sol = read_solution(out)
     verify_solution(sol, trace, str(out))
     assert sol.solver == "merge" and sol.extra["select"] == "cascade"
+    assert sol.extra["exact"]["minimal_nodes"] == 3 and sol.extra["exact"]["proved"]
     same = sol.labels[:, None] == sol.labels[None, :]
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
+
+
+def test_cpsat_structure_flags_reach_the_model(toy_path, tmp_path, capsys):
+    path, _ = toy_path
+    out = tmp_path / "c.json"
+    base = ["--solver", "cpsat", "--cpsat-params", "num_workers:1", "--codeterministic"]
+    assert solve(path, out, *base) == 0
+    # every pair of distinct images is farther apart than 0: no two observations share a node,
+    # which the 3 x 2 grid cannot hold
+    assert solve(path, tmp_path / "none.json", *base, "--cannot-link", "0") == 2
+    assert "no cell" in capsys.readouterr().err

@@ -21,6 +21,11 @@ def add_cpsat_arguments(p) -> None:
                    help="CP-SAT: one node and one action lead to one node")
     p.add_argument("--max-actions", type=int, default=None, metavar="K",
                    help="CP-SAT: at most K distinct actions leave a node")
+    p.add_argument("--codeterministic", action="store_true",
+                   help="CP-SAT: one action into a node comes from one node")
+    p.add_argument("--cannot-link", type=float, default=None, metavar="D",
+                   help="CP-SAT: observations farther apart than visual distance D never "
+                        "share a node")
     p.add_argument("--objective", choices=("J", "none"), default="J",
                    help="CP-SAT: minimize the quantized visual score J (default) or decide "
                         "feasibility only")
@@ -36,7 +41,8 @@ def make_cpsat_solver(args, tau: float | None = None):
     greedy_options = {} if tau is None else {"tau": tau}
     return CpSatSolver(objective=args.objective, deterministic=args.deterministic,
                        max_actions=args.max_actions, params=args.cpsat_params,
-                       greedy_options=greedy_options)
+                       greedy_options=greedy_options, codeterministic=args.codeterministic,
+                       cannot_link=args.cannot_link)
 
 
 def cpsat_sweeps(problem, kp, kq, args, *, tau: float | None = None, jobs: int = 1,

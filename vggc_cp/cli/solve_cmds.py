@@ -58,6 +58,11 @@ def register(sub) -> None:
     p.add_argument("--thresholds", default=None, metavar="T1,T2,...",
                    help="merge solver: visual-distance thresholds to try (default: a geometric "
                         "grid from the noise scale of nearest-neighbour distances)")
+    p.add_argument("--exact", action="store_true",
+                   help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
+                        "constraints (determinism, co-determinism, Exactly-One, its widest "
+                        "within-node distance as cannot-link) and report whether merge is "
+                        "node-minimal")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw J over the grid")
     p.add_argument("--table", choices=("pivot", "cells", "none"), default="pivot",
                    help="print the grid as J per cell (pivot, default), one row per cell with "
@@ -249,10 +254,21 @@ def _solve_merge(args) -> int:
                                               "seconds", "selected"]]
         print(table.to_markdown(index=False, floatfmt=".4f"))
     best = path.best
+    extra = {}
+    if args.exact:
+        from vggc_cp.solvers.merge_exact import exact_counterpart
+
+        exact = exact_counterpart(problem, best, progress=not args.quiet)
+        print(f"exact          CP-SAT under merge's constraints: {exact.summary()} "
+              f"({exact.seconds:.1f} s)")
+        extra = {"exact": {"minimal_nodes": exact.minimal_nodes, "proved": exact.proved,
+                           "cannot_link": exact.cannot_link,
+                           "seconds": round(exact.seconds, 3)}}
     _write_chosen(args, trace, cfg, problem, best,
                   f"threshold {best.stats['threshold']:.4f} ({rule})", select=rule,
                   threshold=best.stats["threshold"], grid=path.records(),
-                  seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)})
+                  seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)},
+                  **extra)
     return 0
 
 
