@@ -77,7 +77,7 @@ def test_bad_settings_fail_clearly(tmp_path):
         BenchmarkConfig(tmp_path, ("fruit-9x9",), ("lsr",))
     with pytest.raises(VggcError, match="jobs"):
         BenchmarkConfig(tmp_path, ("fruit-2x3",), ("lsr",), jobs=0)
-    assert set(METHODS) == {"greedy", "cpsat", "pca-hdbscan", "lsr", "merge"}
+    assert set(METHODS) == {"greedy", "cpsat", "pca-hdbscan", "lsr", "merge", "cpsat-merge"}
 
 
 @pytest.mark.skipif(importlib.util.find_spec("distributed") is not None,
