@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import json
 
+import numpy as np
 import pytest
 
 from vggc_cp.cli import main
@@ -161,3 +162,23 @@ def test_i2p_phase_trains_evaluates_and_resumes(tmp_path, capsys):
 def test_i2p_needs_a_method_of_the_run(tmp_path):
     with pytest.raises(VggcError, match="--i2p lsr"):
         BenchmarkConfig(tmp_path, ("fruit-2x3",), ("pca-hdbscan",), i2p=("lsr",))
+
+
+def test_counterpart_too_large_is_reported_not_run():
+    from conftest import make_trace
+
+    from vggc_cp.solvers import Problem
+    from vggc_cp.solvers.merge import threshold_path
+    from vggc_cp.solvers.merge_exact import exact_counterpart
+
+    names = ("pick_L", "pick_R", "place_L", "place_R")
+    trace = make_trace([["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]],
+                       names)
+    roles = trace.roles()
+    mats = [np.ones((int((roles == r).sum()),) * 2) - np.eye(int((roles == r).sum()))
+            for r in (0, 1)]
+    problem = Problem.from_trace(trace.without_states(), *mats)
+    merge = threshold_path(problem, [0.5]).best
+    out = exact_counterpart(problem, merge, max_clauses=0)
+    assert out.skipped and out.minimal_nodes is None and not out.proved
+    assert out.best.n_nodes == merge.n_nodes and "not decided" in out.summary()

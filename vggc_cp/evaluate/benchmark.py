@@ -416,7 +416,8 @@ def run_cpsat_merge(trace: Trace, job: CellJob) -> MethodRun:
     best = exact.best
     return _solved(problem, best, seconds, select="fewest", merge_nodes=exact.merge_nodes,
                    minimal_nodes=exact.minimal_nodes, proved_minimal=exact.proved,
-                   cannot_link=exact.cannot_link, grid=exact.sweep.records())
+                   cannot_link=exact.cannot_link, exact_skipped=exact.skipped,
+                   grid=exact.sweep.records())
 
 
 @register_method("pca-hdbscan")
@@ -478,7 +479,8 @@ def run_cell(job: CellJob) -> dict:
                 "trans_prec": metrics.trans_prec, "trans_cov": metrics.trans_cov,
                 "exec": metrics.exec, "plan_found": metrics.plan_found, "dynamics": dynamics,
                 "solution": str(job.solution_path)}
-        for k in ("threshold", "merge_nodes", "minimal_nodes", "proved_minimal", "cannot_link"):
+        for k in ("threshold", "merge_nodes", "minimal_nodes", "proved_minimal", "cannot_link",
+                  "exact_skipped"):
             if k in run.solution:
                 row[k] = run.solution[k]
     row["seconds_evaluate"] = round(time.perf_counter() - t0, 3)

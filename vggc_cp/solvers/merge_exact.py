@@ -36,6 +36,8 @@ from vggc_cp.solvers.base import Problem, SolveResult
 DEFAULT_WINDOW = 6
 #: CP-SAT parameters per cell of the counterpart.
 DEFAULT_PARAMS = "max_time_in_seconds:5,num_workers:2"
+#: Largest number of cannot-link clauses (far pairs x colours) a counterpart model may hold.
+MAX_CLAUSES = 3_000_000
 
 
 def widest_pair(problem: Problem, labels: np.ndarray) -> float:
@@ -69,6 +71,9 @@ class MergeCounterpart:
     cannot_link : float
         ``tau``.
     seconds : float
+    skipped : str or None
+        Why CP-SAT was not run (the model would exceed ``max_clauses``); the sweep then holds
+        the merge colouring alone.
     """
 
     sweep: object
@@ -77,12 +82,15 @@ class MergeCounterpart:
     proved: bool
     cannot_link: float
     seconds: float
+    skipped: str | None = None
 
     @property
     def best(self) -> SolveResult | None:
         return self.sweep.best
 
     def summary(self) -> str:
+        if self.skipped:
+            return f"not decided: {self.skipped}"
         if self.minimal_nodes is None:
             return "no colouring in the window"
         verdict = ("merge is node-minimal" if self.minimal_nodes == self.merge_nodes
@@ -92,14 +100,28 @@ class MergeCounterpart:
 
 
 def exact_counterpart(problem: Problem, merge: SolveResult, *, window: int = DEFAULT_WINDOW,
-                      params: str = DEFAULT_PARAMS, progress: bool = False) -> MergeCounterpart:
-    """Fewest nodes under the merge's constraints near the merge result (module docstring)."""
+                      params: str = DEFAULT_PARAMS, max_clauses: int = MAX_CLAUSES,
+                      progress: bool = False) -> MergeCounterpart:
+    """Fewest nodes under the merge's constraints near the merge result (module docstring).
+
+    When the cannot-link clauses of the top cell would exceed ``max_clauses``, CP-SAT is not
+    run and the result says so (``skipped``).
+    """
     from vggc_cp.solvers.cpsat import INFEASIBLE, CpSatSolver, exact_sweep
+    from vggc_cp.solvers.sweep import Sweep
 
     t0 = time.perf_counter()
     tau = widest_pair(problem, merge.labels)
     kp_top = len(np.unique(merge.labels[problem.pick_obs])) if problem.n_pick else 0
     kq_top = len(np.unique(merge.labels[problem.place_obs])) if problem.n_place else 0
+    clauses = sum(int(np.count_nonzero(np.triu((d + d.T) / 2.0 > tau, 1))) * k
+                  for d, k in ((problem.dist_pick, kp_top), (problem.dist_place, kq_top)))
+    if clauses > max_clauses:
+        kept = replace(merge, k_pick=kp_top, k_place=kq_top)
+        sweep = Sweep((kept,), 0, "fewest", "merge", 0.0, 1)
+        return MergeCounterpart(sweep, merge.n_nodes, None, False, tau,
+                                time.perf_counter() - t0,
+                                f"{clauses} cannot-link clauses > max_clauses {max_clauses}")
     kp = range(max(1, kp_top - window), max(1, kp_top) + 1)
     kq = range(max(1, kq_top - window), max(1, kq_top) + 1)
     solver = CpSatSolver(objective="none", deterministic=True, codeterministic=True,
@@ -119,5 +141,5 @@ def exact_counterpart(problem: Problem, merge: SolveResult, *, window: int = DEF
                             time.perf_counter() - t0)
 
 
-__all__ = ["DEFAULT_PARAMS", "DEFAULT_WINDOW", "MergeCounterpart", "exact_counterpart",
+__all__ = ["DEFAULT_PARAMS", "DEFAULT_WINDOW", "MAX_CLAUSES", "MergeCounterpart", "exact_counterpart",
            "widest_pair"]
