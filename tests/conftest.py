@@ -39,6 +39,18 @@ def make_trace(episodes, action_names, size: int = 8, noise: int = 0, seed: int 
                  np.array(states, dtype=str), {"benchmark": "handmade"})
 
 
+def fruit_episode(rng, length):
+    """One fruit, three regions: pick states '1','2','3' (fruit there), place state 'H'; actions
+    ``pick_r`` / ``place_r`` (random valid choices from ``rng``)."""
+    r = int(rng.integers(1, 4))
+    ep = [str(r)]
+    for _ in range(length):
+        ep += [f"pick_{r}", "H"]
+        r = int(rng.integers(1, 4))
+        ep += [f"place_{r}", str(r)]
+    return ep
+
+
 # Two regions, one object: states "L" (object left, pick side), "R", and "H" (held, place side).
 TOY_NAMES = ("pick_L", "pick_R", "place_L", "place_R")
 

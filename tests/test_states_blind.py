@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import make_trace
+from conftest import fruit_episode, make_trace
 
 from vggc_cp.cli import main
 from vggc_cp.solvers.merge import PATH_SELECTIONS
@@ -25,16 +25,7 @@ FIELDS = ("labels", "edges", "k_pick", "k_place", "J", "status", "nodes")
 
 def _episodes(seed: int, n: int = 4, length: int = 3):
     rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        r = int(rng.integers(1, 4))
-        ep = [str(r)]
-        for _ in range(length):
-            ep += [f"pick_{r}", "H"]
-            r = int(rng.integers(1, 4))
-            ep += [f"place_{r}", str(r)]
-        out.append(ep)
-    return out
+    return [fruit_episode(rng, length) for _ in range(n)]
 
 
 @pytest.fixture(scope="module")

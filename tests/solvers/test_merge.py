@@ -3,24 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
-from conftest import make_trace
+from conftest import fruit_episode, make_trace
 
 from vggc_cp.graph import check
 from vggc_cp.solvers import Problem, get_solver
 from vggc_cp.solvers.merge import congruence_merge
 
 NAMES = ("pick_1", "pick_2", "pick_3", "place_1", "place_2", "place_3")
-
-
-def fruit_episode(rng, length):
-    """One fruit, three regions: pick states '1','2','3' (fruit there), place state 'H'."""
-    r = int(rng.integers(1, 4))
-    ep = [str(r)]
-    for _ in range(length):
-        ep += [f"pick_{r}", "H"]
-        r = int(rng.integers(1, 4))
-        ep += [f"place_{r}", str(r)]
-    return ep
 
 
 def problem_with_distances(trace, noise, between, seed=0):

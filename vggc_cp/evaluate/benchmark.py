@@ -239,15 +239,21 @@ def _distance_key() -> tuple[dict, str]:
     return key, hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
 
 
-def cached_row(job: CellJob) -> dict | None:
-    """The cached row of ``job`` when it was made with the same settings, else None."""
-    if not job.cell_path.is_file():
+def _cached(path: Path, key: dict, member: str) -> dict | None:
+    """``member`` of the cache file at ``path`` when it was written under ``key``, else None
+    (also for a missing or unreadable file)."""
+    if not path.is_file():
         return None
     try:
-        data = json.loads(job.cell_path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError):
         return None
-    return data.get("row") if data.get("key") == job.key else None
+    return data.get(member) if data.get("key") == key else None
+
+
+def cached_row(job: CellJob) -> dict | None:
+    """The cached row of ``job`` when it was made with the same settings, else None."""
+    return _cached(job.cell_path, job.key, "row")
 
 
 # ---------------------------------------------------------------- methods
@@ -623,13 +629,7 @@ def i2p_jobs(cfg: BenchmarkConfig, rows: list[dict]) -> list[I2PJob]:
 
 def cached_i2p(job: I2PJob) -> dict | None:
     """The cached I2P figures of ``job`` when made with the same settings, else None."""
-    if not job.i2p_path.is_file():
-        return None
-    try:
-        data = json.loads(job.i2p_path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return None
-    return data.get("figures") if data.get("key") == job.key else None
+    return _cached(job.i2p_path, job.key, "figures")
 
 
 def run_i2p(job: I2PJob) -> tuple[tuple[str, str, int], dict]:
