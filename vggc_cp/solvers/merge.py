@@ -33,6 +33,7 @@ import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 
@@ -278,7 +279,9 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
             seen: dict[int, int] = {}
             still: list[tuple[int, int]] = []
             keep = still.append
-            for act, y in mism.pop(ha, ()):
+            entries = chain(mism.pop(ha, ()), *(sig[r] for r in rb))
+            mism.pop(hb, None)
+            for act, y in entries:
                 h2 = head(y)
                 f = seen.get(act)
                 if f is None:
@@ -286,16 +289,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
                 if f != h2:
                     push((f, h2))
                     keep((act, y))
-            mism.pop(hb, None)
-            for r in rb:
-                for act, y in sig[r]:
-                    h2 = head(y)
-                    f = seen.get(act)
-                    if f is None:
-                        f = seen[act] = head(fa[act])
-                    if f != h2:
-                        push((f, h2))
-                        keep((act, y))
             # Exactly-One, early: merges never split, so two actions from (or into) the
             # merged group that already meet one group make the closure fail whatever follows;
             # refuse it now (the final check below would refuse it anyway, at most later and
