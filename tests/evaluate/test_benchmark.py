@@ -182,3 +182,26 @@ def test_counterpart_too_large_is_reported_not_run():
     out = exact_counterpart(problem, merge, max_clauses=0)
     assert out.skipped and out.minimal_nodes is None and not out.proved
     assert out.best.n_nodes == merge.n_nodes and "not decided" in out.summary()
+
+
+def test_a_trace_explored_under_other_settings_is_generated_again(tmp_path, capsys):
+    from vggc_cp.evaluate.benchmark import trace_is_current
+
+    out = tmp_path / "bench"
+    argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan",
+            "--seeds", "0", "--transitions", "12", "-Q", "20", "--jobs", "1", "--out",
+            str(out), "--quiet"]
+    assert main(argv) == 0
+    path = out / "traces" / "fruit-2x3-d12-s0.npz"
+    assert trace_is_current(path, "fruit-2x3")
+    assert main(argv) == 0 and "0 computed, 1 reused" in capsys.readouterr().out
+    # a trace from an older exploration (other episode lengths): stale, so its cells are redone
+    old = load_trace(path)
+    old.meta["episode_length"] = [1, 2]
+    from vggc_cp.trace import save_trace
+
+    save_trace(old, path)
+    assert not trace_is_current(path, "fruit-2x3")
+    assert main(argv) == 0 and "1 computed, 0 reused" in capsys.readouterr().out
+    assert trace_is_current(path, "fruit-2x3")
+    assert load_trace(path).meta["episode_length"] == [4, 12]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -22,6 +24,24 @@ def test_paper_size_walk_visits_the_papers_state_count(name):
     walk = random_walk(b, b.spec.default_transitions, seed_streams(0)[0])
     assert walk.n_transitions == b.spec.default_transitions
     assert walk.distinct_states() == COVERED[name] == len(b.all_states())
+
+
+def test_home_starts_keep_multifruit_4x6_near_the_papers_state_count():
+    b = get_benchmark("multifruit-4x6")
+    assert b.spec.start_states == 1
+    counts = []
+    for seed in range(4):
+        walk = random_walk(b, b.spec.default_transitions, seed_streams(seed)[0])
+        firsts = {walk.states[0]} | {walk.states[t + 1] for t in np.flatnonzero(walk.actions < 0)}
+        assert len(firsts) == 1  # every episode begins at the home state
+        counts.append(walk.distinct_states())
+    # the paper's trace visits 58 of the 210 states; starting anywhere would visit ~165
+    assert all(40 <= c <= 80 for c in counts), counts
+    uniform = replace(b.spec, start_states=0)
+    from vggc_cp.sim.dynamics import Benchmark
+
+    wide = random_walk(Benchmark(uniform), b.spec.default_transitions, seed_streams(0)[0])
+    assert wide.distinct_states() > 2 * max(counts)
 
 
 @pytest.mark.parametrize("name", benchmark_names())
@@ -116,5 +136,5 @@ def test_paper_size_trace(name, tmp_path):
     distinct = len(set(tr.states.tolist()))
     if name in COVERED:
         assert distinct == COVERED[name]
-    else:  # multifruit-4x6: the paper visits 58 of 210; random starts visit more
-        assert b.spec.paper_states <= distinct <= len(b.all_states())
+    else:  # multifruit-4x6: the paper visits 58 of 210; episodes from one home state
+        assert abs(distinct - b.spec.paper_states) <= 15 and distinct < len(b.all_states()) / 2

@@ -256,6 +256,30 @@ def cached_row(job: CellJob) -> dict | None:
     return _cached(job.cell_path, job.key, "row")
 
 
+def exploration_of(benchmark: str) -> dict:
+    """The spec's exploration settings, as a generated trace's ``meta`` records them."""
+    from vggc_cp.sim import get_spec
+
+    spec = get_spec(benchmark)
+    return {"episode_length": list(spec.episode_length), "start_states": spec.start_states}
+
+
+def trace_is_current(path: Path, benchmark: str) -> bool:
+    """Whether the trace file at ``path`` exists and was explored with the benchmark's current
+    settings (a trace written before ``start_states`` existed counts as ``0``). A stale trace is
+    generated again, and every cell, distance matrix and I2P result made from it is redone."""
+    if not path.is_file():
+        return False
+    try:
+        meta = load_trace(path, validate_trace=False).meta
+    except VggcError:
+        return False
+    want = exploration_of(benchmark)
+    got = {"episode_length": meta.get("episode_length"),
+           "start_states": meta.get("start_states", 0)}
+    return got == want
+
+
 # ---------------------------------------------------------------- methods
 
 
@@ -704,6 +728,19 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     check_backend(cfg.backend)
     t0 = time.perf_counter()
     jobs = cell_jobs(cfg)
+    current = {p: trace_is_current(p, b) for b, p in {(j.benchmark, j.trace_path) for j in jobs}}
+    out = Path(cfg.out)
+    for job in jobs:
+        if not current[job.trace_path] and job.trace_path.is_file():
+            name = job.cell_path.stem
+            for stale in (job.distances_path, job.solution_path, job.cell_path,
+                          out / "models" / f"{name}.pt", out / "i2p" / f"{name}.json"):
+                stale.unlink(missing_ok=True)
+    for path, ok in current.items():
+        if not ok and path.is_file():
+            for novel in path.parent.glob(f"{path.stem}.novel*.npz"):
+                novel.unlink()
+            path.unlink()
     rows: dict[tuple[str, str, int], dict] = {}
     todo = []
     for job in jobs:

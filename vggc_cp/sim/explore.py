@@ -1,4 +1,5 @@
-"""Exploration: random valid pick/place episodes from random valid starts, rendered to a trace.
+"""Exploration: random valid pick/place episodes from random valid starts (or home states),
+rendered to a trace.
 
 One seed drives everything through :class:`numpy.random.SeedSequence` children: the
 discrete walk, the continuous placement noise of the trace, and that of the novel renders.
@@ -64,13 +65,18 @@ def random_walk(bench: Benchmark, n_transitions: int, rng: np.random.Generator) 
     """Random valid pick/place episodes with exactly ``n_transitions`` transitions.
 
     Each episode starts from a state drawn uniformly from :meth:`Benchmark.all_states`
-    (pick or place state), has a length drawn uniformly from ``spec.episode_length``
-    (the last one is cut to fit), and takes a uniformly random valid action at every step;
-    picks and places alternate by construction.
+    (pick or place state) -- or, where ``spec.start_states = k > 0``, from ``k`` home states
+    drawn once (without replacement) before the first episode -- has a length drawn uniformly
+    from ``spec.episode_length`` (the last one is cut to fit), and takes a uniformly random
+    valid action at every step; picks and places alternate by construction.
     """
     if n_transitions < 1:
         raise ValueError("n_transitions must be >= 1")
     starts = bench.all_states()
+    k = bench.spec.start_states
+    if k > 0:
+        home = rng.choice(len(starts), size=min(k, len(starts)), replace=False)
+        starts = tuple(starts[int(i)] for i in sorted(home))
     index = {name: i for i, name in enumerate(bench.action_names)}
     lo, hi = bench.spec.episode_length
     states: list[str] = []
@@ -188,6 +194,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         "max_height": spec.max_height,
         "transitions": d,
         "episode_length": list(spec.episode_length),
+        "start_states": spec.start_states,
         "seed": int(seed),
         "image_size": [int(size), int(size)],
         "renderer": "pybullet ER_TINY_RENDERER (DIRECT)",
