@@ -18,7 +18,8 @@ def register(sub) -> None:
     from vggc_cp.sim import benchmark_names
 
     p = sub.add_parser("generate", help="explore a PyBullet benchmark and write a trace",
-                       description="Random valid pick/place episodes from random valid starts (home states where the benchmark has them), "
+                       description="Random valid pick/place episodes from random valid starts (or "
+                                   "the benchmark's home states), "
                                    "rendered headless. Benchmarks: " + ", ".join(benchmark_names()))
     p.add_argument("bench", metavar="BENCH", help="benchmark name (see `vggc-cp envs`)")
     p.add_argument("-o", "--output", required=True, help="trace .npz to write")
