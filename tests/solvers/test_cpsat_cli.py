@@ -38,3 +38,19 @@ def test_compare_end_to_end(tmp_path, toy_trace, capsys):
         if r["greedy_feasible"] == "True":
             assert float(r["cpsat_J"]) <= float(r["greedy_J"]) + 1e-9
     assert out_png.stat().st_size > 1000
+
+
+def test_solve_without_a_colouring_says_proved_or_undecided(tmp_path, toy_trace, capsys):
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    base = ["solve", str(path), "-o", str(tmp_path / "s.json"), "--k-pick", "1:1",
+            "--k-place", "1:1", "--quiet", "--grid", "4", "--cache-dir", str(tmp_path / "c")]
+    # CP-SAT proves the single cell infeasible: the message says so
+    assert main(base + ["--solver", "cpsat"]) == 2
+    err = capsys.readouterr().err
+    assert "1 cells: all proved infeasible" in err and err.count("\n") == 1
+    # the greedy heuristic proves nothing: the cell is undecided, not infeasible
+    assert main(base + ["--solver", "greedy", "--select", "fewest"]) == 2
+    err = capsys.readouterr().err
+    assert "0 proved infeasible, 1 undecided" in err
+    assert not (tmp_path / "s.json").exists()

@@ -182,8 +182,17 @@ def cmd_solve(args) -> int:
         print(f"plot           {args.plot}")
     best = sweep.best
     if best is None:
-        raise VggcError(f"no cell of the grid has a colouring ({len(sweep.results)} cells); "
-                        f"try larger --k-pick/--k-place; nothing written")
+        from vggc_cp.solvers.base import INFEASIBLE
+
+        proved = sum(r.status == INFEASIBLE for r in sweep.results)
+        undecided = len(sweep.results) - proved
+        why = (f"{proved} proved infeasible, {undecided} undecided (CP-SAT out of time or the "
+               f"greedy heuristic gave up)" if undecided else "all proved infeasible")
+        hint = ("try larger --k-pick/--k-place" if not undecided else
+                "try larger --k-pick/--k-place, --solver cpsat, or a longer time limit "
+                "(--cpsat-params max_time_in_seconds:...)")
+        raise VggcError(f"no cell of the grid has a colouring ({len(sweep.results)} cells: "
+                        f"{why}); {hint}; nothing written")
     _write_chosen(args, trace, cfg, problem, best, f"k_pick {best.k_pick}, k_place "
                   f"{best.k_place} ({args.select})", select=args.select, grid=sweep.records(),
                   seconds={"distances": round(t_dist, 3), "sweep": round(sweep.seconds, 3)})
