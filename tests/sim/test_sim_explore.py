@@ -9,6 +9,7 @@ import pytest
 
 from vggc_cp.errors import VggcError
 from vggc_cp.sim import benchmark_names, get_benchmark
+from vggc_cp.sim.dynamics import Benchmark
 from vggc_cp.sim.explore import generate, random_walk, seed_streams
 from vggc_cp.sim.novel import load_novel, novel_path, save_novel
 from vggc_cp.trace import compute_roles, load_trace, save_trace, validate
@@ -38,8 +39,6 @@ def test_home_starts_keep_multifruit_4x6_near_the_papers_state_count():
     # the paper's trace visits 58 of the 210 states; starting anywhere would visit ~165
     assert all(40 <= c <= 80 for c in counts), counts
     uniform = replace(b.spec, start_states=0)
-    from vggc_cp.sim.dynamics import Benchmark
-
     wide = random_walk(Benchmark(uniform), b.spec.default_transitions, seed_streams(0)[0])
     assert wide.distinct_states() > 2 * max(counts)
 

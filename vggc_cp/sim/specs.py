@@ -55,9 +55,9 @@ class BenchmarkSpec:
         Where episodes begin. 0: every episode at a state drawn uniformly from all valid
         states. ``k > 0``: the trace draws ``k`` home states once and every episode begins at
         one of them, like a robot reset to a home scene between episodes. Only
-        multifruit-4x6 uses it (``k = 1``): its 210 states cannot all be visited by 400
-        transitions, and the paper's trace visits 58 of them, so its exploration is local;
-        uniform starts would visit about 165.
+        multifruit-4x6 uses it (``k = 1``, with episodes of 2-8 transitions): its 210 states
+        cannot all be visited by 400 transitions, and the paper's trace visits 58 of them, so
+        its exploration is local; uniform starts visit about 165, home starts 55-75.
     """
 
     name: str
