@@ -57,7 +57,7 @@ class BenchmarkSpec:
         one of them, like a robot reset to a home scene between episodes. Only
         multifruit-4x6 uses it (``k = 1``, with episodes of 2-8 transitions): its 210 states
         cannot all be visited by 400 transitions, and the paper's trace visits 58 of them, so
-        its exploration is local; uniform starts visit about 165, home starts 55-75.
+        its exploration is local; uniform starts visit about 165, home starts 50-75.
     """
 
     name: str
