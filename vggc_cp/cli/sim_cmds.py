@@ -98,20 +98,24 @@ def cmd_generate(args) -> int:
 def cmd_envs(args) -> int:
     from vggc_cp.sim import benchmark_names, get_benchmark
 
-    head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|")
+    head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|", "episodes")
     rows = []
     for name in benchmark_names():
         b = get_benchmark(name)
         s = b.spec
+        starts = "any state" if s.start_states == 0 else f"{s.start_states} home"
         rows.append((name, s.m, s.n, s.R, s.n_actions, len(b.all_states()), s.paper_states,
-                     s.default_transitions))
+                     s.default_transitions,
+                     f"{s.episode_length[0]}-{s.episode_length[1]} from {starts}"))
     widths = [max(len(str(r[i])) for r in (head, *rows)) for i in range(len(head))]
-    fmt = "  ".join(f"{{:<{w}}}" if i == 0 else f"{{:>{w}}}" for i, w in enumerate(widths))
+    fmt = "  ".join(f"{{:<{w}}}" if i in (0, len(head) - 1) else f"{{:>{w}}}"
+                    for i, w in enumerate(widths))
     print(fmt.format(*head))
     for row in rows:
         print(fmt.format(*row))
     print("states: the full reachable state count (pick and place states); "
-          "paper |V*|: states a trace at the default |D| visits")
+          "paper |V*|: states a trace at the default |D| visits;\n"
+          "episodes: transitions per exploration episode, and where each begins")
     return 0
 
 
