@@ -110,9 +110,9 @@ def cmd_envs(args) -> int:
     widths = [max(len(str(r[i])) for r in (head, *rows)) for i in range(len(head))]
     fmt = "  ".join(f"{{:<{w}}}" if i in (0, len(head) - 1) else f"{{:>{w}}}"
                     for i, w in enumerate(widths))
-    print(fmt.format(*head))
+    print(fmt.format(*head).rstrip())
     for row in rows:
-        print(fmt.format(*row))
+        print(fmt.format(*row).rstrip())
     print("states: the full reachable state count (pick and place states); "
           "paper |V*|: states a trace at the default |D| visits;\n"
           "episodes: transitions per exploration episode, and where each begins")
