@@ -17,6 +17,7 @@ from vggc_cp.solvers.brute import (
     CellConstraints,
     count_partitions,
     enumerate_cell,
+    fit_colouring,
     restricted_growth_strings,
     split_colours,
     violations,
@@ -361,3 +362,37 @@ def test_large_models_drop_the_objective():
     assert res.stats["objective_mode"] == "none"
     assert any("objective dropped" in n for n in res.stats["notes"])
     assert check(p.graph(res.labels)).ok and math.isfinite(res.J)
+
+
+def test_fit_colouring_squeezes_a_larger_cells_colouring():
+    rng = np.random.default_rng(5)
+    names = [f"pick_{r}" for r in (1, 2, 3)] + [f"place_{r}" for r in (1, 2, 3)]
+    eps = [[names[int(rng.integers(3)) + 3 * (t % 2)] for t in range(4)] for _ in range(3)]
+    problem = chain_problem(eps, names)
+    own = np.arange(problem.n_obs)  # every observation its own node: valid in any big cell
+    pc, qc, bad = fit_colouring(problem, own, problem.n_pick, problem.n_place)
+    assert bad == 0 and len(set(pc)) == problem.n_pick  # nothing to merge
+    for kp, kq in [(3, 3), (2, 2), (1, 3), (1, 1)]:
+        pc, qc, bad = fit_colouring(problem, own, kp, kq)
+        assert len(set(pc.tolist())) <= kp and len(set(qc.tolist())) <= kq
+        assert bad == len(violations(problem, pc, qc))
+
+
+@pytest.mark.parametrize("cell", [(1, 1), (1, 2), (2, 1), (2, 2), (3, 2)])
+def test_repair_hint_never_changes_the_verdict(cell):
+    """An offered colouring that does not fit the cell is only a start for CP-SAT: the verdict
+    is the brute force's, and a found colouring passes the checker."""
+    rng = np.random.default_rng(11)
+    names = [f"pick_{r}" for r in (1, 2, 3)] + [f"place_{r}" for r in (1, 2, 3)]
+    eps = [[names[int(rng.integers(3)) + 3 * (t % 2)] for t in range(4)] for _ in range(2)]
+    problem = chain_problem(eps, names)
+    own = np.arange(problem.n_obs)
+    truth = BruteSolver().solve(problem, *cell)
+    res = CpSatSolver(objective="none", hint="none", params=FAST,
+                      hints=[("own nodes", own)]).solve(problem, *cell)
+    assert res.found == truth.found
+    assert res.status in (FEASIBLE, INFEASIBLE)
+    if res.found:
+        assert check(problem.graph(res.labels)).ok
+    if fit_colouring(problem, own, *cell)[2] > 0 and res.stats.get("variables"):
+        assert "violated constraints" in res.stats["repair_hint"]

@@ -54,3 +54,29 @@ def test_solve_without_a_colouring_says_proved_or_undecided(tmp_path, toy_trace,
     err = capsys.readouterr().err
     assert "0 proved infeasible, 1 undecided" in err
     assert not (tmp_path / "s.json").exists()
+
+
+def test_solve_with_a_hint_from_a_larger_cell(tmp_path, toy_trace, capsys):
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    common = ["--quiet", "--grid", "4", "--cache-dir", str(tmp_path / "c"), "--solver", "cpsat",
+              "--cpsat-params", "max_time_in_seconds:10,num_workers:1"]
+    big = tmp_path / "big.json"
+    assert main(["solve", str(path), "-o", str(big), "--k-pick", "3:3", "--k-place", "2:2"]
+                + common) == 0
+    out = tmp_path / "small.json"
+    assert main(["solve", str(path), "-o", str(out), "--k-pick", "2:2", "--k-place", "1:1",
+                 "--hint", str(big)] + common) == 0
+    from vggc_cp.solution import read_solution, verify_solution
+
+    verify_solution(read_solution(out), toy_trace)
+    capsys.readouterr()
+    # a hint that labels another trace: one clear line, exit 2, nothing written
+    other = tmp_path / "other.json"
+    other.write_text(big.read_text().replace('"labels": [', '"labels": [0, '))
+    bad = tmp_path / "bad.json"
+    rc = main(["solve", str(path), "-o", str(bad), "--k-pick", "2:2", "--k-place", "1:1",
+               "--hint", str(other)] + common)
+    err = capsys.readouterr().err
+    assert rc == 2 and "other.json" in err and "'labels'" in err and err.count("\n") == 1
+    assert not bad.exists()

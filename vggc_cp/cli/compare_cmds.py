@@ -29,20 +29,37 @@ def add_cpsat_arguments(p) -> None:
     p.add_argument("--objective", choices=("J", "none"), default="J",
                    help="CP-SAT: minimize the quantized visual score J (default) or decide "
                         "feasibility only")
+    p.add_argument("--hint", default=None, metavar="SOLUTION",
+                   help="CP-SAT: a solution JSON of this trace (e.g. of a larger cell) offered "
+                        "to every cell: a hint where valid, else merged into the cell's colours "
+                        "and repaired by CP-SAT (a start, never a proof)")
     p.add_argument("--optimize", choices=("minimal", "all"), default="minimal",
                    help="CP-SAT cells whose J is minimized: those of the fewest feasible nodes "
                         "(default) or every feasible cell")
 
 
-def make_cpsat_solver(args, tau: float | None = None):
-    """The :class:`~vggc_cp.solvers.cpsat.CpSatSolver` of the parsed options (errors: exit 2)."""
+def make_cpsat_solver(args, tau: float | None = None, n_obs: int | None = None):
+    """The :class:`~vggc_cp.solvers.cpsat.CpSatSolver` of the parsed options (errors: exit 2).
+
+    With ``n_obs`` (the trace's observation count) a ``--hint`` solution must label exactly that
+    many observations.
+    """
     from vggc_cp.solvers.cpsat import CpSatSolver
 
     greedy_options = {} if tau is None else {"tau": tau}
+    hints = []
+    if getattr(args, "hint", None):
+        from vggc_cp.solution import read_solution
+
+        labels = read_solution(args.hint).labels
+        if n_obs is not None and len(labels) != n_obs:
+            raise VggcError(f"{args.hint}: field 'labels' has {len(labels)} entries, the trace "
+                            f"has {n_obs} observations")
+        hints.append((f"--hint {args.hint}", labels))
     return CpSatSolver(objective=args.objective, deterministic=args.deterministic,
                        max_actions=args.max_actions, params=args.cpsat_params,
                        greedy_options=greedy_options, codeterministic=args.codeterministic,
-                       cannot_link=args.cannot_link)
+                       cannot_link=args.cannot_link, hints=hints)
 
 
 def cpsat_sweeps(problem, kp, kq, args, *, tau: float | None = None, jobs: int = 1,
@@ -52,7 +69,7 @@ def cpsat_sweeps(problem, kp, kq, args, *, tau: float | None = None, jobs: int =
     from vggc_cp.solvers.greedy import GreedySolver
     from vggc_cp.solvers.sweep import run_sweep
 
-    solver = make_cpsat_solver(args, tau)
+    solver = make_cpsat_solver(args, tau, n_obs=problem.n_obs)
     greedy = run_sweep(problem, GreedySolver(**solver.greedy_options), kp, kq, jobs=jobs,
                        select=select, progress=progress)
     exact = exact_sweep(problem, kp, kq, solver, greedy.results, optimize=args.optimize,

@@ -88,6 +88,37 @@ def _first_appearance(colours: np.ndarray) -> np.ndarray:
     return out
 
 
+def fit_colouring(problem: Problem, labels: np.ndarray, k_pick: int, k_place: int,
+                  constraints: CellConstraints = CellConstraints()
+                  ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Squeeze a colouring into a cell by merging colours: ``(pick, place, n_violations)``.
+
+    While a role has more colours than the cell allows, the two of its colours whose merge
+    leaves the fewest violated constraints are merged (greedy, ties: the lowest pair). A valid
+    colouring of a larger cell so becomes a near-valid one of a smaller cell -- a start for a
+    solver that can repair it, never a proof of anything.
+
+    Parameters
+    ----------
+    labels : ndarray of int, shape (N,)
+        Global labels (any numbering; :func:`split_colours` renumbers them per role).
+    """
+    cols = list(split_colours(problem, labels))
+    for r, k in ((0, max(int(k_pick), 1)), (1, max(int(k_place), 1))):
+        while len(np.unique(cols[r])) > k:
+            present = np.unique(cols[r]).tolist()
+            best = None
+            for i, a in enumerate(present):
+                for b in present[i + 1:]:
+                    trial = list(cols)
+                    trial[r] = np.where(cols[r] == b, a, cols[r])
+                    n = len(violations(problem, trial[0], trial[1], constraints))
+                    if best is None or n < best[0]:
+                        best = (n, trial[r])
+            cols[r] = _first_appearance(best[1])
+    return cols[0], cols[1], len(violations(problem, cols[0], cols[1], constraints))
+
+
 def violations(problem: Problem, pick_colour: np.ndarray, place_colour: np.ndarray,
                constraints: CellConstraints = CellConstraints()) -> list[str]:
     """Every violated cell constraint of a per-role colouring (empty list: valid).

@@ -161,7 +161,7 @@ from vggc_cp.solvers.base import (
     SolveResult,
     register_solver,
 )
-from vggc_cp.solvers.brute import CellConstraints, split_colours, violations
+from vggc_cp.solvers.brute import CellConstraints, fit_colouring, split_colours, violations
 from vggc_cp.trace import PICK, PLACE
 
 OBJECTIVES = ("J", "none")
@@ -372,7 +372,8 @@ class CellModel:
         return total
 
     def hint_assignment(self, pick_colour: np.ndarray, place_colour: np.ndarray) -> dict:
-        """Values of every model variable for a valid colouring: ``{index: (var, value)}``.
+        """Values of every model variable for a colouring: ``{index: (var, value)}`` (for an
+        invalid one, a hint that CP-SAT has to repair).
 
         The colouring is first renamed by :meth:`canonical` so that it satisfies the
         symmetry breaking; returns ``{}`` when it uses more colours than the cell allows.
@@ -937,6 +938,13 @@ class CpSatSolver(Solver):
         See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
+    hints : sequence of (str, ndarray), optional
+        Extra colourings ``(source, labels (N,))`` offered to every cell, e.g. a solution of a
+        larger cell. A valid one is a hint like the greedy colouring (and the floor of the
+        result). When no offered colouring is valid in the cell, the one that
+        :func:`~vggc_cp.solvers.brute.fit_colouring` squeezes into it with the fewest
+        violations is given to CP-SAT as a *repair* hint (``repair_hint``): a start for the
+        search, never part of a proof; ``stats["repair_hint"]`` says which and how far off.
     """
 
     name = "cpsat"
@@ -946,12 +954,14 @@ class CpSatSolver(Solver):
                  max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
                  size_cuts: bool = True, enumerate_limit: int = 20_000,
                  greedy_options: dict | None = None, codeterministic: bool = False,
-                 cannot_link: float | None = None):
+                 cannot_link: float | None = None,
+                 hints: Sequence[tuple[str, np.ndarray]] = ()):
         self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
                                     max_pair_terms, hint, symmetry, size_cuts, enumerate_limit,
                                     codeterministic, cannot_link)
         self.params_text = self.options.sat_parameters_text()
         self.greedy_options = dict(greedy_options or {})
+        self.hints = [(str(src), np.asarray(lab, dtype=np.int64)) for src, lab in hints]
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
         hints: list[tuple[str, np.ndarray]] = []
@@ -976,6 +986,7 @@ class CpSatSolver(Solver):
     def _solve_hinted(self, problem: Problem, k_pick: int, k_place: int,
                       hints: list[tuple[str, np.ndarray]]) -> SolveResult:
         t0 = time.perf_counter()
+        hints = list(hints) + self.hints
         params = sat_parameters_pb2.SatParameters()
         text_format.Merge(self.params_text, params)
         max_time = params.max_time_in_seconds
@@ -1010,6 +1021,7 @@ class CpSatSolver(Solver):
             return SolveResult(None, k_pick, k_place, math.nan, INFEASIBLE, self.name,
                                stats=stats)
         stats.update(variables=cm.n_variables, constraints=cm.n_constraints)
+        repair = False
         if best_hint is not None:
             pc, qc = split_colours(problem, best_hint[1])
             values = cm.hint_assignment(pc, qc)
@@ -1017,9 +1029,13 @@ class CpSatSolver(Solver):
                 cm.model.add_hint(var, value)
             stats["hint_objective"] = cm.integer_objective(*cm.canonical(pc, qc)) \
                 if cm.objective_mode == "J" else None
+        elif self.hints:
+            repair = self._add_repair_hint(problem, k_pick, k_place, cm, stats)
         solver = cp_model.CpSolver()
         if not solver.parameters.merge_text_format(self.params_text):
             raise VggcError(f"--cpsat-params rejected by OR-Tools: {self.params_text!r}")
+        if repair:
+            solver.parameters.repair_hint = True
         if enum is not None and math.isfinite(max_time):  # the limit covers the whole cell
             solver.parameters.max_time_in_seconds = max(max_time - (time.perf_counter() - t0),
                                                         0.01)
@@ -1081,6 +1097,25 @@ class CpSatSolver(Solver):
             labels, status, bound = best_hint[1], FEASIBLE, None
         stats["gap"] = 0.0 if status == OPTIMAL else None
         return self._result(problem, k_pick, k_place, labels, status, bound, stats)
+
+    def _add_repair_hint(self, problem, k_pick, k_place, cm: CellModel, stats) -> bool:
+        """Hint the offered colouring that fits the cell with the fewest violations."""
+        best = None
+        for source, labels in self.hints:
+            if len(labels) != problem.n_obs:
+                continue
+            pc, qc, bad = fit_colouring(problem, labels, k_pick, k_place,
+                                        self.options.constraints)
+            if best is None or bad < best[0]:
+                best = (bad, source, pc, qc)
+        if best is None:
+            return False
+        values = cm.hint_assignment(best[2], best[3])
+        for var, value in values.values():
+            cm.model.add_hint(var, value)
+        stats["repair_hint"] = (f"{best[1]}: merged into the cell's colours, "
+                                f"{best[0]} violated constraints")
+        return bool(values)
 
     def _pick_hint(self, problem, k_pick, k_place, hints, stats):
         """The valid hint with the lowest float J: ``(source, labels, J)`` or None."""
