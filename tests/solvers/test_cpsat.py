@@ -378,21 +378,34 @@ def test_fit_colouring_squeezes_a_larger_cells_colouring():
         assert bad == len(violations(problem, pc, qc))
 
 
-@pytest.mark.parametrize("cell", [(1, 1), (1, 2), (2, 1), (2, 2), (3, 2)])
+@pytest.mark.parametrize("cell", [(1, 1), (1, 2), (2, 1), (2, 2), (3, 2), (2, 3)])
 def test_repair_hint_never_changes_the_verdict(cell):
-    """An offered colouring that does not fit the cell is only a start for CP-SAT: the verdict
-    is the brute force's, and a found colouring passes the checker."""
+    """A colouring of the next larger cell, offered to a cell it does not fit, is only a start
+    for CP-SAT: the verdict is the brute force's, and a found colouring passes the checker."""
     rng = np.random.default_rng(11)
     names = [f"pick_{r}" for r in (1, 2, 3)] + [f"place_{r}" for r in (1, 2, 3)]
     eps = [[names[int(rng.integers(3)) + 3 * (t % 2)] for t in range(4)] for _ in range(2)]
     problem = chain_problem(eps, names)
-    own = np.arange(problem.n_obs)
+    larger = BruteSolver().solve(problem, cell[0] + 1, cell[1] + 1)
+    assert larger.found
     truth = BruteSolver().solve(problem, *cell)
     res = CpSatSolver(objective="none", hint="none", params=FAST,
-                      hints=[("own nodes", own)]).solve(problem, *cell)
+                      hints=[("larger cell", larger.labels)]).solve(problem, *cell)
     assert res.found == truth.found
     assert res.status in (FEASIBLE, INFEASIBLE)
     if res.found:
         assert check(problem.graph(res.labels)).ok
-    if fit_colouring(problem, own, *cell)[2] > 0 and res.stats.get("variables"):
+    if fit_colouring(problem, larger.labels, *cell)[2] > 0 and res.stats.get("variables"):
         assert "violated constraints" in res.stats["repair_hint"]
+
+
+def test_a_far_away_hint_is_not_squeezed():
+    rng = np.random.default_rng(11)
+    names = [f"pick_{r}" for r in (1, 2, 3)] + [f"place_{r}" for r in (1, 2, 3)]
+    eps = [[names[int(rng.integers(3)) + 3 * (t % 2)] for t in range(6)] for _ in range(3)]
+    problem = chain_problem(eps, names)
+    own = np.arange(problem.n_obs)  # every observation its own node: many merges from (3, 3)
+    res = CpSatSolver(objective="none", hint="none", params=FAST,
+                      hints=[("own nodes", own)]).solve(problem, 3, 3)
+    assert "repair_hint" not in res.stats
+    assert any("merges from the cell" in r for r in res.stats["hints_rejected"])

@@ -167,6 +167,10 @@ from vggc_cp.trace import PICK, PLACE
 OBJECTIVES = ("J", "none")
 HINTS = ("greedy", "none")
 DEFAULT_PARAMS = "max_time_in_seconds:10,num_workers:2"
+
+#: A colouring offered as a repair hint is used only this many colour merges from the cell:
+#: each merge tries every pair of colours (quadratic), and a far-away colouring is a poor start.
+REPAIR_MAX_MERGES = 6
 SIZE_CUT_SCALE = 64
 
 
@@ -943,7 +947,7 @@ class CpSatSolver(Solver):
         larger cell. A valid one is a hint like the greedy colouring (and the floor of the
         result). When no offered colouring is valid in the cell, the one that
         :func:`~vggc_cp.solvers.brute.fit_colouring` squeezes into it with the fewest
-        violations is given to CP-SAT as a *repair* hint (``repair_hint``): a start for the
+        violations (at most :data:`REPAIR_MAX_MERGES` merges away) is given to CP-SAT as a *repair* hint (``repair_hint``): a start for the
         search, never part of a proof; ``stats["repair_hint"]`` says which and how far off.
     """
 
@@ -1099,10 +1103,17 @@ class CpSatSolver(Solver):
         return self._result(problem, k_pick, k_place, labels, status, bound, stats)
 
     def _add_repair_hint(self, problem, k_pick, k_place, cm: CellModel, stats) -> bool:
-        """Hint the offered colouring that fits the cell with the fewest violations."""
+        """Hint the offered colouring that fits the cell with the fewest violations (only
+        colourings at most :data:`REPAIR_MAX_MERGES` merges away from the cell)."""
         best = None
         for source, labels in self.hints:
             if len(labels) != problem.n_obs:
+                continue
+            pc, qc = split_colours(problem, labels)
+            merges = max(len(np.unique(pc)) - k_pick, 0) + max(len(np.unique(qc)) - k_place, 0)
+            if merges > REPAIR_MAX_MERGES:
+                stats.setdefault("hints_rejected", []).append(
+                    f"{source}: {merges} merges from the cell (> {REPAIR_MAX_MERGES})")
                 continue
             pc, qc, bad = fit_colouring(problem, labels, k_pick, k_place,
                                         self.options.constraints)
