@@ -409,3 +409,18 @@ def test_a_far_away_hint_is_not_squeezed():
                       hints=[("own nodes", own)]).solve(problem, 3, 3)
     assert "repair_hint" not in res.stats
     assert any("merges from the cell" in r for r in res.stats["hints_rejected"])
+
+
+def test_exact_sweep_passes_offered_hints_to_its_feasibility_solves():
+    from vggc_cp.solvers.cpsat import exact_sweep
+
+    rng = np.random.default_rng(11)
+    names = [f"pick_{r}" for r in (1, 2, 3)] + [f"place_{r}" for r in (1, 2, 3)]
+    eps = [[names[int(rng.integers(3)) + 3 * (t % 2)] for t in range(4)] for _ in range(2)]
+    problem = chain_problem(eps, names)
+    larger = BruteSolver().solve(problem, 3, 3)
+    solver = CpSatSolver(objective="none", params=FAST, hints=[("larger cell", larger.labels)])
+    sweep = exact_sweep(problem, [2], [2], solver, greedy=())
+    (res,) = sweep.results
+    assert res.found == BruteSolver().solve(problem, 2, 2).found
+    assert "larger cell" in res.stats.get("repair_hint", "")

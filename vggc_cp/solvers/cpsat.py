@@ -1214,6 +1214,7 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
     opts = solver.options
     feas_solver = CpSatSolver(**{**dataclasses.asdict(opts), "objective": "none", "hint": "none"})
     feas_solver.greedy_options = solver.greedy_options
+    feas_solver.hints = solver.hints  # offered colourings also start the feasibility solves
     cons = opts.constraints
     witness: dict = {}        # cell -> (source, labels, J): valid colourings found in the cell
     proved: dict = {}         # cell -> SolveResult proving infeasibility
