@@ -16,19 +16,19 @@ torch = pytest.importorskip("torch")
 pytestmark = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 
 
-@pytest.mark.parametrize(("grid", "eps", "dtype"), [
-    (8, 0.05, "float32"),
-    (16, 0.05, "float32"),
-    (16, 0.05, "float64"),
-    (4, 0.002, "float32"),  # max M / eps > 450: the log-domain iteration
+@pytest.mark.parametrize(("grid", "eps", "dtype", "floor", "mode"), [
+    (8, 0.05, "float32", 0.01, "scaling-float32"),
+    (16, 0.05, "float32", 0.01, "scaling-float32"),
+    (16, 0.05, "float64", 0.01, "scaling-float64"),
 ])
-def test_cuda_agrees_with_numpy(grid, eps, dtype):
+def test_cuda_agrees_with_numpy(grid, eps, dtype, floor, mode):
     rng = np.random.default_rng(7)
-    maps = synthetic_maps(40, grid, rng)
+    maps = synthetic_maps(40, grid, rng, floor=floor)
     M = cost_matrix(grid)
     ref, _ = sinkhorn_divergence_matrix(maps, M, eps, dtype="float64", device="numpy",
                                         tol=1e-9)
     S, stats = sinkhorn_divergence_matrix(maps, M, eps, dtype=dtype, device="cuda")
+    assert stats.mode == mode and stats.device.startswith("cuda")
     assert stats.unconverged == 0
     off = ~np.eye(len(maps), dtype=bool)
     assert np.max(np.abs(S - ref)[off] / np.maximum(ref[off], 1e-12)) < 1e-3
