@@ -174,6 +174,14 @@ class BenchmarkConfig:
         """Novel renders of the trace's states (``novel`` of them) for the I2P phase."""
         return self.trace_path(benchmark, seed).with_suffix(f".novel{self.novel}.npz")
 
+    def model_path(self, cell: str) -> Path:
+        """The localizer checkpoint of cell ``cell`` (``<bench>__<method>__s<seed>``)."""
+        return Path(self.out) / "models" / f"{cell}.pt"
+
+    def i2p_path(self, cell: str) -> Path:
+        """The cached I2P figures of cell ``cell``."""
+        return Path(self.out) / "i2p" / f"{cell}.json"
+
 
 @dataclass(frozen=True)
 class CellJob:
@@ -632,7 +640,6 @@ def i2p_jobs(cfg: BenchmarkConfig, rows: list[dict]) -> list[I2PJob]:
 
     from vggc_cp.localize import TrainConfig
 
-    out = Path(cfg.out)
     by_cell = {(r["benchmark"], r["method"], r["seed"]): r for r in rows}
     threads = max(1, (os.cpu_count() or 1) // max(1, cfg.jobs))
     jobs = []
@@ -646,7 +653,7 @@ def i2p_jobs(cfg: BenchmarkConfig, rows: list[dict]) -> list[I2PJob]:
                "train": _jsonable(TrainConfig(seed=cell.seed).as_dict())}
         jobs.append(I2PJob(cell.benchmark, cell.method, cell.seed, cell.trace_path,
                            cfg.novel_path(cell.benchmark, cell.seed), cell.solution_path,
-                           out / "models" / f"{name}.pt", out / "i2p" / f"{name}.json",
+                           cfg.model_path(name), cfg.i2p_path(name),
                            cfg.i2p_queries, threads, key))
     return jobs
 
@@ -723,24 +730,30 @@ class BenchmarkRun:
     seconds: float
 
 
+def discard_stale_traces(cfg: BenchmarkConfig, jobs: list[CellJob]) -> None:
+    """Delete every trace of ``jobs`` explored under other settings (:func:`trace_is_current`)
+    and everything made from it: distances, solutions, cached cells, novel renders, localizers
+    and I2P figures, so the run generates and computes them again."""
+    stale = {j.trace_path for j in jobs
+             if j.trace_path.is_file() and not trace_is_current(j.trace_path, j.benchmark)}
+    for job in jobs:
+        if job.trace_path in stale:
+            name = job.cell_path.stem
+            for path in (job.distances_path, job.solution_path, job.cell_path,
+                         cfg.model_path(name), cfg.i2p_path(name)):
+                path.unlink(missing_ok=True)
+    for path in stale:
+        for novel in path.parent.glob(f"{path.stem}.novel*.npz"):
+            novel.unlink()
+        path.unlink()
+
+
 def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     """Generate or reuse the traces, compute missing distances, run every uncached cell."""
     check_backend(cfg.backend)
     t0 = time.perf_counter()
     jobs = cell_jobs(cfg)
-    current = {p: trace_is_current(p, b) for b, p in {(j.benchmark, j.trace_path) for j in jobs}}
-    out = Path(cfg.out)
-    for job in jobs:
-        if not current[job.trace_path] and job.trace_path.is_file():
-            name = job.cell_path.stem
-            for stale in (job.distances_path, job.solution_path, job.cell_path,
-                          out / "models" / f"{name}.pt", out / "i2p" / f"{name}.json"):
-                stale.unlink(missing_ok=True)
-    for path, ok in current.items():
-        if not ok and path.is_file():
-            for novel in path.parent.glob(f"{path.stem}.novel*.npz"):
-                novel.unlink()
-            path.unlink()
+    discard_stale_traces(cfg, jobs)
     rows: dict[tuple[str, str, int], dict] = {}
     todo = []
     for job in jobs:

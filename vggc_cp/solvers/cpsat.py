@@ -34,8 +34,9 @@ pigeonhole bound :math:`|A_{dir}| \le K_P K_Q`. Where the pair table exists they
 to it: :math:`u_{c,a} \Rightarrow \bigvee_{c'} y_{c,c',a}` and
 :math:`v_{c',a} \Rightarrow \bigvee_{c} y_{c,c',a}` (an action that leaves or enters a node
 labels one of its pairs); on fruit-4x6, |D| = 70, this cuts the time CP-SAT takes to prove
-the cells just below the frontier infeasible by a factor of 2 to 5 (one worker). The option ``max_actions = K`` tightens
-:math:`\sum_a u_{c,a} \le K`: at most ``K`` distinct action labels leave a node.
+the cells just below the frontier infeasible by a factor of 2 to 5 (one worker). The option
+``max_actions = K`` tightens :math:`\sum_a u_{c,a} \le K`: at most ``K`` distinct action
+labels leave a node.
 
 *Symmetry breaking* (value precedence, Law & Lee 2004). Colours of one role are
 interchangeable. Order the observations of a role :math:`\pi_0, \pi_1, \dots` and require that
@@ -947,8 +948,9 @@ class CpSatSolver(Solver):
         larger cell. A valid one is a hint like the greedy colouring (and the floor of the
         result). When no offered colouring is valid in the cell, the one that
         :func:`~vggc_cp.solvers.brute.fit_colouring` squeezes into it with the fewest
-        violations (at most :data:`REPAIR_MAX_MERGES` merges away) is given to CP-SAT as a *repair* hint (``repair_hint``): a start for the
-        search, never part of a proof; ``stats["repair_hint"]`` says which and how far off.
+        violations (at most :data:`REPAIR_MAX_MERGES` merges away) is given to CP-SAT as a
+        *repair* hint (``repair_hint``): a start for the search, never part of a proof;
+        ``stats["repair_hint"]`` says which and how far off.
     """
 
     name = "cpsat"
@@ -1212,9 +1214,9 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
         raise VggcError("the (k_pick, k_place) grid is empty")
     t_start = time.perf_counter()
     opts = solver.options
-    feas_solver = CpSatSolver(**{**dataclasses.asdict(opts), "objective": "none", "hint": "none"})
-    feas_solver.greedy_options = solver.greedy_options
-    feas_solver.hints = solver.hints  # offered colourings also start the feasibility solves
+    # the same model without objective; offered colourings also start its solves
+    feas_solver = CpSatSolver(**{**dataclasses.asdict(opts), "objective": "none", "hint": "none"},
+                              greedy_options=solver.greedy_options, hints=solver.hints)
     cons = opts.constraints
     witness: dict = {}        # cell -> (source, labels, J): valid colourings found in the cell
     proved: dict = {}         # cell -> SolveResult proving infeasibility
