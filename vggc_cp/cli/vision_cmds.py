@@ -80,10 +80,12 @@ def cmd_distances(args) -> int:
         sec = res.stats.get("seconds", {})
         print(f"seconds        attention {sec.get('attention', 0):.2f}, sinkhorn "
               f"{sec.get('sinkhorn', 0):.2f}")
-        for role in ("pick", "place"):
-            st = res.stats.get(role)
+        groups = [("", res.stats)] + [(f" hue {k[7:]}", v) for k, v in res.stats.items()
+                                      if k.startswith("colour_") and isinstance(v, dict)]
+        for group, role in ((g, r) for g in groups for r in ("pick", "place")):
+            st = group[1].get(role)
             if st:
-                print(f"sinkhorn {role:<5} {st['problems']} problems, "
+                print(f"sinkhorn {role:<5}{group[0]} {st['problems']} problems, "
                       f"{st['iterations_mean']:.1f} iterations on average (max "
                       f"{st['iterations_max']}), max marginal error "
                       f"{st['max_marginal_error']:.1e}, {st['unconverged']} unconverged, "
@@ -120,8 +122,8 @@ def cmd_show_attention(args) -> int:
         raise VggcError(f"--grid must be at least 2, got {args.grid}")
     if not 0 < args.floor < 1:
         raise VggcError(f"--floor must lie in (0, 1), got {args.floor}")
-    if args.attention == "saliency":
-        maps = attention_maps(trace.observations, "saliency", params)[idx]  # trace background
+    if args.attention in ("saliency", "keypoints"):  # the background is the trace's
+        maps = attention_maps(trace.observations, args.attention, params)[idx]
     else:
         maps = attention_maps(trace.observations[idx], args.attention, params)
     roles = trace.roles()

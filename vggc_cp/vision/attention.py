@@ -36,6 +36,20 @@ Colour channels (:func:`colour_channel_maps`, ``--colour auto``)
     bins qualify: with one object colour a channel repeats the saliency map. Grey parts (the
     gripper) have no saturation and drop out.
 
+``keypoints`` (no weights)
+    Object-centric and instance-invariant: every blob of the chromatic foreground (saliency
+    against the bare table of :func:`background_bare`, times saturation where it is at least
+    :data:`KEYPOINT_MIN_SATURATION`, 8-connected, at least :data:`KEYPOINT_MIN_AREA` of the image) becomes
+    one unit of mass at its weighted centroid (split bilinearly over the four nearest pixels,
+    then blurred by a Gaussian of :data:`KEYPOINT_SIGMA` patches), so a small and a large
+    object weigh the same and two kinds of one colour (strawberry and apple) that swap places
+    leave the map unchanged. A placement jitter moves a keypoint a little; moving an object
+    to another region moves a quarter (with four objects) of the mass far. With ``--colour
+    auto`` the colour channels are keypoint maps of each hue bin. Grey parts (the gripper)
+    carry no saturation and drop out, but an object held in the gripper is a blob of its own.
+    Meant for scenes of separate coloured objects (the fruit benchmarks); a stack of blocks
+    is one blob whose centroid only rises with its height.
+
 ``dinov2``
     The last-layer CLS-to-patch attention of a DINOv2 ViT (:mod:`vggc_cp.vision.dinov2`),
     averaged over heads, the image resized to ``14 g`` pixels; weights from ``--weights`` or
@@ -124,6 +138,30 @@ def background(images: np.ndarray) -> np.ndarray:
     return np.median(images[idx].astype(np.float32), axis=0) / 255.0
 
 
+#: ``keypoints`` background: per pixel, the colour of the frame at this quantile of the pixel's
+#: saturation over the trace (a low one: the bare table, wherever an object rests most of the time).
+KEYPOINT_BACKGROUND_QUANTILE = 0.05
+
+
+def background_bare(images: np.ndarray) -> np.ndarray:
+    """Per pixel, the colour of a frame in which that pixel is least chromatic, float ``(H, W, 3)``.
+
+    Of (at most :data:`MAX_BACKGROUND_IMAGES`) frames, the one at
+    :data:`KEYPOINT_BACKGROUND_QUANTILE` of the pixel's HSV saturation. Coloured objects are
+    saturated and the table is not, so a region where an object stands in most frames (a home
+    position) shows the bare table here, where the median shows the object and its absence
+    would become a blob of its own.
+    """
+    n = len(images)
+    idx = np.unique(np.linspace(0, n - 1, min(n, MAX_BACKGROUND_IMAGES)).round().astype(int))
+    x = images[idx].astype(np.float32) / 255.0
+    _, sat = hue_bins(x)
+    k = int(np.floor(KEYPOINT_BACKGROUND_QUANTILE * (len(idx) - 1)))
+    pick = np.argsort(sat, axis=0, kind="stable")[k]  # (H, W): frame index per pixel
+    rows, cols = np.indices(pick.shape)
+    return x[pick, rows, cols]
+
+
 def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionParams) -> np.ndarray:
     """Per-pixel foreground strength of ``images`` (uint8 ``(N, H, W, 3)``) -> ``(N, H, W)``."""
     x = images.astype(np.float32) / 255.0
@@ -206,8 +244,8 @@ def hue_bins(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: float = 0.1,
-                        progress: Callable[[int], None] | None = None
-                        ) -> tuple[np.ndarray, list[int]]:
+                        progress: Callable[[int], None] | None = None,
+                        keypoints: bool = False) -> tuple[np.ndarray, list[int]]:
     """Colour-channel maps of the salient foreground (module docstring).
 
     Parameters
@@ -216,6 +254,9 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
     params : AttentionParams
     min_share : float
         Smallest share of the trace's chromatic foreground mass that makes a hue bin a channel.
+    keypoints : bool
+        Each channel is a keypoint map of its hue bin's blobs (:func:`keypoint_raw`) instead of
+        the pooled foreground; which bins are kept is decided on the foreground mass either way.
 
     Returns
     -------
@@ -225,7 +266,7 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
         The hue bins kept.
     """
     images = np.asarray(images)
-    bg = background(images)
+    bg = background_bare(images) if keypoints else background(images)
     g2 = params.grid * params.grid
     pooled = np.empty((len(images), COLOUR_BINS, g2))
     step = 64
@@ -233,9 +274,16 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
         chunk = images[s:s + step]
         raw = saliency_raw(chunk, bg, params)
         bins, sat = hue_bins(chunk.astype(np.float32) / 255.0)
-        weight = raw * sat
+        weight = raw * (chromatic(sat) if keypoints else sat)
         for c in range(COLOUR_BINS):
             pooled[s:s + step, c] = pool_to_grid(weight * (bins == c), params.grid)
+            if keypoints:
+                kept_mass = pooled[s:s + step, c].sum(axis=1, keepdims=True)
+                kp = pool_to_grid(keypoint_raw(weight * (bins == c), params.grid), params.grid)
+                # rescaled to the bin's foreground mass, so the share test below is unchanged
+                kp_mass = kp.sum(axis=1, keepdims=True)
+                pooled[s:s + step, c] = np.where(kp_mass > 0, kp / np.where(kp_mass > 0,
+                                                 kp_mass, 1.0) * kept_mass, 0.0)
         if progress is not None:
             progress(len(chunk))
     mass = pooled.sum(axis=(0, 2))
@@ -247,13 +295,92 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
     return maps, kept
 
 
+#: Smallest blob (share of the image's pixels) that the ``keypoints`` backend keeps: 3 pixels
+#: of a 64 x 64 image; smaller specks are rendering noise.
+KEYPOINT_MIN_AREA = 3 / 4096
+
+#: Gaussian blur of a keypoint, in patches (a quarter patch: 1 pixel at 64 px and g = 16).
+KEYPOINT_SIGMA = 0.25
+
+
+#: Saturation below which a pixel is grey for the ``keypoints`` backend (the gripper, the
+#: table's shading, the sky): it carries no chromatic weight at all.
+KEYPOINT_MIN_SATURATION = 0.3
+
+
+def chromatic(sat: np.ndarray) -> np.ndarray:
+    """``keypoints`` chromatic weight of HSV saturations: ``sat`` from
+    :data:`KEYPOINT_MIN_SATURATION` on, else 0."""
+    return np.where(sat >= KEYPOINT_MIN_SATURATION, sat, 0.0)
+
+
+def keypoint_raw(weight: np.ndarray, grid: int) -> np.ndarray:
+    """Blobs of ``weight`` ``(N, H, W)`` (non-negative) -> unit masses at their centroids.
+
+    Returns
+    -------
+    ndarray, float64, shape (N, H, W)
+        Per image, every 8-connected component of ``weight > 0`` of at least
+        :data:`KEYPOINT_MIN_AREA` ``* H * W`` pixels adds mass 1 at its ``weight``-weighted
+        centroid (bilinear split), blurred by :data:`KEYPOINT_SIGMA` patches; all zero for an
+        image without such a blob.
+    """
+    from scipy import ndimage
+
+    weight = np.asarray(weight, dtype=np.float64)
+    n, h, w = weight.shape
+    min_px = max(1, int(round(KEYPOINT_MIN_AREA * h * w)))
+    sigma = KEYPOINT_SIGMA * h / grid
+    out = np.zeros((n, h, w))
+    eight = np.ones((3, 3), dtype=bool)
+    for i in range(n):
+        labels, count = ndimage.label(weight[i] > 0, structure=eight)
+        if count == 0:
+            continue
+        idx = np.arange(1, count + 1)
+        size = ndimage.sum_labels(np.ones((h, w)), labels, idx)
+        centres = ndimage.center_of_mass(weight[i], labels, idx)
+        for px, (r, c) in zip(size, centres):
+            if px < min_px:
+                continue
+            r0, c0 = int(np.floor(r)), int(np.floor(c))
+            fr, fc = r - r0, c - c0
+            for dr, wr in ((0, 1.0 - fr), (1, fr)):
+                for dc, wc in ((0, 1.0 - fc), (1, fc)):
+                    out[i, min(r0 + dr, h - 1), min(c0 + dc, w - 1)] += wr * wc
+        if sigma > 0:
+            out[i] = ndimage.gaussian_filter(out[i], sigma)
+    return out
+
+
+def keypoint_maps(images: np.ndarray, params: AttentionParams,
+                  progress: Callable[[int], None] | None = None) -> np.ndarray:
+    """The ``keypoints`` backend: one unit of mass per chromatic blob, ``(N, g*g)``."""
+    bg = background_bare(images)
+    out = np.empty((len(images), params.grid * params.grid))
+    step = 64
+    for s in range(0, len(images), step):
+        chunk = images[s:s + step]
+        _, sat = hue_bins(chunk.astype(np.float32) / 255.0)
+        weight = saliency_raw(chunk, bg, params) * chromatic(sat)
+        out[s:s + step] = finish_maps(pool_to_grid(keypoint_raw(weight, params.grid),
+                                                   params.grid), params.floor)
+        if progress is not None:
+            progress(len(chunk))
+    return out
+
+
 AttentionFn = Callable[..., np.ndarray]
 
 #: name -> ``fn(images, params, progress=None) -> (N, g*g)`` maps.
 ATTENTION_BACKENDS: dict[str, AttentionFn] = {
     "saliency": saliency_maps,
     "dinov2": dinov2_maps,
+    "keypoints": keypoint_maps,
 }
+
+#: Backends whose colour channels are keypoint maps too (:func:`colour_channel_maps`).
+KEYPOINT_BACKENDS = frozenset({"keypoints"})
 
 #: Backends whose maps depend on a weights file (hashed into the cache key).
 NEEDS_WEIGHTS = frozenset({"dinov2"})

@@ -9,6 +9,8 @@ colours, the divergences of the colour-channel maps (:func:`.attention.colour_ch
 are added: ``d = S_eps(M(o_i), M(o_j)) + sum_c S_eps(M_c(o_i), M_c(o_j))``, so two scenes that
 differ only by which coloured object stands where are told apart. With one colour (or
 ``colour="off"``) ``d`` is the paper's distance.
+With the ``keypoints`` backend and two or more colours, ``d = sum_c S_eps(M_c(o_i), M_c(o_j))``
+over the keypoint colour channels alone (every keypoint of the main map is in one of them).
 
 Cache
 -----
@@ -51,6 +53,7 @@ from vggc_cp.errors import VggcError, lookup
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.attention import (
     ATTENTION_BACKENDS,
+    KEYPOINT_BACKENDS,
     NEEDS_WEIGHTS,
     AttentionParams,
     attention_maps,
@@ -62,6 +65,8 @@ CACHE_FORMAT = "vggc-distances/1"
 #: Bumped whenever a backend or the solver changes its numbers (part of the cache key).
 ALGORITHM_VERSION = 2
 COLOUR_MODES = ("auto", "off")
+#: Backends built on the saliency foreground (its threshold enters the cache key).
+SALIENCY_BACKENDS = frozenset({"saliency", "keypoints"})
 CACHE_ENV = "VGGC_CP_CACHE"
 
 
@@ -80,7 +85,7 @@ class DistanceConfig:
     Attributes
     ----------
     backend : str
-        Attention backend (``saliency`` or ``dinov2``).
+        Attention backend (``saliency``, ``keypoints`` or ``dinov2``).
     grid : int
         Patch grid side ``g`` (``g^2`` histogram bins).
     eps : float
@@ -162,7 +167,7 @@ class DistanceConfig:
             out["weights_sha256"] = weights_sha256(resolve_weights(self.weights))
         if self.colour == "off":
             out.pop("colour_min_share")
-            if self.backend != "saliency":  # the saliency threshold shapes no map
+            if self.backend not in SALIENCY_BACKENDS:  # the saliency threshold shapes no map
                 out.pop("noise_k")
                 out.pop("min_contrast")
         return out
@@ -300,16 +305,24 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
     t0 = time.perf_counter()
     maps = role_maps(trace, cfg, bar.update if bar is not None else None)
     channels, kept = (colour_channel_maps(trace.observations, cfg.attention_params(),
-                                          cfg.colour_min_share)
+                                          cfg.colour_min_share,
+                                          keypoints=cfg.backend in KEYPOINT_BACKENDS)
                       if cfg.colour == "auto" else (np.zeros((trace.n_obs, 0, 1)), []))
     t_att = time.perf_counter() - t0
     if bar is not None:
         bar.close()
-        bar = tqdm(total=n_problems(roles) * (1 + len(kept)), desc="sinkhorn", unit="pair",
+        sets = len(kept) + (0 if cfg.backend in KEYPOINT_BACKENDS and kept else 1)
+        bar = tqdm(total=n_problems(roles) * sets, desc="sinkhorn", unit="pair",
                    unit_scale=True)
     t1 = time.perf_counter()
-    dp, dq, stats = distance_matrices(maps, roles, cfg,
-                                      bar.update if bar is not None else None)
+    # keypoint colour channels hold every blob of the main map, each in its colour: the main
+    # map would only add the colour-blind view of the same keypoints
+    main = not (cfg.backend in KEYPOINT_BACKENDS and kept)
+    stats = {}
+    dp = dq = 0.0
+    if main:
+        dp, dq, stats = distance_matrices(maps, roles, cfg,
+                                          bar.update if bar is not None else None)
     for c, hue_bin in enumerate(kept):
         cp, cq, cstats = distance_matrices(channels[:, c], roles, cfg,
                                            bar.update if bar is not None else None)
