@@ -120,6 +120,30 @@ def test_merge_and_its_exact_counterpart(tmp_path):
     assert "merge + cascade (ours)" in md and "CP-SAT, fewest nodes under merge" in md
 
 
+@pytest.mark.skipif(not HAS_VISION, reason="needs vggc_cp.vision")
+def test_attention_auto_gives_fruit_keypoints_and_blocks_saliency(tmp_path):
+    auto = BenchmarkConfig(tmp_path, ("fruit-2x3", "blocks-2"), ("merge", "pca-hdbscan"), (0,),
+                           transitions=24, queries=50, attention="auto")
+    plain = BenchmarkConfig(tmp_path, ("fruit-2x3", "blocks-2"), ("merge", "pca-hdbscan"),
+                            (0,), transitions=24, queries=50)
+    a = {(j.benchmark, j.method): j for j in cell_jobs(auto)}
+    p = {(j.benchmark, j.method): j for j in cell_jobs(plain)}
+    assert a["fruit-2x3", "merge"].attention == "keypoints"
+    assert a["blocks-2", "merge"].attention == "saliency"
+    # other distances, other files and cell keys; blocks and the baselines are unchanged
+    assert a["fruit-2x3", "merge"].distances_path != p["fruit-2x3", "merge"].distances_path
+    assert a["fruit-2x3", "merge"].key != p["fruit-2x3", "merge"].key
+    assert a["blocks-2", "merge"].key == p["blocks-2", "merge"].key
+    assert a["fruit-2x3", "pca-hdbscan"].key == p["fruit-2x3", "pca-hdbscan"].key
+    rows = run_benchmark(BenchmarkConfig(tmp_path, ("fruit-2x3",), ("merge",), (0,),
+                                         transitions=24, queries=50, attention="keypoints"),
+                         progress=False).rows
+    assert rows[0]["attention"] == "keypoints" and rows[0]["exactly_one"] == 0
+    assert "merge + cascade (ours, keypoints attention)" in table_markdown(rows)
+    with pytest.raises(VggcError, match="attention backend"):
+        BenchmarkConfig(tmp_path, ("fruit-2x3",), ("merge",), attention="sharpest")
+
+
 def test_table_only_marks_unfinished_cells(tmp_path, capsys):
     argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan", "--seeds",
             "0", "--transitions", "12", "-Q", "50", "--jobs", "1", "--out", str(tmp_path),

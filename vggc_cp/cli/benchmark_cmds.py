@@ -111,6 +111,10 @@ def register_benchmark(sub) -> None:
                    help="novel renders per trace for --i2p (default 150)")
     p.add_argument("--i2p-queries", type=int, default=150,
                    help="start/goal image pairs for --i2p (default 150, the paper's Q)")
+    p.add_argument("--attention", default="saliency", metavar="NAME",
+                   help="attention backend of the visual distances (saliency, keypoints, "
+                        "dinov2), or auto: each benchmark's own (fruit keypoints, blocks "
+                        "saliency) (default saliency)")
     p.add_argument("--force", action="store_true", help="recompute cached cells")
     p.add_argument("--table-only", action="store_true",
                    help="run nothing: write the tables from the cells cached so far "
@@ -140,7 +144,7 @@ def cmd_benchmark(args) -> int:
                           args.transitions, args.queries, args.jobs, args.backend,
                           args.scheduler, method_options(args.param), args.force,
                           tuple(_split(args.i2p)) if args.i2p else (), args.novel,
-                          args.i2p_queries)
+                          args.i2p_queries, args.attention)
     if args.table_only:
         rows, missing = collect_rows(cfg)
         csv, md = write_tables(rows, cfg.out)

@@ -121,6 +121,10 @@ class BenchmarkConfig:
         Novel renders per trace for the I2P phase.
     i2p_queries : int
         Q of the I2P phase (the paper's 150).
+    attention : str
+        Attention backend of the visual distances, or ``auto``: each benchmark's
+        :attr:`~vggc_cp.sim.specs.BenchmarkSpec.attention` (fruit ``keypoints``, blocks
+        ``saliency``). Part of the colouring cells' keys.
     """
 
     out: Path
@@ -137,6 +141,7 @@ class BenchmarkConfig:
     i2p: tuple[str, ...] = ()
     novel: int = 150
     i2p_queries: int = 150
+    attention: str = "saliency"
 
     def __post_init__(self) -> None:
         from vggc_cp.sim import get_spec
@@ -161,6 +166,18 @@ class BenchmarkConfig:
             raise VggcError(f"--novel must be at least 2 and --i2p-queries positive, got "
                             f"{self.novel} and {self.i2p_queries}")
         lookup({b: b for b in BACKENDS}, self.backend, "backend")
+        if self.attention != "auto":
+            try:
+                from vggc_cp.vision.attention import ATTENTION_BACKENDS
+            except ImportError:
+                ATTENTION_BACKENDS = {self.attention: None}
+            lookup({**ATTENTION_BACKENDS, "auto": None}, self.attention, "attention backend")
+
+    def attention_for(self, benchmark: str) -> str:
+        """The attention backend of ``benchmark``'s visual distances."""
+        from vggc_cp.sim import get_spec
+
+        return get_spec(benchmark).attention if self.attention == "auto" else self.attention
 
     def n_transitions(self, benchmark: str) -> int:
         from vggc_cp.sim import get_spec
@@ -209,14 +226,17 @@ class CellJob:
     queries: int
     options: dict
     key: dict
+    attention: str = "saliency"
 
 
 def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
     """Every cell of the run, benchmark-major then seed then method."""
     out = Path(cfg.out)
-    dist_key, dist_tag = _distance_key() if set(VISUAL_METHODS) & set(cfg.methods) else ({}, "")
+    visual = bool(set(VISUAL_METHODS) & set(cfg.methods))
     jobs = []
     for bench in cfg.benchmarks:
+        attention = cfg.attention_for(bench)
+        dist_key, dist_tag = _distance_key(attention) if visual else ({}, "")
         for seed in cfg.seeds:
             tpath = cfg.trace_path(bench, seed)
             for method in cfg.methods:
@@ -230,20 +250,22 @@ def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
                 jobs.append(CellJob(bench, method, int(seed), tpath,
                                     out / "distances" / f"{tpath.stem}-{dist_tag}.npz",
                                     out / "solutions" / f"{name}.json",
-                                    out / "cells" / f"{name}.json", cfg.queries, options, key))
+                                    out / "cells" / f"{name}.json", cfg.queries, options, key,
+                                    attention))
     return jobs
 
 
-def _distance_key() -> tuple[dict, str]:
-    """The default distance settings (part of a colouring cell's key) and a short tag of them
-    for file names; ``({}, "none")`` without :mod:`vggc_cp.vision`."""
+def _distance_key(attention: str = "saliency") -> tuple[dict, str]:
+    """The distance settings (default but for the attention backend; part of a colouring
+    cell's key) and a short tag of them for file names; ``({}, "none")`` without
+    :mod:`vggc_cp.vision`."""
     import hashlib
 
     try:
         from vggc_cp.vision import DistanceConfig
     except ImportError:
         return {}, "none"
-    key = _jsonable(DistanceConfig().key())
+    key = _jsonable(DistanceConfig(backend=attention).key())
     return key, hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
 
 
@@ -312,9 +334,11 @@ def register_method(name: str) -> Callable[[MethodFn], MethodFn]:
     return deco
 
 
-def compute_trace_distances(trace_path: Path, distances_path: Path) -> float:
+def compute_trace_distances(trace_path: Path, distances_path: Path,
+                            attention: str = "saliency") -> float:
     """Compute (or take from the vision cache) and store the VGGC distances of a trace with
-    the default settings; returns the seconds of their computation.
+    the default settings and the ``attention`` backend; returns the seconds of their
+    computation.
 
     On a cache hit the seconds are those the cache file recorded when it was computed
     (attention + Sinkhorn); the stored file says ``cached``.
@@ -329,7 +353,7 @@ def compute_trace_distances(trace_path: Path, distances_path: Path) -> float:
 
     trace = load_trace(trace_path)
     t0 = time.perf_counter()
-    res = compute_distances_full(trace, DistanceConfig(),
+    res = compute_distances_full(trace, DistanceConfig(backend=attention),
                                  cache_dir=distances_path.parent / "cache", progress=False)
     seconds = time.perf_counter() - t0
     if res.cached and res.path is not None:
@@ -493,7 +517,8 @@ def run_cell(job: CellJob) -> dict:
            "true_states": int(len(np.unique(trace.states))),
            "seconds_distances": run.seconds.get("distances", 0.0),
            "seconds_method": run.seconds.get("method", 0.0),
-           "distances_cached": run.seconds.get("distances_cached")}
+           "distances_cached": run.seconds.get("distances_cached"),
+           "attention": job.attention if job.method in VISUAL_METHODS else None}
     t0 = time.perf_counter()
     if run.result is None or not run.result.found:
         row |= {"status": run.result.status if run.result else "unknown", "nodes": 0,
@@ -608,8 +633,8 @@ def _generate(args: tuple[str, int, int, str]) -> str:
     return path
 
 
-def _distances(args: tuple[str, str]) -> str:
-    compute_trace_distances(Path(args[0]), Path(args[1]))
+def _distances(args: tuple[str, str, str]) -> str:
+    compute_trace_distances(Path(args[0]), Path(args[1]), args[2])
     return args[1]
 
 
@@ -766,7 +791,7 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
                      if not j.trace_path.is_file()})
     list(_spread(_generate, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,
                  "traces", progress))
-    dist = sorted({(str(j.trace_path), str(j.distances_path)) for j in todo
+    dist = sorted({(str(j.trace_path), str(j.distances_path), j.attention) for j in todo
                    if j.method in VISUAL_METHODS and not j.distances_path.is_file()})
     list(_spread(_distances, dist, cfg, "distances", progress))
     for row in _spread(run_cell, todo, cfg, "cells", progress):
@@ -805,6 +830,15 @@ def _pct(x) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f}"
 
 
+def _attention_note(g) -> str:
+    """``", keypoints attention"`` for rows measured on distances of a backend other than the
+    default ``saliency`` (empty otherwise)."""
+    if "attention" not in g:
+        return ""
+    names = [a for a in dict.fromkeys(g["attention"]) if isinstance(a, str)]
+    return f", {names[0]} attention" if len(names) == 1 and names[0] != "saliency" else ""
+
+
 def table_markdown(rows: list[dict]) -> str:
     """Table 1 as markdown: per benchmark, one row per method (ours: mean over seeds) and
     the paper's row beside it (``n/a`` where :data:`PAPER_TABLE1` holds no checked value).
@@ -829,7 +863,7 @@ def table_markdown(rows: list[dict]) -> str:
             vals = {m: g[m].astype(float).mean() if g[m].notna().all() else None
                     for m in (*PAPER_METRICS, "exec")}
             seeds = f" ({n_seeds} seeds)" if n_seeds > 1 else ""
-            title = f"{METHOD_TITLES.get(method, method)} (ours){seeds}"
+            title = f"{METHOD_TITLES.get(method, method)} (ours{_attention_note(g)}){seeds}"
             if "status" in g and (g["status"] == NOT_FINISHED).any():
                 lines.append(f"| {label} | {title} | " + " | ".join([NOT_FINISHED] * 7) + " |")
             else:
@@ -874,7 +908,7 @@ def i2p_markdown(rows: list[dict]) -> str:
     lines = ["| benchmark | method | Localization | I2P | Exec-I2P | nodes / \\|V*\\| "
              "| training seconds |", "|" + "---|" * 7]
     for (bench, method), g in df.groupby(["benchmark", "method"], sort=False):
-        lines.append(f"| {bench} | {METHOD_TITLES.get(method, method)} | "
+        lines.append(f"| {bench} | {METHOD_TITLES.get(method, method)}{_attention_note(g)} | "
                      + " | ".join(_pct(g[m].astype(float).mean())
                                   for m in ("localization", "i2p", "exec_i2p"))
                      + f" | {g['nodes'].mean():.0f} / {g['true_states'].mean():.0f} "

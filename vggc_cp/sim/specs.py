@@ -14,6 +14,9 @@ from vggc_cp.errors import lookup
 FRUIT = "fruit"
 BLOCKS = "blocks"
 
+#: Attention backend suited to each family (:attr:`BenchmarkSpec.attention`).
+FAMILY_ATTENTION = {FRUIT: "keypoints", BLOCKS: "saliency"}
+
 #: Fruit kinds: name -> task class. Kinds of one class are interchangeable for the task.
 FRUIT_CLASS = {"apple": "red", "strawberry": "red", "lemon": "yellow", "banana": "yellow"}
 
@@ -85,6 +88,13 @@ class BenchmarkSpec:
         levels = self.max_height if self.family == BLOCKS else self.n
         if 2 * self.R * levels != self.n_actions:
             raise ValueError(f"{self.name}: |A|={self.n_actions} disagrees with the action set")
+
+    @property
+    def attention(self) -> str:
+        """The attention backend suited to the scene (``vggc-cp benchmark --attention auto``):
+        separate coloured objects (fruit) ``keypoints``, stacks (blocks) ``saliency`` (a stack
+        is one blob to ``keypoints``)."""
+        return FAMILY_ATTENTION[self.family]
 
     def object_class(self, i: int) -> str:
         """Task class of object ``i``."""
