@@ -13,8 +13,10 @@ def test_envs_lists_every_benchmark(capsys):
     out = capsys.readouterr().out
     assert "fruit-6x8" in out and "blocks-3" in out
     line = next(x for x in out.splitlines() if x.startswith("multifruit-4x6"))
-    assert line.split()[1:8] == ["4", "2", "6", "24", "210", "58", "400"]
+    assert line.split()[1:9] == ["4", "2", "6", "24", "210", "58", "400", "keypoints"]
     assert line.endswith("2-8 from 1 home")
+    blocks = next(x for x in out.splitlines() if x.startswith("blocks-2"))
+    assert blocks.split()[8] == "saliency"
 
 
 def test_generate_unknown_benchmark_exits_2(tmp_path, capsys):

@@ -98,14 +98,15 @@ def cmd_generate(args) -> int:
 def cmd_envs(args) -> int:
     from vggc_cp.sim import benchmark_names, get_benchmark
 
-    head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|", "episodes")
+    head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|", "attention",
+            "episodes")
     rows = []
     for name in benchmark_names():
         b = get_benchmark(name)
         s = b.spec
         starts = "any state" if s.start_states == 0 else f"{s.start_states} home"
         rows.append((name, s.m, s.n, s.R, s.n_actions, len(b.all_states()), s.paper_states,
-                     s.default_transitions,
+                     s.default_transitions, s.attention,
                      f"{s.episode_length[0]}-{s.episode_length[1]} from {starts}"))
     widths = [max(len(str(r[i])) for r in (head, *rows)) for i in range(len(head))]
     fmt = "  ".join(f"{{:<{w}}}" if i in (0, len(head) - 1) else f"{{:>{w}}}"
@@ -115,6 +116,7 @@ def cmd_envs(args) -> int:
         print(fmt.format(*row).rstrip())
     print("states: the full reachable state count (pick and place states); "
           "paper |V*|: states a trace at the default |D| visits;\n"
+          "attention: the backend `vggc-cp benchmark --attention auto` uses;\n"
           "episodes: transitions per exploration episode, and where each begins")
     return 0
 
