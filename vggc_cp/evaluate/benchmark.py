@@ -171,7 +171,8 @@ class BenchmarkConfig:
                 from vggc_cp.vision.attention import ATTENTION_BACKENDS
             except ImportError:
                 ATTENTION_BACKENDS = {self.attention: None}
-            lookup({**ATTENTION_BACKENDS, "auto": None}, self.attention, "attention backend")
+            lookup({**ATTENTION_BACKENDS, "auto": None}, self.attention,
+                   "attention backend")
 
     def attention_for(self, benchmark: str) -> str:
         """The attention backend of ``benchmark``'s visual distances."""
@@ -908,7 +909,8 @@ def i2p_markdown(rows: list[dict]) -> str:
     lines = ["| benchmark | method | Localization | I2P | Exec-I2P | nodes / \\|V*\\| "
              "| training seconds |", "|" + "---|" * 7]
     for (bench, method), g in df.groupby(["benchmark", "method"], sort=False):
-        lines.append(f"| {bench} | {METHOD_TITLES.get(method, method)}{_attention_note(g)} | "
+        title = METHOD_TITLES.get(method, method) + _attention_note(g)
+        lines.append(f"| {bench} | {title} | "
                      + " | ".join(_pct(g[m].astype(float).mean())
                                   for m in ("localization", "i2p", "exec_i2p"))
                      + f" | {g['nodes'].mean():.0f} / {g['true_states'].mean():.0f} "

@@ -39,14 +39,15 @@ Colour channels (:func:`colour_channel_maps`, ``--colour auto``)
 ``keypoints`` (no weights)
     Object-centric and instance-invariant: every blob of the chromatic foreground (saliency
     against the bare table of :func:`background_bare`, times saturation where it is at least
-    :data:`KEYPOINT_MIN_SATURATION`, 8-connected, at least :data:`KEYPOINT_MIN_AREA` of the image) becomes
-    one unit of mass at its weighted centroid (split bilinearly over the four nearest pixels,
-    then blurred by a Gaussian of :data:`KEYPOINT_SIGMA` patches), so a small and a large
-    object weigh the same and two kinds of one colour (strawberry and apple) that swap places
-    leave the map unchanged. A placement jitter moves a keypoint a little; moving an object
-    to another region moves a quarter (with four objects) of the mass far. With ``--colour
-    auto`` the colour channels are keypoint maps of each hue bin. Grey parts (the gripper)
-    carry no saturation and drop out, but an object held in the gripper is a blob of its own.
+    :data:`KEYPOINT_MIN_SATURATION`; 8-connected, at least :data:`KEYPOINT_MIN_AREA` of the
+    image) becomes one unit of mass at its weighted centroid (split bilinearly over the four
+    nearest pixels, then blurred by a Gaussian of :data:`KEYPOINT_SIGMA` patches), so a small
+    and a large object weigh the same and two kinds of one colour (strawberry and apple) that
+    swap places leave the map unchanged. A placement jitter moves a keypoint a little; moving
+    an object to another region moves a quarter (with four objects) of the mass far. With
+    ``--colour auto`` the colour channels are keypoint maps of each hue bin, and with two or
+    more of them the distance uses the channels alone (:mod:`.distances`). Grey parts (the
+    gripper) carry no weight, but an object held in the gripper is a blob of its own.
     Meant for scenes of separate coloured objects (the fruit benchmarks); a stack of blocks
     is one blob whose centroid only rises with its height.
 
@@ -138,13 +139,14 @@ def background(images: np.ndarray) -> np.ndarray:
     return np.median(images[idx].astype(np.float32), axis=0) / 255.0
 
 
-#: ``keypoints`` background: per pixel, the colour of the frame at this quantile of the pixel's
-#: saturation over the trace (a low one: the bare table, wherever an object rests most of the time).
+#: ``keypoints`` background: per pixel, the colour of the frame at this quantile of the
+#: pixel's saturation over the trace (a low one: the bare table, even where an object rests
+#: most of the time).
 KEYPOINT_BACKGROUND_QUANTILE = 0.05
 
 
 def background_bare(images: np.ndarray) -> np.ndarray:
-    """Per pixel, the colour of a frame in which that pixel is least chromatic, float ``(H, W, 3)``.
+    """Per pixel, the colour of a frame where that pixel is least chromatic, ``(H, W, 3)``.
 
     Of (at most :data:`MAX_BACKGROUND_IMAGES`) frames, the one at
     :data:`KEYPOINT_BACKGROUND_QUANTILE` of the pixel's HSV saturation. Coloured objects are
