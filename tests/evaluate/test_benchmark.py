@@ -15,6 +15,7 @@ from vggc_cp.evaluate.benchmark import (
     BenchmarkConfig,
     cell_jobs,
     check_backend,
+    collect_rows,
     run_benchmark,
     table_markdown,
     write_tables,
@@ -140,6 +141,10 @@ def test_attention_auto_gives_fruit_keypoints_and_blocks_saliency(tmp_path):
                          progress=False).rows
     assert rows[0]["attention"] == "keypoints" and rows[0]["exactly_one"] == 0
     assert "merge + cascade (ours, keypoints attention)" in table_markdown(rows)
+    # a cell not run yet is marked with its attention too
+    pending, _ = collect_rows(BenchmarkConfig(tmp_path, ("fruit-2x3",), ("greedy",), (0,),
+                                              transitions=24, queries=50, attention="auto"))
+    assert "| VGGC greedy (ours, keypoints attention) | not finished |" in table_markdown(pending)
     with pytest.raises(VggcError, match="attention backend"):
         BenchmarkConfig(tmp_path, ("fruit-2x3",), ("merge",), attention="sharpest")
 

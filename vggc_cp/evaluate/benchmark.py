@@ -819,7 +819,8 @@ def collect_rows(cfg: BenchmarkConfig) -> tuple[list[dict], int]:
             row = {"benchmark": job.benchmark, "method": job.method, "seed": job.seed,
                    "transitions": cfg.n_transitions(job.benchmark),
                    "paper_states": get_spec(job.benchmark).paper_states,
-                   "status": NOT_FINISHED}
+                   "status": NOT_FINISHED,
+                   "attention": job.attention if job.method in VISUAL_METHODS else None}
         rows.append(row)
     return attach_i2p(cfg, rows) if cfg.i2p else rows, missing
 
@@ -861,13 +862,13 @@ def table_markdown(rows: list[dict]) -> str:
         for method in dict.fromkeys(sub["method"]):
             g = sub[sub["method"] == method]
             n_seeds = len(g)
-            vals = {m: g[m].astype(float).mean() if g[m].notna().all() else None
-                    for m in (*PAPER_METRICS, "exec")}
             seeds = f" ({n_seeds} seeds)" if n_seeds > 1 else ""
             title = f"{METHOD_TITLES.get(method, method)} (ours{_attention_note(g)}){seeds}"
             if "status" in g and (g["status"] == NOT_FINISHED).any():
                 lines.append(f"| {label} | {title} | " + " | ".join([NOT_FINISHED] * 7) + " |")
             else:
+                vals = {m: g[m].astype(float).mean() if g[m].notna().all() else None
+                        for m in (*PAPER_METRICS, "exec")}
                 nodes = f"{g['nodes'].mean():.0f} / {g['true_states'].mean():.0f}"
                 lines.append(f"| {label} | {title} | "
                              + " | ".join(_pct(vals[m]) for m in (*PAPER_METRICS, "exec"))
