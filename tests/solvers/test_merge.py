@@ -93,6 +93,11 @@ def test_cascade_rule_takes_the_end_of_the_largest_collapse():
     # collapse then a slow drift that never stabilises within 5 %: the last index
     assert select_cascade(path([40, 10, 8, 6])) == 3
     assert select_cascade(path([7])) == 0 and select_cascade([]) is None
+    # the collapse pauses for one threshold (22 -> 21) before the long true plateau at 12
+    # (a multifruit-2x3 trace, seed 1, keypoint attention): the longest plateau wins
+    assert select_cascade(path([89, 78, 57, 39, 22, 21, 12, 12, 12, 12, 12, 12])) == 6
+    # equally long plateaus: the first
+    assert select_cascade(path([60, 20, 20, 10, 10, 4])) == 1
     assert select_path_fewest(path([9, 7, 7, 8])) == 1
 
 

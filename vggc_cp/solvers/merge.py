@@ -543,8 +543,12 @@ def select_cascade(results: Sequence[SolveResult], stable: float = 0.05) -> int 
     As the threshold grows, noise-level merges first shrink the node count steadily, then
     congruence closure collapses the near-duplicates of each state into one node (the largest
     relative drop of the path), and past the true structure merges slow down until wrong
-    merges set in. The rule takes the largest relative drop ``n_k -> n_{k+1}`` and returns the
-    first ``j > k`` whose next step loses less than ``stable`` of the nodes (or the last index).
+    merges set in. The rule takes the largest relative drop ``n_k -> n_{k+1}`` and, after it,
+    the plateaus: runs of thresholds ``j, j+1, ..., j+r`` whose counts stay within ``stable``
+    of ``n_j``. It returns the start ``j`` of the longest plateau (the first of equally long
+    ones), or the last index when no step after the drop loses less than ``stable``. The
+    longest, not the first: a collapse can pause for one threshold on its way down (39, 22, 21,
+    12, 12, 12, ... on one multifruit-2x3 trace, whose true graph is the 12-node plateau).
     """
     nodes = [r.n_nodes for r in results]
     if not nodes:
@@ -553,10 +557,16 @@ def select_cascade(results: Sequence[SolveResult], stable: float = 0.05) -> int 
         return 0
     drops = [(nodes[k] - nodes[k + 1]) / max(nodes[k], 1) for k in range(len(nodes) - 1)]
     k = int(np.argmax(drops))
-    for j in range(k + 1, len(nodes) - 1):
-        if nodes[j + 1] >= (1 - stable) * nodes[j]:
-            return j
-    return len(nodes) - 1
+    best, best_len = len(nodes) - 1, 0
+    j = k + 1
+    while j < len(nodes) - 1:
+        end = j
+        while end < len(nodes) - 1 and nodes[end + 1] >= (1 - stable) * nodes[j]:
+            end += 1
+        if end - j > best_len:
+            best, best_len = j, end - j
+        j = max(end, j + 1)
+    return best
 
 
 @register_path_selection("fewest")
