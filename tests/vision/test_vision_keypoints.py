@@ -15,7 +15,6 @@ from vggc_cp.vision.attention import (
     background_bare,
     keypoint_raw,
 )
-from vggc_cp.vision.sinkhorn import patch_centres
 
 TABLE = (70, 70, 80)  # a dark, nearly grey table
 RED = (210, 30, 30)
@@ -42,10 +41,6 @@ def scene(objects, rng=None, jitter=0):
     if rng is not None:
         img = np.clip(img.astype(int) + rng.integers(-2, 3, img.shape), 0, 255).astype(np.uint8)
     return img
-
-
-def centre_of_mass(m, grid):
-    return m @ patch_centres(grid)
 
 
 def test_each_blob_is_one_unit_at_its_centroid():
