@@ -271,6 +271,7 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
     bg = background_bare(images) if keypoints else background(images)
     g2 = params.grid * params.grid
     pooled = np.empty((len(images), COLOUR_BINS, g2))
+    mass = np.zeros(COLOUR_BINS)  # foreground mass per bin: decides the channels
     step = 64
     for s in range(0, len(images), step):
         chunk = images[s:s + step]
@@ -278,17 +279,13 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
         bins, sat = hue_bins(chunk.astype(np.float32) / 255.0)
         weight = raw * (chromatic(sat) if keypoints else sat)
         for c in range(COLOUR_BINS):
-            pooled[s:s + step, c] = pool_to_grid(weight * (bins == c), params.grid)
+            fg = weight * (bins == c)
+            pooled[s:s + step, c] = pool_to_grid(fg, params.grid)
+            mass[c] += pooled[s:s + step, c].sum()
             if keypoints:
-                kept_mass = pooled[s:s + step, c].sum(axis=1, keepdims=True)
-                kp = pool_to_grid(keypoint_raw(weight * (bins == c), params.grid), params.grid)
-                # rescaled to the bin's foreground mass, so the share test below is unchanged
-                kp_mass = kp.sum(axis=1, keepdims=True)
-                pooled[s:s + step, c] = np.where(kp_mass > 0, kp / np.where(kp_mass > 0,
-                                                 kp_mass, 1.0) * kept_mass, 0.0)
+                pooled[s:s + step, c] = pool_to_grid(keypoint_raw(fg, params.grid), params.grid)
         if progress is not None:
             progress(len(chunk))
-    mass = pooled.sum(axis=(0, 2))
     share = mass / max(float(mass.sum()), 1e-12)
     kept = [c for c in range(COLOUR_BINS) if share[c] >= min_share]
     if len(kept) < 2:
@@ -383,6 +380,10 @@ ATTENTION_BACKENDS: dict[str, AttentionFn] = {
 
 #: Backends whose colour channels are keypoint maps too (:func:`colour_channel_maps`).
 KEYPOINT_BACKENDS = frozenset({"keypoints"})
+
+#: Backends built on the trace's saliency foreground: their maps need the whole trace (its
+#: background) and depend on the saliency threshold.
+SALIENCY_BACKENDS = frozenset({"saliency", "keypoints"})
 
 #: Backends whose maps depend on a weights file (hashed into the cache key).
 NEEDS_WEIGHTS = frozenset({"dinov2"})

@@ -55,6 +55,7 @@ from vggc_cp.vision.attention import (
     ATTENTION_BACKENDS,
     KEYPOINT_BACKENDS,
     NEEDS_WEIGHTS,
+    SALIENCY_BACKENDS,
     AttentionParams,
     attention_maps,
     colour_channel_maps,
@@ -65,8 +66,6 @@ CACHE_FORMAT = "vggc-distances/1"
 #: Bumped whenever a backend or the solver changes its numbers (part of the cache key).
 ALGORITHM_VERSION = 2
 COLOUR_MODES = ("auto", "off")
-#: Backends built on the saliency foreground (its threshold enters the cache key).
-SALIENCY_BACKENDS = frozenset({"saliency", "keypoints"})
 CACHE_ENV = "VGGC_CP_CACHE"
 
 
@@ -303,21 +302,23 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
         bar = tqdm(total=trace.n_obs, desc=f"attention ({cfg.backend})", unit="img",
                    leave=False)
     t0 = time.perf_counter()
-    maps = role_maps(trace, cfg, bar.update if bar is not None else None)
     channels, kept = (colour_channel_maps(trace.observations, cfg.attention_params(),
                                           cfg.colour_min_share,
                                           keypoints=cfg.backend in KEYPOINT_BACKENDS)
                       if cfg.colour == "auto" else (np.zeros((trace.n_obs, 0, 1)), []))
+    # keypoint colour channels hold every blob of the main map, each in its colour: the main
+    # map would only add the colour-blind view of the same keypoints, so it is not computed
+    main = not (cfg.backend in KEYPOINT_BACKENDS and kept)
+    if main:
+        maps = role_maps(trace, cfg, bar.update if bar is not None else None)
+    elif bar is not None:
+        bar.update(trace.n_obs)
     t_att = time.perf_counter() - t0
     if bar is not None:
         bar.close()
-        sets = len(kept) + (0 if cfg.backend in KEYPOINT_BACKENDS and kept else 1)
-        bar = tqdm(total=n_problems(roles) * sets, desc="sinkhorn", unit="pair",
+        bar = tqdm(total=n_problems(roles) * (len(kept) + int(main)), desc="sinkhorn", unit="pair",
                    unit_scale=True)
     t1 = time.perf_counter()
-    # keypoint colour channels hold every blob of the main map, each in its colour: the main
-    # map would only add the colour-blind view of the same keypoints
-    main = not (cfg.backend in KEYPOINT_BACKENDS and kept)
     stats = {}
     dp = dq = 0.0
     if main:
