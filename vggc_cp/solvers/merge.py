@@ -524,7 +524,8 @@ def default_thresholds(problem: Problem, factor: float = 1.25, steps: int = 17) 
     return s * factor ** np.arange(steps)
 
 
-PathRule = Callable[[Sequence[SolveResult]], "int | None"]
+#: A rule that picks one result of a threshold path: ``rule(results, problem) -> index``.
+PathRule = Callable[[Sequence[SolveResult], "Problem | None"], "int | None"]
 PATH_SELECTIONS: dict[str, PathRule] = {}
 
 
@@ -537,7 +538,8 @@ def register_path_selection(name: str) -> Callable[[PathRule], PathRule]:
 
 
 @register_path_selection("cascade")
-def select_cascade(results: Sequence[SolveResult], stable: float = 0.05) -> int | None:
+def select_cascade(results: Sequence[SolveResult], problem: Problem | None = None,
+                   stable: float = 0.05) -> int | None:
     """The threshold just after the cascade: where the node count stops collapsing.
 
     As the threshold grows, noise-level merges first shrink the node count steadily, then
@@ -570,7 +572,8 @@ def select_cascade(results: Sequence[SolveResult], stable: float = 0.05) -> int 
 
 
 @register_path_selection("fewest")
-def select_path_fewest(results: Sequence[SolveResult]) -> int | None:
+def select_path_fewest(results: Sequence[SolveResult],
+                       problem: Problem | None = None) -> int | None:
     """Fewest nodes, then lowest J (the paper's rule applied to the path)."""
     if not results:
         return None
@@ -624,5 +627,5 @@ def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
     cl = _Clusters(problem) if opts.anneal else None
     results = tuple(_solve_prefix(problem, float(t), bidirectional, d, ci, cj, opts, cl)
                     for t in iterator)
-    return ThresholdPath(tuple(float(t) for t in ts), results, fn(results), rule,
+    return ThresholdPath(tuple(float(t) for t in ts), results, fn(results, problem), rule,
                          time.perf_counter() - t0)

@@ -1,0 +1,227 @@
+"""The default way to learn a task graph from a trace, decided by the trace itself.
+
+``trace -> evidence (distances) -> Problem -> merge threshold path -> selection -> confidence``
+
+* **Evidence.** ``footprints`` (:mod:`vggc_cp.vision.footprints`, no weights, the trace's
+  actions localize where states differ) first. With ``evidence="auto"``, when the footprint
+  graph is suspect (below), the paper's attention distances (``saliency`` and ``keypoints``
+  Sinkhorn divergences, :mod:`vggc_cp.vision.distances`) are tried too, and the candidate
+  that the criterion prefers among those that are not suspect is kept.
+* **Threshold.** Congruence-closure merging (:mod:`vggc_cp.solvers.merge`) over a geometric
+  grid of thresholds from the noise scale (the median nearest-neighbour distance) up to a
+  high quantile of all distances.
+* **Selection.** Least description length (:mod:`vggc_cp.solvers.mdl`): no threshold rule
+  fitted to a benchmark, the same criterion across thresholds and across evidences.
+* **Confidence.** Margin, plateau and held-out prediction
+  (:mod:`vggc_cp.solvers.confidence`); the graph is flagged *suspect* with reasons.
+
+Everything here reads observations and actions only, never ground-truth ``states``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vggc_cp.errors import VggcError
+from vggc_cp.graph import TaskGraph
+from vggc_cp.solvers.base import Problem, SolveResult
+from vggc_cp.solvers.confidence import (
+    Confidence,
+    WarningRule,
+    assess,
+    heldout_prediction,
+    plateau_length,
+)
+from vggc_cp.solvers.mdl import description_length
+from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
+from vggc_cp.trace import Trace
+from vggc_cp.vision.distances import DistanceConfig, compute_distances
+from vggc_cp.vision.footprints import FootprintParams, footprint_distances
+
+#: Evidence names: ``footprints``, or an attention backend of the Sinkhorn distances.
+FOOTPRINTS = "footprints"
+AUTO = "auto"
+#: Attention backends that ``auto`` tries when the footprint graph is suspect.
+AUTO_FALLBACK = ("keypoints", "saliency")
+
+
+@dataclass(frozen=True)
+class LearnOptions:
+    """Every setting of :func:`learn_graph`.
+
+    Attributes
+    ----------
+    evidence : str
+        ``auto`` (footprints, then attention backends when suspect), ``footprints``, or an
+        attention backend (``saliency``, ``keypoints``, ``dinov2``) of the Sinkhorn distances.
+    distance : DistanceConfig
+        Settings of the Sinkhorn distances (its ``backend`` is replaced by the evidence).
+    footprint : FootprintParams
+    rule : str
+        Path selection rule (``mdl`` default; ``cascade``, ``fewest``).
+    thresholds : tuple of float or None
+        Merge thresholds; None: :func:`threshold_grid`.
+    steps : int
+        Thresholds of the default grid.
+    folds : int
+        Episode folds of the held-out prediction (0: skip it).
+    warning : WarningRule
+    """
+
+    evidence: str = AUTO
+    distance: DistanceConfig = field(default_factory=DistanceConfig)
+    footprint: FootprintParams = field(default_factory=FootprintParams)
+    rule: str = "mdl"
+    thresholds: tuple[float, ...] | None = None
+    steps: int = 24
+    folds: int = 5
+    warning: WarningRule = field(default_factory=WarningRule)
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """One evidence's threshold path, its selected graph and that graph's confidence."""
+
+    evidence: str
+    problem: Problem
+    path: ThresholdPath
+    description_lengths: tuple[float, ...]
+    confidence: Confidence
+    seconds: float
+
+    @property
+    def best(self) -> SolveResult:
+        return self.path.results[self.path.selected]
+
+    @property
+    def description_length(self) -> float:
+        return self.description_lengths[self.path.selected]
+
+
+@dataclass(frozen=True, eq=False)
+class Learned:
+    """What :func:`learn_graph` returns: the chosen candidate and all that were tried."""
+
+    chosen: Candidate
+    candidates: tuple[Candidate, ...]
+    seconds: float
+
+    @property
+    def labels(self) -> np.ndarray:
+        return self.chosen.best.labels
+
+    @property
+    def problem(self) -> Problem:
+        return self.chosen.problem
+
+    @property
+    def confidence(self) -> Confidence:
+        return self.chosen.confidence
+
+    @property
+    def graph(self) -> TaskGraph:
+        return self.problem.graph(self.labels)
+
+    @property
+    def threshold(self) -> float:
+        return self.chosen.path.thresholds[self.chosen.path.selected]
+
+
+def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9) -> np.ndarray:
+    """Geometric grid from the noise scale to the ``top_quantile`` of all within-role
+    distances (``steps`` values, ascending)."""
+    ups = [d[np.triu_indices(len(d), 1)] for d in (problem.dist_pick, problem.dist_place)
+           if len(d) > 1]
+    values = np.concatenate(ups) if ups else np.zeros(0)
+    lo = noise_scale(problem)
+    hi = float(np.quantile(values, top_quantile)) if len(values) else 0.0
+    lo = lo if lo > 0 else (hi / 100 if hi > 0 else 1e-3)
+    hi = max(hi, lo * 1.01)
+    return np.geomspace(lo, hi, int(steps))
+
+
+def evidence_distances(trace: Trace, evidence: str, options: LearnOptions,
+                       progress: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Within-role distances of ``trace`` under ``evidence`` (``footprints`` or an attention
+    backend)."""
+    if evidence == FOOTPRINTS:
+        return footprint_distances(trace, options.footprint)
+    from dataclasses import replace
+
+    cfg = replace(options.distance, backend=evidence)
+    return compute_distances(trace, cfg, progress=progress)
+
+
+def episode_index(trace: Trace) -> np.ndarray:
+    """Episode of every observation, int64 array of shape (N,)."""
+    out = np.empty(trace.n_obs, dtype=np.int64)
+    for e, (first, last) in enumerate(trace.episodes()):
+        out[first:last + 1] = e
+    return out
+
+
+def run_candidate(trace: Trace, evidence: str, options: LearnOptions,
+                  progress: bool = False) -> Candidate:
+    """Distances, merge path, selection and confidence under one evidence."""
+    t0 = time.perf_counter()
+    dp, dq = evidence_distances(trace, evidence, options, progress)
+    problem = Problem.from_trace(trace, dp, dq)
+    ts = (np.asarray(options.thresholds, dtype=np.float64) if options.thresholds is not None
+          else threshold_grid(problem, options.steps))
+    path = threshold_path(problem, ts, options.rule, progress=progress)
+    dls = tuple(description_length(problem, r.labels) for r in path.results)
+    k = path.selected
+    best = path.results[k]
+    others = [dl for dl, r in zip(dls, path.results) if r.n_nodes != best.n_nodes]
+    n_trans = max(len(problem.act), 1)
+    margin = (min(others) - dls[k]) / n_trans if others else float("inf")
+    plateau = plateau_length([r.labels for r in path.results], k)
+    heldout = (heldout_prediction(problem, path.thresholds[k], episode_index(trace),
+                                  options.folds) if options.folds >= 2 else None)
+    conf = assess(margin, plateau, heldout, problem.n_obs / max(best.n_nodes, 1),
+                  options.warning, criterion=options.rule)
+    return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
+
+
+def learn_graph(trace: Trace, options: LearnOptions | None = None,
+                progress: bool = False) -> Learned:
+    """Learn the task graph of ``trace`` (module docstring).
+
+    Parameters
+    ----------
+    trace : Trace
+        Only observations and actions are read.
+    options : LearnOptions, optional
+    progress : bool
+        Progress bars on stderr.
+
+    Returns
+    -------
+    Learned
+
+    Raises
+    ------
+    VggcError
+        When the trace has no transition.
+    """
+    options = options or LearnOptions()
+    if trace.n_transitions == 0:
+        raise VggcError("the trace has no transition: nothing to learn")
+    t0 = time.perf_counter()
+    first = FOOTPRINTS if options.evidence == AUTO else options.evidence
+    candidates = [run_candidate(trace, first, options, progress)]
+    if options.evidence == AUTO and candidates[0].confidence.suspect:
+        for backend in AUTO_FALLBACK:
+            candidates.append(run_candidate(trace, backend, options, progress))
+    chosen = choose(candidates)
+    return Learned(chosen, tuple(candidates), time.perf_counter() - t0)
+
+
+def choose(candidates: list[Candidate]) -> Candidate:
+    """The candidate of least description length among those not suspect, else among all
+    (the first of equal ones)."""
+    pool = [c for c in candidates if not c.confidence.suspect] or list(candidates)
+    return min(pool, key=lambda c: c.description_length)
