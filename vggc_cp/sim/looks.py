@@ -291,8 +291,8 @@ def finish_frame(img: np.ndarray, look: Look, rng: np.random.Generator) -> np.nd
         return img
     gain = rng.uniform(*look.frame_gain)
     tint = 1.0 + rng.uniform(-look.frame_tint, look.frame_tint, 3)
-    noise = rng.normal(0.0, look.noise_sigma, img.shape)
-    out = img.astype(np.float64) * (gain * tint) + noise
+    noise = rng.standard_normal(img.shape, dtype=np.float32)
+    out = img * (gain * tint).astype(np.float32) + np.float32(look.noise_sigma) * noise
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
