@@ -252,8 +252,11 @@ def read_image(path: str | Path) -> np.ndarray:
         check_input(p, "image")
     except VggcError as exc:
         raise ImageError(str(exc)) from None
+    bomb_limit = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None  # our cap (VGGC_CP_MAX_PIXELS) is checked instead
     try:
         with Image.open(p) as im:
+            Image.MAX_IMAGE_PIXELS = bomb_limit
             w, h = im.size  # from the header (PNG: IHDR), before decoding
             try:
                 check_image_size(h, w, str(p))
@@ -264,6 +267,8 @@ def read_image(path: str | Path) -> np.ndarray:
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError,
             Image.DecompressionBombError) as exc:
         raise ImageError(f"{p}: not a readable image ({type(exc).__name__})") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = bomb_limit
     return np.asarray(rgb, dtype=np.uint8).copy()
 
 
