@@ -164,6 +164,7 @@ def preflight(args) -> None:
     for attr in INPUT_ATTRS:
         value = getattr(args, attr, None)
         if isinstance(value, (str, os.PathLike)):
+            value = os.path.expanduser(value) if attr == "weights" else value
             check_input(value, attr)
             inputs[attr] = str(value)
     outputs: dict[str, str] = {}
