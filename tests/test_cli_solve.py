@@ -51,8 +51,19 @@ def test_solve_writes_a_valid_solution(toy_path, tmp_path, capsys):
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
     grid = sol.extra["grid"]
     assert len(grid) == 6
-    assert all({"k_pick", "k_place", "status", "J", "seconds", "nodes"} <= set(c) for c in grid)
+    assert all({"k_pick", "k_place", "status", "J", "nodes"} <= set(c) for c in grid)
+    assert not any("seconds" in c for c in grid) and "seconds" not in sol.extra  # reproducible
     assert "distances" in sol.extra and sol.extra["select"] == "fewest"
+
+
+def test_solve_is_byte_reproducible_and_timings_on_request(toy_path, tmp_path):
+    path, _ = toy_path
+    a, b, t = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "t.json"
+    assert solve(path, a) == 0 and solve(path, b) == 0
+    assert a.read_bytes() == b.read_bytes()
+    assert solve(path, t, "--timings") == 0
+    sol = read_solution(t)
+    assert "seconds" in sol.extra and all("seconds" in c for c in sol.extra["grid"])
 
 
 def test_states_removed_solves_identically(toy_path, tmp_path):

@@ -8,6 +8,21 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from vggc_cp.safeio import TEMP_MARK
+
+#: temporary files of writes in progress; removed by :func:`cleanup_temps` (signal handlers)
+_LIVE: set[Path] = set()
+
+
+def cleanup_temps() -> None:
+    """Remove the temporary files of every write still in progress (on SIGINT/SIGTERM)."""
+    for tmp in list(_LIVE):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        _LIVE.discard(tmp)
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
@@ -18,10 +33,11 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix or target.suffix,
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}{TEMP_MARK}", suffix=suffix or target.suffix,
                                dir=target.parent)
     os.close(fd)
     tmp_path = Path(tmp)
+    _LIVE.add(tmp_path)
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
@@ -29,6 +45,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
         yield tmp_path
         os.replace(tmp_path, target)
     finally:
+        _LIVE.discard(tmp_path)
         if tmp_path.exists():
             tmp_path.unlink()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -113,55 +114,182 @@ def solution_dict(labels, roles, graph: TaskGraph, *, k_pick: int, k_place: int,
     return out
 
 
-def write_solution(path: str | Path, data: dict) -> None:
-    """Write a solution JSON atomically (temporary file, then rename)."""
+#: keys of wall-clock timings, left out of solution files unless asked for
+TIMING_KEY = re.compile(r"(^|_)seconds$|^(wall|user)_time$")
+
+
+def _strip_seconds(obj):
+    """``obj`` without wall-clock timings (keys ``seconds``, ``*_seconds``, ``wall_time``)."""
+    if isinstance(obj, dict):
+        return {k: _strip_seconds(v) for k, v in obj.items()
+                if not (isinstance(k, str) and TIMING_KEY.search(k))}
+    if isinstance(obj, list):
+        return [_strip_seconds(v) for v in obj]
+    return obj
+
+
+def write_solution(path: str | Path, data: dict, timings: bool = False) -> None:
+    """Write a solution JSON atomically (temporary file, then rename).
+
+    Wall-clock timings (keys matching :data:`TIMING_KEY`) are left out unless ``timings``, so the
+    same inputs give the same bytes (``solve --timings`` keeps them).
+    """
+    if not timings:
+        data = _strip_seconds(data)
     write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
 
 
+#: labels and node ids are below this (int64 arrays; ``2**70`` is refused)
+MAX_ID = 2**31 - 1
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _bad_field(src: str, name: str, value, want: str) -> SolutionError:
+    from vggc_cp.safeio import NonFinite
+
+    if isinstance(value, NonFinite):
+        shown = value.text
+    else:
+        shown = repr(value)
+        if len(shown) > 40:
+            shown = shown[:37] + "..."
+    return SolutionError(f"{src}: field {name!r} is {shown}, expected {want}")
+
+
 def read_solution(path: str | Path) -> Solution:
-    """Read and structurally check a solution JSON; :class:`SolutionError` names file and field."""
+    """Read and structurally check a solution JSON; :class:`SolutionError` names file and field.
+
+    Types, ranges and finiteness of every required field are checked (a label of ``2**70``,
+    ``true``, ``J: Infinity``, ``edges: null`` are refused naming the field and index).
+    """
+    from vggc_cp.errors import VggcError
+    from vggc_cp.safeio import NonFinite, read_json
+
     path = Path(path)
     src = str(path)
-    if not path.is_file():
-        raise SolutionError(f"{src}: no such file")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise SolutionError(f"{src}: not JSON ({exc})") from None
+        data = read_json(path, src, allow_nan=False)
+    except SolutionError:
+        raise
+    except VggcError as exc:
+        raise SolutionError(str(exc)) from None
     if not isinstance(data, dict):
         raise SolutionError(f"{src}: expected a JSON object")
     for key in REQUIRED:
         if key not in data:
             raise SolutionError(f"{src}: missing field {key!r}")
     if data["format"] != FORMAT:
-        raise SolutionError(f"{src}: field 'format' is {data['format']!r}, expected {FORMAT!r}")
+        raise _bad_field(src, "format", data["format"], repr(FORMAT))
     labels = data["labels"]
-    if not isinstance(labels, list) or not all(isinstance(x, int) and x >= 0 for x in labels):
-        bad = next((i for i, x in enumerate(labels) if not (isinstance(x, int) and x >= 0)), 0) \
-            if isinstance(labels, list) else 0
-        raise SolutionError(f"{src}: labels[{bad}] is not a non-negative integer")
+    if not isinstance(labels, list):
+        raise _bad_field(src, "labels", labels, "a list of non-negative integers")
+    if not labels:
+        raise SolutionError(f"{src}: field 'labels' is empty")
+    for i, x in enumerate(labels):
+        if not (_is_int(x) and 0 <= x <= MAX_ID):
+            raise _bad_field(src, f"labels[{i}]", x, f"an integer in [0, {MAX_ID}]")
     roles = data["roles"]
     if not isinstance(roles, list) or len(roles) != len(labels):
         raise SolutionError(f"{src}: field 'roles' must be a list as long as 'labels'")
     for i, r in enumerate(roles):
-        if r not in ROLE_NAMES:
+        if not isinstance(r, str) or r not in ROLE_NAMES:
             raise SolutionError(f"{src}: roles[{i}] = {r!r}, expected 'pick' or 'place'")
+    if not isinstance(data["edges"], list):
+        raise _bad_field(src, "edges", data["edges"], "a list of [u, action_name, v]")
     edges = []
     for i, e in enumerate(data["edges"]):
-        if not (isinstance(e, list) and len(e) == 3 and isinstance(e[0], int)
-                and isinstance(e[1], str) and isinstance(e[2], int)):
-            raise SolutionError(f"{src}: edges[{i}] is not [u, action_name, v]")
+        if not (isinstance(e, list) and len(e) == 3 and _is_int(e[0]) and 0 <= e[0] <= MAX_ID
+                and isinstance(e[1], str) and _is_int(e[2]) and 0 <= e[2] <= MAX_ID):
+            raise SolutionError(f"{src}: edges[{i}] is not [u, action_name, v] "
+                                f"(node ids in [0, {MAX_ID}])")
         edges.append((e[0], e[1], e[2]))
-    extra = {k: v for k, v in data.items() if k not in REQUIRED}
+    for key in ("k_pick", "k_place"):
+        if not (_is_int(data[key]) and 0 <= data[key] <= MAX_ID):
+            raise _bad_field(src, key, data[key], "a non-negative integer")
     J = data["J"]
+    if J is not None and (isinstance(J, (bool, NonFinite)) or not isinstance(J, (int, float))
+                          or not math.isfinite(J)):
+        raise _bad_field(src, "J", J, "a finite number or null")
+    for key in ("solver", "status"):
+        if not isinstance(data[key], str):
+            raise _bad_field(src, key, data[key], "a string")
+    sha = data.get("trace_sha256")
+    if sha is not None and not (isinstance(sha, str) and re.fullmatch(r"[0-9a-f]{64}", sha)):
+        raise _bad_field(src, "trace_sha256", sha, "64 hexadecimal digits")
+    bad = _find_nonfinite(data)
+    if bad is not None:
+        raise SolutionError(f"{src}: field {bad!r} is NaN or Infinity, which JSON does not allow")
+    extra = {k: v for k, v in data.items() if k not in REQUIRED}
     return Solution(np.array(labels, dtype=np.int64),
                     np.array([ROLE_NAMES.index(r) for r in roles], dtype=np.int8),
                     edges, int(data["k_pick"]), int(data["k_place"]),
-                    float("nan") if J is None else float(J), str(data["solver"]),
-                    str(data["status"]), extra)
+                    float("nan") if J is None else float(J), data["solver"],
+                    data["status"], extra)
 
 
-def verify_solution(solution: Solution, trace: Trace, source: str = "<solution>") -> TaskGraph:
+def _find_nonfinite(obj, where: str = ""):
+    """The path of the first NaN/Infinity constant in ``obj`` (None if there is none)."""
+    from vggc_cp.safeio import NonFinite
+
+    if isinstance(obj, NonFinite):
+        return where
+    if isinstance(obj, dict):
+        items = obj.items()
+    elif isinstance(obj, list):
+        items = enumerate(obj)
+    else:
+        return None
+    for k, v in items:
+        sub = f"{where}[{k}]" if isinstance(k, int) else (f"{where}.{k}" if where else k)
+        found = _find_nonfinite(v, sub)
+        if found is not None:
+            return found
+    return None
+
+
+def check_trace_identity(solution: Solution, trace: Trace, source: str,
+                         trace_source: str = "the trace") -> None:
+    """Refuse a solution that records the ``trace_sha256`` of another trace."""
+    want = solution.extra.get("trace_sha256")
+    if want is not None and want != trace.content_hash():
+        raise SolutionError(f"{source}: the solution was learned on another trace than "
+                            f"{trace_source} (its trace_sha256 {want[:12]}... differs from "
+                            f"{trace.content_hash()[:12]}...)")
+
+
+def verify_standalone(solution: Solution, source: str = "<solution>") -> TaskGraph:
+    """Check a solution without its trace (``plan``): every edge names a pick or place action
+    leaving a node of that role for a node of the other role, no node holds both roles, and
+    the graph is bipartite and Exactly-One (unless ``constraints`` is ``"none"``)."""
+    from vggc_cp.trace import action_kind
+
+    graph = solution.edge_graph()
+    for u, r in graph.node_role.items():
+        if r < 0:
+            raise SolutionError(f"{source}: node {u} holds both pick and place observations")
+    for i, (u, a, v) in enumerate(solution.edges):
+        kind = action_kind(a)
+        if kind is None or not a.isprintable():
+            raise SolutionError(f"{source}: edges[{i}] names an unknown action {a!r} (neither "
+                                f"pick nor place)")
+        if graph.node_role[u] != kind or graph.node_role[v] != 1 - kind:
+            raise SolutionError(f"{source}: edges[{i}] = [{u}, {a!r}, {v}] goes from a "
+                                f"{ROLE_NAMES[graph.node_role[u]]} node to a "
+                                f"{ROLE_NAMES[graph.node_role[v]]} node (roles swapped)")
+    report = check(graph)
+    tolerated = {"determinism"} | ({"exactly_one"} if solution.extra.get("constraints") == "none"
+                                   else set())
+    bad = [v for v in report.violations if v.kind not in tolerated]
+    if bad:
+        raise SolutionError(f"{source}: violates {bad[0].kind}: {bad[0].detail}")
+    return graph
+
+
+def verify_solution(solution: Solution, trace: Trace, source: str = "<solution>",
+                    trace_source: str = "the trace") -> TaskGraph:
     """Check a solution against its trace; return the induced graph.
 
     Refuses (with :class:`SolutionError`) a wrong number of labels, roles that differ from the
@@ -169,6 +297,7 @@ def verify_solution(solution: Solution, trace: Trace, source: str = "<solution>"
     violation of bipartiteness or Exactly-One — except Exactly-One when the solution's field
     ``constraints`` is ``"none"`` (a baseline that does not enforce it).
     """
+    check_trace_identity(solution, trace, source, trace_source)
     n = trace.n_obs
     if len(solution.labels) != n:
         raise SolutionError(f"{source}: field 'labels' has {len(solution.labels)} entries, "

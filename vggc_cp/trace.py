@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from vggc_cp.atomic import write_bytes
-from vggc_cp.errors import TraceError
+from vggc_cp.errors import TraceError, VggcError
 
 PICK = 0
 PLACE = 1
@@ -59,6 +59,8 @@ class Trace:
     action_names: tuple[str, ...]
     states: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    #: the file it was loaded from (error messages name it); not part of its identity
+    source: str | None = field(default=None, compare=False, repr=False)
 
     @property
     def n_obs(self) -> int:
@@ -113,6 +115,24 @@ class Trace:
         h.update("\x00".join(self.action_names).encode())
         return h.hexdigest()
 
+    def identity_hash(self) -> str:
+        """SHA-256 of what solvers see, every part prefixed by its length (no two traces share
+        it, whatever their action names hold); the distance cache's key."""
+        h = hashlib.sha256(b"vggc-trace-identity/1")
+
+        def part(b: bytes) -> None:
+            h.update(len(b).to_bytes(8, "little"))
+            h.update(b)
+
+        obs = np.ascontiguousarray(self.observations)
+        part(repr(obs.shape).encode())
+        part(obs.tobytes())
+        part(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
+        part(len(self.action_names).to_bytes(8, "little"))
+        for name in self.action_names:
+            part(name.encode("utf-8", "surrogatepass"))
+        return h.hexdigest()
+
 
 def compute_roles(actions: np.ndarray, action_names) -> np.ndarray:
     """Roles from actions alone (assumes a valid trace). Returns int8 array of shape (N,)."""
@@ -155,7 +175,15 @@ def validate(trace: Trace, source: str = "<trace>") -> None:
     a = len(names)
     if a == 0:
         raise _fail(source, "field 'action_names' is empty")
+    seen: dict[str, int] = {}
     for i, name in enumerate(names):
+        if not isinstance(name, str) or not name.isprintable() or name != name.strip() or \
+                not name:
+            raise _fail(source, f"action_names[{i}] = {name!r} is empty, holds control "
+                                f"characters or surrounding spaces")
+        if name in seen:
+            raise _fail(source, f"action_names[{i}] = {name!r} repeats action_names[{seen[name]}]")
+        seen[name] = i
         if action_kind(name) is None:
             raise _fail(source, f"action_names[{i}] = {name!r} begins with neither 'pick' nor 'place'")
     bad = np.flatnonzero((actions < -1) | (actions >= a))
@@ -194,6 +222,8 @@ def _read_member(data, key: str, source: str) -> np.ndarray:
         raise _fail(source, f"field {key!r} is unreadable: {exc}") from None
     except (zipfile.BadZipFile, OSError, EOFError, KeyError) as exc:
         raise _fail(source, f"field {key!r} is corrupt or truncated ({type(exc).__name__})") from None
+    except MemoryError:
+        raise _fail(source, f"field {key!r} does not fit in memory") from None
     except Exception as exc:  # zlib.error and friends on damaged members
         raise _fail(source, f"field {key!r} is corrupt or truncated ({type(exc).__name__})") from None
 
@@ -206,10 +236,20 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
     TraceError
         Naming the file, the field and the index of the first problem.
     """
+    from vggc_cp.safeio import check_image_size, check_input, loads_json, npz_headers
+
     path = Path(path)
     source = str(path)
-    if not path.is_file():
-        raise _fail(source, "no such file")
+    try:
+        check_input(path, "trace")
+        headers = npz_headers(path, source)
+        obs_shape = headers.get("observations", ((), None))[0]
+        if len(obs_shape) == 4:
+            check_image_size(obs_shape[1], obs_shape[2], f"{source}: field 'observations'")
+    except TraceError:
+        raise
+    except VggcError as exc:
+        raise TraceError(str(exc)) from None
     try:
         data = np.load(path, allow_pickle=False)
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
@@ -237,14 +277,14 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
         if meta_arr.dtype.kind != "U" or meta_arr.ndim != 0:
             raise _fail(source, "field 'meta' must be a unicode scalar holding a JSON object")
         try:
-            meta = json.loads(str(meta_arr))
-        except json.JSONDecodeError as exc:
-            raise _fail(source, f"field 'meta' is not JSON: {exc}") from None
+            meta = loads_json(str(meta_arr), f"{source}: field 'meta'")
+        except VggcError as exc:
+            raise TraceError(str(exc)) from None
         if not isinstance(meta, dict):
             raise _fail(source, "field 'meta' is JSON but not an object")
     if actions.dtype.kind == "i":
         actions = actions.astype(np.int64, copy=False)
-    trace = Trace(obs, actions, tuple(str(x) for x in names_arr), states, meta)
+    trace = Trace(obs, actions, tuple(str(x) for x in names_arr), states, meta, source)
     if validate_trace:
         validate(trace, source)
     return trace

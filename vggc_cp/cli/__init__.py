@@ -8,7 +8,9 @@ Each module in :data:`COMMAND_MODULES` contributes sub-commands through
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import signal
 import sys
 
 from vggc_cp.errors import VggcError
@@ -43,17 +45,55 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+def _on_signal(signum, _frame):
+    """SIGTERM (and SIGHUP): remove the temporary files of writes in progress, then exit."""
+    from vggc_cp.atomic import cleanup_temps
+
+    cleanup_temps()
+    print(f"vggc-cp: terminated by signal {signum}", file=sys.stderr)
+    raise SystemExit(128 + signum)
+
+
+@contextlib.contextmanager
+def _signal_handlers():
+    """Install :func:`_on_signal` for SIGTERM/SIGHUP while a command runs (main thread only)."""
+    saved = {}
     try:
-        return int(args.func(args) or 0)
+        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            if sig is not None:
+                saved[sig] = signal.signal(sig, _on_signal)
+    except ValueError:  # not the main thread: leave signals alone
+        pass
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from vggc_cp.atomic import cleanup_temps
+
+    try:
+        with _signal_handlers():
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            from vggc_cp.safeio import preflight
+
+            preflight(args)  # inputs and outputs checked before any work
+            return int(args.func(args) or 0)
     except VggcError as exc:
-        print(f"vggc-cp: error: {exc}", file=sys.stderr)
+        print(f"vggc-cp: error: {_one_line(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        cleanup_temps()
         print("vggc-cp: interrupted", file=sys.stderr)
         return 130
+
+
+def _one_line(text: str) -> str:
+    """An error message on one line (control characters of file names escaped)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 if __name__ == "__main__":  # pragma: no cover

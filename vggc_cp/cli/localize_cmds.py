@@ -87,7 +87,7 @@ def cmd_train(args) -> int:
                          folds=args.folds, seed=args.seed)
     trace = load_trace(args.trace)
     solution = read_solution(args.solution)
-    verify_solution(solution, trace, args.solution)
+    verify_solution(solution, trace, args.solution, args.trace)
     localizer, report = train_localizer(trace, solution, config, progress=not args.quiet,
                                         trace_path=args.trace, solution_path=args.solution)
     save_localizer(args.output, localizer)
@@ -121,13 +121,14 @@ def wants_image_plan(args) -> bool:
 def cmd_image_plan(args) -> int:
     """``vggc-cp plan solution.json --model m.pt --start a.png --goal b.png``."""
     from vggc_cp.localize import load_localizer, plan_images, read_image
-    from vggc_cp.solution import read_solution
+    from vggc_cp.solution import read_solution, verify_standalone
 
     missing = [f"--{k}" for k in ("model", "start", "goal") if getattr(args, k, None) is None]
     if missing:
         raise VggcError(f"planning from images needs --model, --start and --goal "
                         f"(missing {', '.join(missing)})")
     solution = read_solution(args.solution)
+    verify_standalone(solution, args.solution)
     localizer = load_localizer(args.model)
     start, goal = read_image(args.start), read_image(args.goal)
     result = plan_images(localizer, solution, start, goal, start_source=args.start,
@@ -179,6 +180,9 @@ def i2p_results(args, trace, solution) -> dict | None:
     localizer = load_localizer(args.model)
     check_model_matches(localizer, solution, args.model)
     obs, states = load_novel(args.novel)
+    if trace.states is not None and not set(states.tolist()) & set(trace.states.tolist()):
+        raise VggcError(f"{args.novel}: none of its {len(states)} images shows a state that "
+                        f"the trace {args.trace} visited (another benchmark or seed?)")
     m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=args.i2p_queries,
                            seed=args.seed, dynamics=args.dynamics)
     return m.as_dict()

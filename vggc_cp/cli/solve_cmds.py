@@ -68,6 +68,9 @@ def register(sub) -> None:
                    help="print the grid as J per cell (pivot, default), one row per cell with "
                         "feasible, status, J, seconds (cells), or not at all")
     p.add_argument("--quiet", action="store_true", help="no progress bars, no grid table")
+    p.add_argument("--timings", action="store_true",
+                   help="record wall-clock seconds in the solution file (off by default, so "
+                        "the same inputs give the same bytes)")
     add_distance_arguments(p)
     from vggc_cp.cli.compare_cmds import add_cpsat_arguments
 
@@ -223,7 +226,7 @@ def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
         solver=best.solver, status=best.status, distances=_config_record(cfg),
         trace=str(args.trace), trace_sha256=trace.content_hash(),
         stats=_jsonable(best.stats), **extra)
-    write_solution(args.output, data)
+    write_solution(args.output, data, timings=getattr(args, "timings", False))
     counts = graph.count_by_role()
     print(f"chosen         {how}: {graph.n_nodes} nodes ({counts['pick']} pick, "
           f"{counts['place']} place), {graph.n_edges} edges, J {best.J:.4f}, {best.status}")
@@ -304,10 +307,11 @@ def cmd_plan(args) -> int:
     if args.start_obs is None or args.goal_obs is None:
         raise VggcError("plan needs --start-obs and --goal-obs")
     from vggc_cp.graph import format_plan, shortest_plan
-    from vggc_cp.solution import read_solution
+    from vggc_cp.solution import read_solution, verify_standalone
     from vggc_cp.trace import ROLE_NAMES
 
     solution = read_solution(args.solution)
+    verify_standalone(solution, args.solution)  # unknown actions, roles, Exactly-One
     n = len(solution.labels)
     for opt, i in (("--start-obs", args.start_obs), ("--goal-obs", args.goal_obs)):
         if not 0 <= i < n:

@@ -57,7 +57,7 @@ def cmd_evaluate(args) -> int:
         raise VggcError(f"--queries must be positive, got {args.queries}")
     trace = load_trace(args.trace)
     solution = read_solution(args.solution)
-    graph = verify_solution(solution, trace, args.solution)
+    graph = verify_solution(solution, trace, args.solution, args.trace)
     metrics, used = evaluate_trace(trace, graph, solution.labels, n_queries=args.queries,
                                    seed=args.seed, dynamics=args.dynamics)
     out = metrics.as_dict() | {"dynamics": used, "solver": solution.solver}

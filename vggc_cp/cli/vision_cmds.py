@@ -111,6 +111,7 @@ def parse_indices(text: str, n: int) -> list[int]:
 
 
 def cmd_show_attention(args) -> int:
+    from vggc_cp.safeio import check_grid
     from vggc_cp.trace import ROLE_NAMES, load_trace
     from vggc_cp.vision import AttentionParams, attention_maps
     from vggc_cp.vision.attention import SALIENCY_BACKENDS
@@ -123,6 +124,7 @@ def cmd_show_attention(args) -> int:
         raise VggcError(f"--grid must be at least 2, got {args.grid}")
     if not 0 < args.floor < 1:
         raise VggcError(f"--floor must lie in (0, 1), got {args.floor}")
+    check_grid(trace, args.grid)
     if args.attention in SALIENCY_BACKENDS:  # the background is the trace's
         maps = attention_maps(trace.observations, args.attention, params)[idx]
     else:

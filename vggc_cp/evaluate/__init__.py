@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import sys
 
 import numpy as np
 
@@ -40,6 +41,29 @@ def simulator_step(trace: Trace, gt: GroundTruth) -> StepFn | None:
     return gt.step_from_names(bench.step, trace.action_names)
 
 
+def _sim_mismatch(trace: Trace, gt: GroundTruth) -> str | None:
+    """Why the simulator named by ``meta['benchmark']`` cannot run this trace's states and
+    actions (state keys written another way, foreign action names), or None when it can."""
+    name = trace.meta.get("benchmark")
+    src = getattr(trace, "source", None) or "the trace"
+    try:
+        bench = importlib.import_module("vggc_cp.sim").get_benchmark(name)
+    except (ImportError, AttributeError, VggcError):
+        return f"{src}: meta names benchmark {name!r}, which the simulator does not know"
+    known = set(getattr(bench, "action_names", ()))
+    for i, a in enumerate(trace.action_names):
+        if known and a not in known:
+            return f"{src}: action_names[{i}] = {a!r} is not an action of {name}"
+    decode = getattr(bench, "decode", None)
+    if decode is not None:
+        for key in gt.state_names:
+            try:
+                decode(str(key))
+            except VggcError:
+                return f"{src}: state key {str(key)!r} is not one of {name}'s"
+    return None
+
+
 def resolve_dynamics(trace: Trace, gt: GroundTruth, dynamics: str) -> tuple[StepFn | None, str]:
     """The true transition function for Exec and its name (``sim`` or ``trace``).
 
@@ -53,7 +77,14 @@ def resolve_dynamics(trace: Trace, gt: GroundTruth, dynamics: str) -> tuple[Step
         return None, "trace"
     step = simulator_step(trace, gt)
     if step is not None:
-        return step, "sim"
+        why = _sim_mismatch(trace, gt)
+        if why is None:
+            return step, "sim"
+        if dynamics == "sim":
+            raise VggcError(f"--dynamics sim: {why}")
+        print(f"vggc-cp: note: {why}; Exec uses the trace's own transitions (--dynamics trace)",
+              file=sys.stderr)
+        return None, "trace"
     if dynamics == "sim":
         raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
     return None, "trace"

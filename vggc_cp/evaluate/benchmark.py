@@ -273,13 +273,23 @@ def _distance_key(attention: str = "saliency") -> tuple[dict, str]:
 def _cached(path: Path, key: dict, member: str) -> dict | None:
     """``member`` of the cache file at ``path`` when it was written under ``key``, else None
     (also for a missing or unreadable file)."""
+    from vggc_cp.safeio import read_json, warn
+
     if not path.is_file():
         return None
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
+        data = read_json(path)
+    except VggcError as exc:
+        warn(f"{exc}; ignored, recomputing")
         return None
-    return data.get(member) if data.get("key") == key else None
+    if not isinstance(data, dict):
+        warn(f"{path}: not a cell file (not a JSON object); ignored, recomputing")
+        return None
+    value = data.get(member) if data.get("key") == key else None
+    if value is not None and not isinstance(value, dict):
+        warn(f"{path}: field {member!r} is not an object; ignored, recomputing")
+        return None
+    return value
 
 
 def cached_row(job: CellJob) -> dict | None:

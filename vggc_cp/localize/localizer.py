@@ -155,10 +155,17 @@ def load_localizer(path: str | Path) -> Localizer:
         Naming the file: missing, not a checkpoint, refused (it needs arbitrary unpickling),
         or inconsistent with its architecture.
     """
+    from vggc_cp.safeio import cap, check_input, loads_json
+
     p = Path(path)
     src = str(p)
-    if not p.is_file():
-        raise CheckpointError(f"{src}: no such file")
+    try:
+        size = check_input(p, "checkpoint").st_size
+    except VggcError as exc:
+        raise CheckpointError(str(exc)) from None
+    if size > cap("max_bytes"):
+        raise CheckpointError(f"{src}: {size:,} bytes exceed the cap of {cap('max_bytes'):,} "
+                              f"(VGGC_CP_MAX_BYTES)")
     try:
         payload = torch.load(p, map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as exc:
@@ -171,21 +178,64 @@ def load_localizer(path: str | Path) -> Localizer:
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         raise CheckpointError(f"{src}: not a localizer checkpoint (format is not {FORMAT!r})")
     try:
-        meta = json.loads(payload["meta"])
+        if not isinstance(payload.get("meta"), str):
+            raise TypeError("field 'meta' is not a JSON string")
+        meta = loads_json(payload["meta"], "field 'meta'")
+        if not isinstance(meta, dict):
+            raise TypeError("field 'meta' is not a JSON object")
         node_ids = tuple(int(u) for u in meta["node_ids"])
         shape = tuple(int(s) for s in meta["image_shape"])
+        if len(shape) < 2:
+            raise ValueError("image_shape has fewer than two sides")
+        _check_declared_size(meta, len(node_ids), payload.get("state_dict"), src)
         backbone = build_backbone(meta["backbone"], meta["backbone_config"])
         net = LocalizerNet(backbone, len(node_ids), float(meta["gamma"]))
         net.load_state_dict(payload["state_dict"], strict=True)
     except VggcError as exc:
-        raise CheckpointError(f"{src}: {exc}") from None
+        msg = str(exc)
+        raise CheckpointError(msg if msg.startswith(f"{src}:") else f"{src}: {msg}") from None
     except (KeyError, TypeError, ValueError, RuntimeError, json.JSONDecodeError) as exc:
         raise CheckpointError(f"{src}: inconsistent checkpoint ({type(exc).__name__}: "
                               f"{str(exc).splitlines()[0]})") from None
+    for name, tensor in payload["state_dict"].items():
+        if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
+            raise CheckpointError(f"{src}: weight {name!r} holds NaN or infinite values")
     net.eval()
     rest = {k: v for k, v in meta.items()
             if k not in ("node_ids", "image_shape", "backbone", "backbone_config", "gamma")}
     return Localizer(net, node_ids, (shape[0], shape[1]), rest)
+
+
+def _check_declared_size(meta: dict, n_classes: int, state: dict, src: str) -> None:
+    """Build the declared network on the ``meta`` device (no memory) and refuse it when its
+    weights exceed ``max_bytes`` or differ in number from the file's, before allocating."""
+    from vggc_cp.safeio import cap
+
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
+        raise TypeError("field 'state_dict' is not a dict of tensors")
+    config = meta["backbone_config"]
+    if isinstance(config, dict):
+        side = config.get("input_size")
+        if isinstance(side, (int, float)) and side * side > cap("max_pixels"):
+            raise CheckpointError(f"{src}: backbone input_size {side} exceeds the pixel cap "
+                                  f"(VGGC_CP_MAX_PIXELS)")
+    try:
+        with torch.device("meta"):
+            probe = LocalizerNet(build_backbone(meta["backbone"], config), n_classes,
+                                 float(meta["gamma"]))
+    except VggcError as exc:
+        raise CheckpointError(f"{src}: {exc}") from None
+    except MemoryError:
+        raise CheckpointError(f"{src}: the declared network does not fit in memory") from None
+    sizes = {k: v.numel() * v.element_size() for k, v in probe.state_dict().items()}
+    total = sum(sizes.values())
+    if total > cap("max_bytes"):
+        raise CheckpointError(f"{src}: the declared network needs {total:,} bytes of weights, "
+                              f"over the cap of {cap('max_bytes'):,} (VGGC_CP_MAX_BYTES)")
+    if set(sizes) != set(state) or any(tuple(probe.state_dict()[k].shape) != tuple(state[k].shape)
+                                       for k in sizes):
+        raise CheckpointError(f"{src}: inconsistent checkpoint (the weights do not match the "
+                              f"declared architecture)")
 
 
 def read_image(path: str | Path) -> np.ndarray:
@@ -195,15 +245,30 @@ def read_image(path: str | Path) -> np.ndarray:
     """
     from PIL import Image, UnidentifiedImageError
 
+    from vggc_cp.safeio import check_image_size, check_input
+
     p = Path(path)
-    if not p.is_file():
-        raise ImageError(f"{p}: no such file")
+    try:
+        check_input(p, "image")
+    except VggcError as exc:
+        raise ImageError(str(exc)) from None
+    bomb_limit = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None  # our cap (VGGC_CP_MAX_PIXELS) is checked instead
     try:
         with Image.open(p) as im:
+            Image.MAX_IMAGE_PIXELS = bomb_limit
+            w, h = im.size  # from the header (PNG: IHDR), before decoding
+            try:
+                check_image_size(h, w, str(p))
+            except VggcError as exc:
+                raise ImageError(str(exc)) from None
             im.load()
             rgb = im.convert("RGB")
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError,
+            Image.DecompressionBombError) as exc:
         raise ImageError(f"{p}: not a readable image ({type(exc).__name__})") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = bomb_limit
     return np.asarray(rgb, dtype=np.uint8).copy()
 
 

@@ -7,7 +7,6 @@ written with fixed zip timestamps, so the same arrays give the same bytes.
 
 from __future__ import annotations
 
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -41,16 +40,26 @@ def save_novel(path: str | Path, observations: np.ndarray, states: np.ndarray) -
 
 def load_novel(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read a novel-images file: ``(observations [M, H, W, 3] uint8, states [M] str)``."""
+    from vggc_cp.safeio import check_image_size, check_input, npz_headers
+
     p = Path(path)
-    if not p.is_file():
-        raise VggcError(f"{p}: no such file")
+    check_input(p, "novel-images file")
+    headers = npz_headers(p, str(p))
+    for key in ("observations", "states"):
+        if key not in headers:
+            raise VggcError(f"{p}: not a novel-images file (missing field {key!r})")
+    shape = headers["observations"][0]
+    if len(shape) == 4:
+        check_image_size(shape[1], shape[2], f"{p}: field 'observations'")
     try:
         with np.load(p, allow_pickle=False) as data:
             obs, states = data["observations"], data["states"]
-    except (KeyError, ValueError, OSError, zipfile.BadZipFile) as exc:
-        raise VggcError(f"{p}: not a novel-images file ({type(exc).__name__}: {exc})") from None
+    except Exception as exc:  # noqa: BLE001 - zlib, zip, npy damage: all refusals
+        raise VggcError(f"{p}: not a novel-images file ({type(exc).__name__})") from None
     if obs.dtype != np.uint8 or obs.ndim != 4 or obs.shape[3] != 3:
         raise VggcError(f"{p}: field 'observations' must be uint8 [M, H, W, 3]")
     if states.dtype.kind != "U" or states.shape != (obs.shape[0],):
         raise VggcError(f"{p}: field 'states' must be unicode [M]")
+    if obs.shape[0] == 0:
+        raise VggcError(f"{p}: field 'observations' holds no image")
     return obs, states

@@ -180,7 +180,8 @@ def default_cache_dir() -> Path:
 
 def cache_key(trace: Trace, cfg: DistanceConfig) -> dict:
     return {"format": CACHE_FORMAT, "algorithm": ALGORITHM_VERSION,
-            "trace": trace.content_hash(), "config": cfg.key()}
+            "trace": trace.content_hash(), "trace_identity": trace.identity_hash(),
+            "config": cfg.key()}
 
 
 def cache_path(trace: Trace, cfg: DistanceConfig, cache_dir: str | Path | None = None
@@ -204,8 +205,14 @@ def load_cached(path: Path, key: dict, n_pick: int, n_place: int
             dp, dq = data["dist_pick"], data["dist_place"]
     except Exception:  # unreadable or foreign file: recompute and overwrite
         return None
-    if dp.shape != (n_pick, n_pick) or dq.shape != (n_place, n_place):
-        return None
+    for name, d, m in (("dist_pick", dp, n_pick), ("dist_place", dq, n_place)):
+        if d.shape != (m, m) or d.dtype.kind != "f" or not np.all(np.isfinite(d)) \
+                or np.any(d < 0):
+            from vggc_cp.safeio import warn
+
+            warn(f"{path}: cache entry {name} is damaged (shape, NaN/inf or negative "
+                 f"distances); ignored, recomputing")
+            return None
     return dp.astype(np.float64), dq.astype(np.float64)
 
 
@@ -283,7 +290,10 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
                            cache_dir: str | Path | None = None, progress: bool = True
                            ) -> DistanceResult:
     """:func:`compute_distances` with provenance: cache path, hit or miss, statistics."""
+    from vggc_cp.safeio import cache_writable, check_grid
+
     cfg = cfg or DistanceConfig()
+    check_grid(trace, cfg.grid)
     roles = trace.roles()
     n_pick = int(np.count_nonzero(roles == PICK))
     n_place = int(np.count_nonzero(roles == PLACE))
@@ -333,7 +343,7 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
         bar.close()
     stats["colour_bins"] = kept
     stats["seconds"] = {"attention": t_att, "sinkhorn": time.perf_counter() - t1}
-    if cfg.use_cache:
+    if cfg.use_cache and cache_writable(path):
         save_cached(path, key, dp, dq, stats)
     return DistanceResult(dp, dq, path, False, stats)
 

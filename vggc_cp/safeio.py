@@ -1,0 +1,387 @@
+"""Hardened file input and output: the one place every command's files pass through.
+
+* :func:`preflight` runs before a command does any work (``vggc_cp.cli.main``). It checks every
+  input path of the parsed arguments (exists, a regular file, a sane name) and every output
+  path (not an input of the same run, not a directory, device or fifo, a writable folder), so a
+  bad path fails in a second, never after minutes of computing, and an input is never replaced.
+* :func:`npz_headers` reads the header (shape, dtype) of every member of an ``.npz`` without
+  inflating it, so declared sizes are checked against :func:`cap` before any allocation;
+  pickled (object) members are refused.
+* :func:`loads_json` / :func:`read_json` bound the size and nesting depth of JSON before
+  parsing (a ``meta`` nested 100 000 deep never reaches the recursive parser).
+* :func:`sweep_stale_temps` removes temporary files of :mod:`vggc_cp.atomic` left behind by a
+  killed run.
+
+Caps are module constants, overridable by environment variables (README, "Hardening: caps
+and refusals"): :data:`CAPS` maps each name to its default and variable.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import re
+import stat
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.errors import VggcError
+
+#: name -> (default, environment variable, what it bounds)
+CAPS: dict[str, tuple[int, str, str]] = {
+    "max_bytes": (1 << 30, "VGGC_CP_MAX_BYTES",
+                  "uncompressed bytes of one input file's arrays (npz members, checkpoints)"),
+    "max_pixels": (4096 * 4096, "VGGC_CP_MAX_PIXELS", "pixels (height x width) of one image"),
+    "min_side": (4, "VGGC_CP_MIN_SIDE", "smallest image height or width accepted"),
+    "max_json_bytes": (256 << 20, "VGGC_CP_MAX_JSON_BYTES", "bytes of one JSON file or field"),
+    "max_json_depth": (64, "VGGC_CP_MAX_JSON_DEPTH", "nesting depth of JSON arrays/objects"),
+    "stale_temp_minutes": (60, "VGGC_CP_STALE_TEMP_MINUTES",
+                           "age after which a left-over temporary file is swept"),
+}
+
+#: attributes of a parsed command line that name files the command reads
+INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "weights")
+#: attributes that name files the command writes
+OUTPUT_ATTRS = ("output", "csv", "plot")
+#: suffixes matplotlib can write (``--plot``)
+PLOT_FORMATS = frozenset({"png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif",
+                          "tiff", "webp", "pgf", "raw", "rgba"})
+TEMP_MARK = ".vggctmp-"
+_TEMP_RE = re.compile(r"^\..+\.vggctmp-[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
+
+
+def cap(name: str) -> int:
+    """The cap ``name`` (:data:`CAPS`): its environment variable if set, else the default."""
+    default, env, _ = CAPS[name]
+    text = os.environ.get(env)
+    if text is None or not text.strip():
+        return default
+    try:
+        value = int(float(text))
+    except ValueError:
+        raise VggcError(f"${env} = {text!r}: expected a positive integer") from None
+    if value < 1:
+        raise VggcError(f"${env} = {text!r}: expected a positive integer")
+    return value
+
+
+def fail(source, msg: str) -> VggcError:
+    return VggcError(f"{source}: {msg}")
+
+
+def _too_big(what: str, value: int, name: str) -> str:
+    return (f"{what} ({value:,}) exceeds the cap of {cap(name):,}; raise it with "
+            f"{CAPS[name][1]}=... if the file is trusted")
+
+
+# ------------------------------------------------------------------ paths
+
+
+def _name_too_long(path: str) -> bool:
+    return any(len(os.fsencode(part)) > 255 for part in Path(path).parts)
+
+
+def check_input(path, what: str = "input") -> os.stat_result:
+    """Refuse a missing, unreadable or non-regular input file (a fifo would block reading)."""
+    src = str(path)
+    if "\x00" in src:
+        raise fail(repr(src), "a path holding NUL")
+    if _name_too_long(src):
+        raise fail(src[:80] + "...", "a path component is longer than 255 bytes")
+    try:
+        st = os.stat(src)
+    except FileNotFoundError:
+        raise fail(src, "no such file") from None
+    except OSError as exc:
+        raise fail(src, f"cannot read the {what} ({exc.strerror or type(exc).__name__})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise fail(src, f"the {what} is a directory, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise fail(src, f"the {what} is not a regular file (device, fifo or socket)")
+    return st
+
+
+def _same(a: str, b: str) -> bool:
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_output(path, opt: str, inputs: dict[str, str] = {}) -> None:  # noqa: B006
+    """Refuse an output that is an input of the run, not a regular file, or not writable."""
+    src = str(path)
+    if "\x00" in src:
+        raise fail(repr(src), f"{opt}: a path holding NUL")
+    if _name_too_long(src):
+        raise fail(src[:80] + "...", f"{opt}: a path component is longer than 255 bytes")
+    for in_opt, inp in inputs.items():
+        if _same(src, inp):
+            raise fail(src, f"{opt} is the same file as the input {inp} ({in_opt}); refused, it "
+                            f"would overwrite the input")
+    try:
+        st = os.stat(src)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None
+    except OSError as exc:
+        raise fail(src, f"{opt}: cannot use this path ({exc.strerror or type(exc).__name__})"
+                   ) from None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise fail(src, f"{opt} is a directory; give a file name")
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        raise fail(src, f"{opt} is not a regular file (device, fifo or socket); refused")
+    parent = Path(os.path.abspath(src)).parent
+    probe = parent
+    while not (probe.exists() or probe.is_symlink()):
+        probe = probe.parent
+    if probe.is_symlink() and not probe.exists():
+        raise fail(src, f"{opt}: {probe} is a broken link")
+    if not probe.is_dir():
+        raise fail(src, f"{opt}: {probe} is a file, not a folder")
+    if probe == parent:
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=parent)
+        except OSError as exc:
+            raise fail(src, f"{opt}: cannot write in {parent} "
+                            f"({exc.strerror or type(exc).__name__})") from None
+        os.close(fd)
+        os.unlink(tmp)
+    elif not os.access(probe, os.W_OK | os.X_OK):
+        raise fail(src, f"{opt}: cannot create folders in {probe} (not writable)")
+
+
+def preflight(args) -> None:
+    """Check the input and output paths of a parsed command line before any work."""
+    inputs: dict[str, str] = {}
+    for attr in INPUT_ATTRS:
+        value = getattr(args, attr, None)
+        if isinstance(value, (str, os.PathLike)):
+            value = os.path.expanduser(value) if attr == "weights" else value
+            check_input(value, attr)
+            inputs[attr] = str(value)
+    outputs: dict[str, str] = {}
+    for attr in OUTPUT_ATTRS:
+        value = getattr(args, attr, None)
+        if not isinstance(value, (str, os.PathLike)):
+            continue
+        opt = "--" + attr
+        check_output(value, opt, inputs)
+        for other_opt, other in outputs.items():
+            if _same(str(value), other):
+                raise fail(value, f"{opt} and {other_opt} name the same file")
+        if attr == "plot":
+            suffix = Path(value).suffix.lstrip(".").lower()
+            if suffix and suffix not in PLOT_FORMATS:
+                raise fail(value, f"--plot: {suffix!r} is not an image format "
+                                  f"({', '.join(sorted(PLOT_FORMATS))})")
+        outputs[opt] = str(value)
+        sweep_stale_temps(Path(os.path.abspath(value)).parent, Path(value).name)
+    cache = getattr(args, "cache_dir", None)
+    if isinstance(cache, str) and not getattr(args, "no_cache", False):
+        if os.path.exists(cache) and not os.path.isdir(cache):
+            raise fail(cache, "--cache-dir is not a folder")
+
+
+def check_grid(trace, grid: int) -> None:
+    """Refuse a trace whose images are smaller than the attention grid (before any work)."""
+    h, w = trace.image_shape
+    if min(h, w) < grid:
+        raise VggcError(f"{getattr(trace, 'source', None) or 'the trace'}: field 'observations' "
+                        f"holds {h}x{w} images, smaller than the {grid}x{grid} attention grid "
+                        f"(--grid)")
+
+
+def check_image_size(height: int, width: int, source: str) -> None:
+    """Refuse images below ``min_side`` or above ``max_pixels`` (before decoding them)."""
+    lo = cap("min_side")
+    if height < lo or width < lo:
+        raise VggcError(f"{source}: {height}x{width} images are smaller than the minimum "
+                        f"{lo}x{lo} ({CAPS['min_side'][1]})")
+    if height * width > cap("max_pixels"):
+        raise VggcError(f"{source}: {height}x{width} images: "
+                        + _too_big("pixels", height * width, "max_pixels"))
+
+
+# ------------------------------------------------------------------ npz
+
+
+def npz_headers(path, source: str | None = None) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """``{key: (shape, dtype)}`` of every ``.npy`` member of ``path``, read from the headers.
+
+    Refuses (naming the file and the field) a file that is not a zip, a member that is not an
+    array, an object (pickle) member, a declared size above ``max_bytes`` or above what the
+    member holds, and a total uncompressed size above ``max_bytes``. Nothing is inflated
+    beyond the few bytes of each header.
+    """
+    source = str(path) if source is None else source
+    limit = cap("max_bytes")
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+        raise fail(source, f"not an npz archive ({type(exc).__name__})") from None
+    out = {}
+    with zf:
+        infos = zf.infolist()
+        total = sum(i.file_size for i in infos)
+        if total > limit:
+            raise fail(source, "uncompressed size " + _too_big("bytes", total, "max_bytes"))
+        for info in infos:
+            key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            try:
+                with zf.open(info) as f:
+                    version = np.lib.format.read_magic(f)
+                    if version == (1, 0):
+                        shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+                    elif version in ((2, 0), (3, 0)):
+                        shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+                    else:
+                        raise ValueError(f"npy version {version}")
+                    header_len = f.tell()
+            except Exception as exc:  # noqa: BLE001 - any damage in a header is a refusal
+                raise fail(source, f"field {key!r} is not a readable array "
+                                   f"({type(exc).__name__})") from None
+            if dtype.hasobject:
+                raise fail(source, f"field {key!r} holds an object array (pickle); refused")
+            n = 1
+            for s in shape:
+                n *= int(s)
+            declared = n * dtype.itemsize
+            if declared > limit:
+                raise fail(source, f"field {key!r} declares shape {tuple(shape)} of {dtype}: "
+                           + _too_big("bytes", declared, "max_bytes"))
+            if declared > info.file_size - header_len:
+                raise fail(source, f"field {key!r} declares shape {tuple(shape)} of {dtype} "
+                                   f"({declared:,} bytes) but holds "
+                                   f"{max(info.file_size - header_len, 0):,} bytes (truncated)")
+            out[key] = (tuple(int(s) for s in shape), dtype)
+    return out
+
+
+# ------------------------------------------------------------------ JSON
+
+
+class NonFinite(float):
+    """A JSON ``NaN``/``Infinity`` read with ``allow_nan=False`` (a float that remembers)."""
+
+    def __new__(cls, text: str):
+        obj = super().__new__(cls, float(text.replace("Infinity", "inf")))
+        obj.text = text
+        return obj
+
+
+def json_depth(text: str) -> int:
+    """Deepest nesting of arrays/objects in ``text`` (brackets inside strings ignored)."""
+    if "[" not in text and "{" not in text:
+        return 0
+    stripped = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)
+    b = np.frombuffer(stripped.encode("utf-8", "surrogatepass"), dtype=np.uint8)
+    step = np.zeros(256, dtype=np.int8)
+    step[[ord("["), ord("{")]] = 1
+    step[[ord("]"), ord("}")]] = -1
+    s = step[b]
+    if not s.any():
+        return 0
+    return int(np.cumsum(s, dtype=np.int64).max())
+
+
+def loads_json(text: str, source: str, *, allow_nan: bool = True):
+    """Parse JSON with bounded size and depth; ``allow_nan=False`` returns ``NaN``/``Infinity``
+    as :class:`NonFinite` (the caller refuses it naming the field)."""
+    if len(text) > cap("max_json_bytes"):
+        raise fail(source, "JSON " + _too_big("characters", len(text), "max_json_bytes"))
+    depth = json_depth(text)
+    if depth > cap("max_json_depth"):
+        raise fail(source, "JSON nested " + _too_big("levels", depth, "max_json_depth"))
+    try:
+        if allow_nan:
+            return json.loads(text)
+        return json.loads(text, parse_constant=NonFinite)
+    except json.JSONDecodeError as exc:
+        raise fail(source, f"not JSON ({exc})") from None
+    except RecursionError:  # pragma: no cover - the depth check comes first
+        raise fail(source, "JSON nested too deeply") from None
+
+
+def read_json(path, source: str | None = None, *, allow_nan: bool = True):
+    """Read a JSON file (size-capped, depth-bounded); errors name the file."""
+    source = str(path) if source is None else source
+    st = check_input(path, "JSON file")
+    if st.st_size > cap("max_json_bytes"):
+        raise fail(source, "file " + _too_big("bytes", st.st_size, "max_json_bytes"))
+    try:
+        with open(path, "rb") as f:
+            raw = f.read()
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise fail(source, f"not JSON (not UTF-8: {exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise fail(source, f"cannot read ({exc.strerror or type(exc).__name__})") from None
+    return loads_json(text, source, allow_nan=allow_nan)
+
+
+# ------------------------------------------------------------------ temporary files
+
+
+def is_temp_name(name: str) -> bool:
+    """True for the names :func:`vggc_cp.atomic.atomic_path` gives its temporary files."""
+    return bool(_TEMP_RE.match(name))
+
+
+def sweep_stale_temps(folder, target_name: str | None = None) -> int:
+    """Remove our temporary files in ``folder`` older than ``stale_temp_minutes``.
+
+    With ``target_name``, only those of that target (``.<name>.vggctmp-*``). Returns the count.
+    """
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return 0
+    limit = time.time() - 60 * cap("stale_temp_minutes")
+    removed = 0
+    for e in entries:
+        if not is_temp_name(e.name):
+            continue
+        if target_name is not None and not e.name.startswith(f".{target_name}{TEMP_MARK}"):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False) and e.stat(follow_symlinks=False).st_mtime < limit:
+                os.unlink(e.path)
+                removed += 1
+        except OSError:
+            continue
+    return removed
+
+
+def cache_writable(path) -> bool:
+    """True when the cache file ``path`` can be written (its folder made if missing); else a
+    warning on stderr and False, so the caller goes on without caching. Sweeps stale
+    temporary files of the folder."""
+    folder = Path(path).parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=folder)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        warn(f"{folder}: cannot write the distance cache ({oserror_text(exc)}); going on "
+             f"without caching")
+        return False
+    sweep_stale_temps(folder)
+    return True
+
+
+def warn(msg: str) -> None:
+    """One warning line on stderr."""
+    print(f"vggc-cp: warning: {msg}", file=sys.stderr)
+
+
+def oserror_text(exc: OSError) -> str:
+    return exc.strerror or errno.errorcode.get(exc.errno or 0, type(exc).__name__)
