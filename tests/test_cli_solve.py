@@ -158,13 +158,29 @@ def test_default_solver_is_merge_and_recovers_the_toy(toy_path, tmp_path, capsys
     out = tmp_path / "default.json"
     assert main(["solve", str(path), "-o", str(out), "--quiet", "--exact", *FAST]) == 0
     text = capsys.readouterr().out
-    assert "(cascade)" in text and "merge is node-minimal; proved" in text
+    assert "(mdl)" in text and "merge is node-minimal; proved" in text
+    assert "confidence" in text
     sol = read_solution(out)
     verify_solution(sol, trace, str(out))
-    assert sol.solver == "merge" and sol.extra["select"] == "cascade"
+    assert sol.solver == "merge" and sol.extra["select"] == "mdl"
+    assert sol.extra["evidence"] in ("footprints", "keypoints", "saliency")
+    assert set(sol.extra["confidence"]) >= {"margin", "plateau", "heldout", "suspect", "reasons"}
     assert sol.extra["exact"]["minimal_nodes"] == 3 and sol.extra["exact"]["proved"]
     same = sol.labels[:, None] == sol.labels[None, :]
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
+
+
+def test_paper_attention_and_cascade_rule_stay_available(toy_path, tmp_path, capsys):
+    path, trace = toy_path
+    out = tmp_path / "cascade.json"
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--evidence", "attention",
+                 "--select", "cascade", *FAST]) == 0
+    sol = read_solution(out)
+    verify_solution(sol, trace, str(out))
+    assert sol.extra["select"] == "cascade" and sol.extra["evidence"] == "saliency"
+    assert main(["solve", str(path), "-o", str(tmp_path / "x.json"), "--evidence",
+                 "nonsense", *FAST]) == 2
+    assert "evidence" in capsys.readouterr().err
 
 
 def test_cpsat_structure_flags_reach_the_model(toy_path, tmp_path, capsys):

@@ -44,6 +44,8 @@ from vggc_cp.vision.footprints import FootprintParams, footprint_distances
 #: Evidence names: ``footprints``, or an attention backend of the Sinkhorn distances.
 FOOTPRINTS = "footprints"
 AUTO = "auto"
+#: What ``vggc-cp solve --evidence`` accepts (``attention``: the backend of ``--attention``).
+EVIDENCES = (AUTO, FOOTPRINTS, "attention")
 #: Attention backends that ``auto`` tries when the footprint graph is suspect.
 AUTO_FALLBACK = ("keypoints", "saliency")
 

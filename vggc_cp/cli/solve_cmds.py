@@ -10,8 +10,8 @@ from pathlib import Path
 
 from vggc_cp.errors import VggcError
 
-#: ``solve``'s solver when none is named: congruence-closure merging with the ``cascade``
-#: threshold rule, chosen on the benchmarks' Exec (README, "Choosing a solver and a rule").
+#: ``solve``'s solver when none is named: the pipeline (:mod:`vggc_cp.pipeline`): evidence,
+#: congruence-closure merging over thresholds, least description length, confidence.
 DEFAULT_SOLVER = "merge"
 BENCH_NAME = "fruit-4x6"
 BENCH_TRANSITIONS = 700
@@ -54,10 +54,16 @@ def register(sub) -> None:
     p.add_argument("--select", default=None,
                    help=f"selection rule: over the k grid {', '.join(sorted(SELECTIONS))} "
                         f"(default fewest); over the merge solver's thresholds "
-                        f"{', '.join(sorted(PATH_SELECTIONS))} (default cascade)")
+                        f"{', '.join(sorted(PATH_SELECTIONS))} (default mdl)")
     p.add_argument("--thresholds", default=None, metavar="T1,T2,...",
                    help="merge solver: visual-distance thresholds to try (default: a geometric "
-                        "grid from the noise scale of nearest-neighbour distances)")
+                        "grid from the noise scale of nearest-neighbour distances to the 90th "
+                        "percentile of all distances)")
+    p.add_argument("--evidence", default="auto", metavar="NAME",
+                   help="merge solver: the visual evidence; auto (action footprints, and the "
+                        "keypoint/saliency attention distances when the footprint graph is "
+                        "suspect, the criterion choosing), footprints, or attention (the "
+                        "Sinkhorn distances of --attention) (default auto)")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
@@ -245,27 +251,48 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
     return values
 
 
-def _solve_merge(args) -> int:
-    """``solve --solver merge``: congruence-closure merging over a threshold path."""
+def _learn_options(args):
+    """The :class:`~vggc_cp.pipeline.LearnOptions` of ``solve``'s merge options."""
     from vggc_cp.errors import lookup
-    from vggc_cp.solvers.merge import PATH_SELECTIONS, threshold_path
+    from vggc_cp.pipeline import EVIDENCES, LearnOptions
+    from vggc_cp.solvers.merge import PATH_SELECTIONS
+    from vggc_cp.vision import config_from_args
 
-    rule = args.select or "cascade"
+    rule = args.select or "mdl"
     lookup(PATH_SELECTIONS, rule, "path selection rule")
+    lookup({e: e for e in EVIDENCES}, args.evidence, "evidence")
     thresholds = _parse_thresholds(args.thresholds)
-    trace, cfg, problem, t_dist = _problem(args)
-    path = threshold_path(problem, thresholds, rule, progress=not args.quiet)
+    cfg = config_from_args(args)
+    evidence = cfg.backend if args.evidence == "attention" else args.evidence
+    return LearnOptions(evidence=evidence, distance=cfg, rule=rule,
+                        thresholds=None if thresholds is None else tuple(thresholds)), cfg
+
+
+def _solve_merge(args) -> int:
+    """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.trace import load_trace
+
+    options, cfg = _learn_options(args)
+    trace = load_trace(args.trace)
+    learned = learn_graph(trace, options, progress=not args.quiet)
+    chosen = learned.chosen
+    problem, path = chosen.problem, chosen.path
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
-    print(f"distances      {t_dist:.1f} s")
+    for cand in learned.candidates:
+        mark = "*" if cand is chosen else " "
+        print(f"evidence     {mark} {cand.evidence:<11} {cand.best.n_nodes} nodes, description "
+              f"length {cand.description_length:.1f}, "
+              f"{'suspect' if cand.confidence.suspect else 'no warning'} ({cand.seconds:.1f} s)")
     print(f"merge path     {len(path.results)} thresholds, {path.seconds:.1f} s")
     if not args.quiet and args.table != "none":
         import pandas as pd
 
-        table = pd.DataFrame(path.records())[["threshold", "nodes", "k_pick", "k_place", "J",
-                                              "seconds", "selected"]]
+        table = pd.DataFrame(_path_records(chosen))[["threshold", "nodes", "k_pick", "k_place",
+                                                     "description_length", "selected"]]
         print(table.to_markdown(index=False, floatfmt=".4f"))
-    best = path.best
+    best = chosen.best
     extra = {}
     if args.exact:
         from vggc_cp.solvers.merge_exact import exact_counterpart
@@ -276,12 +303,30 @@ def _solve_merge(args) -> int:
         extra = {"exact": {"minimal_nodes": exact.minimal_nodes, "proved": exact.proved,
                            "cannot_link": exact.cannot_link,
                            "seconds": round(exact.seconds, 3)}}
-    _write_chosen(args, trace, cfg, problem, best,
-                  f"threshold {best.stats['threshold']:.4f} ({rule})", select=rule,
-                  threshold=best.stats["threshold"], grid=path.records(),
-                  seconds={"distances": round(t_dist, 3), "merge": round(path.seconds, 3)},
+    conf = learned.confidence
+    _write_chosen(args, trace, options.footprint if chosen.evidence == "footprints" else cfg,
+                  problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
+                  select=path.rule, threshold=learned.threshold, evidence=chosen.evidence,
+                  confidence=_jsonable(conf.as_dict()),
+                  candidates=[{"evidence": c.evidence, "nodes": c.best.n_nodes,
+                               "description_length": round(c.description_length, 4),
+                               "suspect": c.confidence.suspect} for c in learned.candidates],
+                  grid=_path_records(chosen),
+                  seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
                   **extra)
+    print(f"confidence     {conf.summary()}")
+    if conf.suspect:
+        print("vggc-cp: warning: the learned graph is suspect (" + "; ".join(conf.reasons)
+              + "); check it before planning on it", file=sys.stderr)
     return 0
+
+
+def _path_records(candidate) -> list[dict]:
+    """The threshold path's rows with each graph's description length."""
+    rows = candidate.path.records()
+    for row, dl in zip(rows, candidate.description_lengths):
+        row["description_length"] = round(float(dl), 4)
+    return rows
 
 
 def _jsonable(obj):
