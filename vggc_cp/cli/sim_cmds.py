@@ -29,6 +29,12 @@ def register(sub) -> None:
     p.add_argument("--size", type=int, default=64, help="image side in pixels (default 64)")
     p.add_argument("--novel", type=int, default=0, metavar="K",
                    help="also write K fresh renders of visited states to <output stem>.novel.npz")
+    p.add_argument("--look", default="clean", metavar="LOOK",
+                   help="clean (default): the renderer the learning defaults were tuned on; "
+                        "randomized: a stand-in for another renderer or a real camera -- table "
+                        "colour and texture, region markers, camera pose, light, object shapes, "
+                        "sizes and shades drawn per trace, lighting gain, tint and sensor noise "
+                        "per frame, all from --seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 
@@ -68,8 +74,10 @@ def _write(generated, output: str, novel: int) -> list[str]:
 def cmd_generate(args) -> int:
     from vggc_cp.sim import get_benchmark
     from vggc_cp.sim.explore import generate
+    from vggc_cp.sim.looks import check_look
 
     spec = get_benchmark(args.bench).spec
+    check_look(args.look)
     d = spec.default_transitions if args.transitions is None else args.transitions
     if args.novel < 0:
         raise VggcError(f"--novel must be at least 0, got {args.novel}")
@@ -80,7 +88,7 @@ def cmd_generate(args) -> int:
         bar = tqdm(total=d + 1 + args.novel, unit="frame", desc=args.bench, leave=False)
     try:
         generated = generate(args.bench, d, args.seed, args.size, args.novel,
-                             on_frame=bar.update if bar is not None else None)
+                             on_frame=bar.update if bar is not None else None, look=args.look)
     finally:
         if bar is not None:
             bar.close()
@@ -89,7 +97,7 @@ def cmd_generate(args) -> int:
         tr = generated.trace
         print(f"{args.bench}: {tr.n_obs} observations, |D| = {tr.n_transitions}, "
               f"{len(set(tr.states.tolist()))} distinct states, {len(tr.episodes())} episodes, "
-              f"{args.size}x{args.size} px, seed {args.seed}")
+              f"{args.size}x{args.size} px, seed {args.seed}, {args.look} look")
         for path in written:
             print(f"wrote {path}")
     return 0

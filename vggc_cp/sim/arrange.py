@@ -56,12 +56,17 @@ def body_letters(bench: Benchmark) -> tuple[str, ...]:
 
 
 def _table_offset(bench: Benchmark, below: tuple[float, float, float] | None,
-                  rng: np.random.Generator) -> tuple[float, float, float]:
+                  rng: np.random.Generator, jitter: float | None = None
+                  ) -> tuple[float, float, float]:
+    """Noise of a body put on the table; ``jitter`` replaces the position half-range of a
+    fruit or a base block (None: :data:`FRUIT_JITTER` / :data:`BLOCK_JITTER`)."""
     if not bench.blocks:
-        dx, dy = rng.uniform(-FRUIT_JITTER, FRUIT_JITTER, 2)
+        j = FRUIT_JITTER if jitter is None else jitter
+        dx, dy = rng.uniform(-j, j, 2)
         return float(dx), float(dy), float(rng.uniform(0.0, 2 * np.pi))
     if below is None:
-        dx, dy = rng.uniform(-BLOCK_JITTER, BLOCK_JITTER, 2)
+        j = BLOCK_JITTER if jitter is None else jitter
+        dx, dy = rng.uniform(-j, j, 2)
     else:
         dx, dy = np.array(below[:2]) + rng.uniform(-STACK_JITTER, STACK_JITTER, 2)
     return float(dx), float(dy), float(rng.uniform(-BLOCK_YAW, BLOCK_YAW))
@@ -72,9 +77,14 @@ def _held_offset(rng: np.random.Generator) -> tuple[float, float, float]:
     return float(dx), float(dy), float(rng.uniform(-HELD_YAW, HELD_YAW))
 
 
-def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator) -> Arrangement:
+def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator,
+                      jitter: tuple[float, ...] | None = None) -> Arrangement:
     """A random arrangement of ``state``: bodies of each class shuffled over its places,
-    every body with fresh noise."""
+    every body with fresh noise.
+
+    ``jitter``: per body, the half-range (m) of its table position noise (a look's
+    :attr:`~vggc_cp.sim.looks.Look.placement_jitter`); None: the module's constants.
+    """
     st: State = bench.decode(state)
     letters = body_letters(bench)
     pools: dict[str, list[int]] = {}
@@ -88,7 +98,8 @@ def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator) ->
         below = None
         for ch in stack:
             b = pools[ch].pop()
-            below = offsets[b] = _table_offset(bench, below, rng)
+            below = offsets[b] = _table_offset(bench, below, rng,
+                                               None if jitter is None else jitter[b])
             bodies.append(b)
         stacks.append(tuple(bodies))
     held = -1
@@ -99,11 +110,12 @@ def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator) ->
 
 
 def arrangement_after(bench: Benchmark, arr: Arrangement, action: str,
-                      rng: np.random.Generator) -> Arrangement:
+                      rng: np.random.Generator,
+                      jitter: tuple[float, ...] | None = None) -> Arrangement:
     """The arrangement after ``action`` (assumed valid): only the moved body changes.
 
     A pick moves the top body of the region into the gripper; a place puts the held body on
-    top of the region with fresh noise.
+    top of the region with fresh noise (``jitter`` as in :func:`fresh_arrangement`).
     """
     act = bench.action(action)
     stacks = list(arr.stacks)
@@ -116,7 +128,8 @@ def arrangement_after(bench: Benchmark, arr: Arrangement, action: str,
     else:
         body = arr.held
         below = offsets[stacks[act.region][-1]] if stacks[act.region] else None
-        offsets[body] = _table_offset(bench, below, rng)
+        offsets[body] = _table_offset(bench, below, rng,
+                                      None if jitter is None else jitter[body])
         stacks[act.region] = stacks[act.region] + (body,)
         held = -1
     return Arrangement(tuple(stacks), held, tuple(offsets))

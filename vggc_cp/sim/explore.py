@@ -2,8 +2,10 @@
 rendered to a trace.
 
 One seed drives everything through :class:`numpy.random.SeedSequence` children: the
-discrete walk, the continuous placement noise of the trace, and that of the novel renders.
-The same seed gives the same bytes.
+discrete walk, the continuous placement noise of the trace, and that of the novel renders
+(children 0-2), and the look (child 3: the per-trace look, then the per-frame effects of the
+trace and of the novel renders; the clean look draws nothing). The same seed gives the same
+bytes.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from vggc_cp import __version__
 from vggc_cp.errors import VggcError
 from vggc_cp.sim.arrange import arrangement_after, fresh_arrangement
 from vggc_cp.sim.dynamics import Benchmark, get_benchmark
+from vggc_cp.sim.looks import CLEAN, check_look, finish_frame, make_look
 from vggc_cp.trace import Trace
 
 #: Smallest and largest image side accepted by :func:`generate` (pixels).
@@ -59,6 +62,15 @@ def seed_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator,
     """Three independent generators from one seed: ``(walk, trace noise, novel noise)``."""
     children = np.random.SeedSequence(int(seed)).spawn(3)
     return tuple(np.random.default_rng(c) for c in children)  # type: ignore[return-value]
+
+
+def look_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator,
+                                     np.random.Generator]:
+    """Three generators for the look, from the seed's fourth child (children are keyed by
+    index, so :func:`seed_streams` is unchanged): ``(per-trace look, per-frame effects of the
+    trace, per-frame effects of the novel renders)``."""
+    look_seq = np.random.SeedSequence(int(seed)).spawn(4)[3]
+    return tuple(np.random.default_rng(c) for c in look_seq.spawn(3))  # type: ignore[return-value]
 
 
 def random_walk(bench: Benchmark, n_transitions: int, rng: np.random.Generator) -> Walk:
@@ -127,7 +139,8 @@ def novel_order(states: tuple[str, ...], k: int, rng: np.random.Generator) -> li
 
 
 def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: int = 64,
-             novel: int = 0, on_frame: Callable[[], None] | None = None) -> Generated:
+             novel: int = 0, on_frame: Callable[[], None] | None = None,
+             look: str = CLEAN) -> Generated:
     """Explore benchmark ``name`` and render the trace (and ``novel`` fresh renders).
 
     Parameters
@@ -144,12 +157,17 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         Number of novel renders ``K``.
     on_frame : callable, optional
         Called once after every rendered frame (progress bars).
+    look : str
+        ``"clean"`` (the renderer the defaults were tuned on) or ``"randomized"`` (table,
+        camera, light and objects drawn per trace, gain, tint and noise per frame; see
+        :mod:`vggc_cp.sim.looks`). The novel renders share the trace's look and draw their
+        own per-frame effects.
 
     Raises
     ------
     VggcError
-        Unknown benchmark, a size outside ``[MIN_SIZE, MAX_SIZE]``, ``n_transitions < 1``
-        or ``novel < 0``.
+        Unknown benchmark or look, a size outside ``[MIN_SIZE, MAX_SIZE]``,
+        ``n_transitions < 1`` or ``novel < 0``.
     """
     bench = get_benchmark(name)
     spec = bench.spec
@@ -160,28 +178,34 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         raise VggcError(f"--size must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {size}")
     if novel < 0:
         raise VggcError(f"--novel must be at least 0, got {novel}")
+    check_look(look)
     walk_rng, noise_rng, novel_rng = seed_streams(seed)
+    look_rng, frame_rng, novel_frame_rng = look_streams(seed)
+    the_look = make_look(look, bench, look_rng)
+    jitter = the_look.placement_jitter
     walk = random_walk(bench, d, walk_rng)
     tick = on_frame or (lambda: None)
     from vggc_cp.sim.render import Scene
 
     frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)
-    with Scene(bench, size) as scene:
+    with Scene(bench, size, the_look) as scene:
         arr = None
         for t, state in enumerate(walk.states):
             if t == 0 or walk.actions[t - 1] < 0:
-                arr = fresh_arrangement(bench, state, noise_rng)
+                arr = fresh_arrangement(bench, state, noise_rng, jitter)
             else:
                 arr = arrangement_after(bench, arr, bench.action_names[walk.actions[t - 1]],
-                                        noise_rng)
-            frames[t] = scene.render(arr)
+                                        noise_rng, jitter)
+            frames[t] = finish_frame(scene.render(arr), the_look, frame_rng)
             tick()
         novel_states = novel_order(walk.states, novel, novel_rng)
         novel_frames = np.empty((novel, size, size, 3), dtype=np.uint8)
         for k, state in enumerate(novel_states):
-            novel_frames[k] = scene.render(fresh_arrangement(bench, state, novel_rng))
+            novel_frames[k] = finish_frame(
+                scene.render(fresh_arrangement(bench, state, novel_rng, jitter)), the_look,
+                novel_frame_rng)
             tick()
-        camera = scene.layout.camera.as_dict()
+        camera = scene.camera.as_dict()
     meta = {
         "benchmark": spec.name,
         "family": spec.family,
@@ -199,9 +223,12 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         "image_size": [int(size), int(size)],
         "renderer": "pybullet ER_TINY_RENDERER (DIRECT)",
         "camera": camera,
+        "look": the_look.name,
         "state_key": STATE_KEY_DOC[spec.family],
         "generator": f"vggc-cp {__version__}",
     }
+    if not the_look.is_clean:
+        meta["look_params"] = the_look.as_meta()
     trace = Trace(frames, walk.actions.copy(), bench.action_names,
                   np.array(walk.states, dtype=str), meta)
     return Generated(trace, novel_frames, np.array(novel_states, dtype=str).reshape(-1))

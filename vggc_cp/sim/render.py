@@ -8,6 +8,8 @@ settled with a few physics steps so that stacks rest on each other.
 Objects (primitive shapes, coloured): apple a red sphere with a stem, strawberry a red
 cone-like mesh with a green cap, lemon a yellow ellipsoid, banana a yellow capsule; blocks
 are blue cubes. The held object hangs between the two fingers of a gripper behind the table.
+The ``randomized`` look (:mod:`vggc_cp.sim.looks`) adds tomato (red, flattened, green
+calyx) and pear (yellow), and varies colours, sizes, camera, light and the table's texture.
 """
 
 from __future__ import annotations
@@ -15,13 +17,16 @@ from __future__ import annotations
 import math
 import os
 import sys
-from dataclasses import asdict, dataclass
+import tempfile
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from vggc_cp.errors import VggcError
 from vggc_cp.sim.arrange import Arrangement
 from vggc_cp.sim.dynamics import Benchmark
+from vggc_cp.sim.looks import CLASS_RGBA, Look, clean_look, png_bytes, texture_image
 
 #: Centre-to-centre distance of neighbouring regions (m).
 PITCH = 0.16
@@ -38,15 +43,12 @@ HELD_Z = 0.14
 #: Distance of the gripper behind the table's back edge (m).
 GRIPPER_BACK = -0.01
 
-TABLE_RGBA = (0.62, 0.47, 0.32, 1.0)
-REGION_RGBA = (0.22, 0.23, 0.26, 1.0)
-BORDER_RGBA = (0.92, 0.92, 0.88, 1.0)
+# Table, region and marker colours are the look's (vggc_cp.sim.looks).
 GRIPPER_RGBA = (0.55, 0.57, 0.62, 1.0)
-CUBE_RGBA = (0.2, 0.55, 1.0, 1.0)
+CUBE_RGBA = CLASS_RGBA["block"]
 
-# (colour, rest height of the centre above the table)
-_RED = (0.86, 0.08, 0.08, 1.0)
-_YELLOW = (0.97, 0.85, 0.12, 1.0)
+_RED = CLASS_RGBA["red"]
+_YELLOW = CLASS_RGBA["yellow"]
 _GREEN = (0.15, 0.6, 0.15, 1.0)
 _BROWN = (0.4, 0.25, 0.1, 1.0)
 
@@ -135,6 +137,32 @@ def scene_layout(bench: Benchmark) -> Layout:
     return Layout(centres, (hx, hy), gripper, cam)
 
 
+def look_camera(cam: Camera, look: Look) -> Camera:
+    """``cam`` moved and turned by ``look`` (``cam`` itself for the clean look): eye and
+    target move together by ``look.camera_shift`` times the view's width at the target; the
+    eye turns about the target by the yaw and pitch of ``look.camera_turn``, the up vector
+    by its roll; the light direction is the look's."""
+    if look.is_clean:
+        return cam
+    eye, target = np.array(cam.eye), np.array(cam.target)
+    d = eye - target
+    dist = float(np.linalg.norm(d))
+    width = 2 * dist * math.tan(math.radians(cam.fov / 2))
+    yaw, pitch, roll = (math.radians(v) for v in look.camera_turn)
+    az = math.atan2(d[1], d[0]) + yaw
+    el = math.asin(d[2] / dist) + pitch
+    new_target = target + width * np.array(look.camera_shift)
+    new_eye = new_target + dist * np.array([math.cos(el) * math.cos(az),
+                                            math.cos(el) * math.sin(az), math.sin(el)])
+    forward = (new_target - new_eye) / dist
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    up = math.cos(roll) * np.array([0.0, 0.0, 1.0]) + math.sin(roll) * right
+    r6 = lambda v: tuple(round(float(x), 6) for x in v)  # noqa: E731
+    return replace(cam, eye=r6(new_eye), target=r6(new_target), up=r6(up),
+                   light_direction=r6(look.light_direction))
+
+
 def _ellipsoid(a: float, b: float, c: float, nu: int = 14, nv: int = 9):
     verts, idx = [], []
     for i in range(nv + 1):
@@ -185,23 +213,37 @@ class Scene:
     bench : Benchmark
     size : int
         Image side in pixels (square images).
+    look : Look, optional
+        Colours, texture, camera, light and object shapes (:mod:`vggc_cp.sim.looks`); the
+        clean look when None. Per-frame effects are not applied here
+        (:func:`vggc_cp.sim.looks.finish_frame`).
 
     Use as a context manager, or call :meth:`close`, to release the connection.
+
+    Attributes
+    ----------
+    camera : Camera
+        The camera actually used (the layout's, moved by the look).
     """
 
-    def __init__(self, bench: Benchmark, size: int = 64) -> None:
+    def __init__(self, bench: Benchmark, size: int = 64, look: Look | None = None) -> None:
         p = import_pybullet()
         self._p = p
         self.bench = bench
         self.size = int(size)
         self.layout = scene_layout(bench)
+        self.look = clean_look(bench) if look is None else look
+        if len(self.look.objects) != bench.spec.m:
+            raise ValueError(f"look has {len(self.look.objects)} objects, {bench.spec.name} "
+                             f"{bench.spec.m}")
+        self.camera = look_camera(self.layout.camera, self.look)
         self._cid = p.connect(p.DIRECT)
         try:
             self._build()
         except Exception:
             p.disconnect(self._cid)
             raise
-        cam = self.layout.camera
+        cam = self.camera
         self._view = p.computeViewMatrix(cam.eye, cam.target, cam.up)
         self._proj = p.computeProjectionMatrixFOV(cam.fov, 1.0, cam.near, cam.far)
 
@@ -227,37 +269,66 @@ class Scene:
             linkJointTypes=[p.JOINT_FIXED] * n, linkJointAxis=[[0, 0, 1]] * n,
             physicsClientId=self._cid)
 
-    def _fruit(self, kind: str) -> tuple[int, float]:
+    def _fruit(self, kind: str, rgba=None, s: float = 1.0) -> tuple[int, float]:
+        """A fruit body of ``kind`` in colour ``rgba`` (the class colour when None), every
+        length times ``s``; returns the body and the rest height of its centre."""
         p = self._p
         if kind == "apple":
-            r = 0.032
-            parts = [(self._visual(p.GEOM_SPHERE, _RED, radius=r), None),
-                     (self._visual(p.GEOM_CYLINDER, _BROWN, radius=0.004, length=0.018),
-                      (0, 0, r + 0.006)),
-                     (self._visual(p.GEOM_BOX, _GREEN, halfExtents=[0.012, 0.005, 0.002]),
-                      (0.01, 0, r + 0.008))]
+            r = 0.032 * s
+            parts = [(self._visual(p.GEOM_SPHERE, rgba or _RED, radius=r), None),
+                     (self._visual(p.GEOM_CYLINDER, _BROWN, radius=0.004 * s,
+                                   length=0.018 * s), (0, 0, r + 0.006 * s)),
+                     (self._visual(p.GEOM_BOX, _GREEN,
+                                   halfExtents=[0.012 * s, 0.005 * s, 0.002 * s]),
+                      (0.01 * s, 0, r + 0.008 * s))]
             return self._multibody(parts), r
         if kind == "strawberry":
-            verts, idx = _strawberry(0.034, 0.012, -0.036)
-            parts = [(self._visual(p.GEOM_MESH, _RED, vertices=verts, indices=idx), None),
-                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.011, length=0.005),
-                      (0, 0, 0.021)),
-                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.003, length=0.012),
-                      (0, 0, 0.028))]
-            return self._multibody(parts), 0.04
+            verts, idx = _strawberry(0.034 * s, 0.012 * s, -0.036 * s)
+            parts = [(self._visual(p.GEOM_MESH, rgba or _RED, vertices=verts, indices=idx),
+                      None),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.011 * s,
+                                   length=0.005 * s), (0, 0, 0.021 * s)),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.003 * s,
+                                   length=0.012 * s), (0, 0, 0.028 * s))]
+            return self._multibody(parts), 0.04 * s
+        if kind == "tomato":
+            a, c = 0.036 * s, 0.027 * s
+            verts, idx = _ellipsoid(a, a, c)
+            sepal = self._visual(p.GEOM_BOX, _GREEN,
+                                 halfExtents=[0.014 * s, 0.0035 * s, 0.0015 * s])
+            parts = [(self._visual(p.GEOM_MESH, rgba or _RED, vertices=verts, indices=idx),
+                      None),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.008 * s,
+                                   length=0.004 * s), (0, 0, c)),
+                     (sepal, (0, 0, c + 0.001 * s)),
+                     (self._visual(p.GEOM_BOX, _GREEN,
+                                   halfExtents=[0.0035 * s, 0.014 * s, 0.0015 * s]),
+                      (0, 0, c + 0.001 * s)),
+                     (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.0025 * s,
+                                   length=0.01 * s), (0, 0, c + 0.006 * s))]
+            return self._multibody(parts), c
         if kind == "lemon":
-            verts, idx = _ellipsoid(0.045, 0.03, 0.03)
-            parts = [(self._visual(p.GEOM_MESH, _YELLOW, vertices=verts, indices=idx), None),
-                     (self._visual(p.GEOM_SPHERE, (0.7, 0.75, 0.1, 1.0), radius=0.008),
-                      (0.043, 0, 0))]
-            return self._multibody(parts), 0.03
+            verts, idx = _ellipsoid(0.045 * s, 0.03 * s, 0.03 * s)
+            parts = [(self._visual(p.GEOM_MESH, rgba or _YELLOW, vertices=verts, indices=idx),
+                      None),
+                     (self._visual(p.GEOM_SPHERE, (0.7, 0.75, 0.1, 1.0), radius=0.008 * s),
+                      (0.043 * s, 0, 0))]
+            return self._multibody(parts), 0.03 * s
         if kind == "banana":
-            r, length = 0.017, 0.075
+            r, length = 0.017 * s, 0.075 * s
             lying = p.getQuaternionFromEuler([0, math.pi / 2, 0])
-            parts = [(self._visual(p.GEOM_CAPSULE, _YELLOW, radius=r, length=length,
+            parts = [(self._visual(p.GEOM_CAPSULE, rgba or _YELLOW, radius=r, length=length,
                                    visualFrameOrientation=lying), None),
-                     (self._visual(p.GEOM_SPHERE, _BROWN, radius=0.007),
-                      (length / 2 + r - 0.003, 0, 0.003))]
+                     (self._visual(p.GEOM_SPHERE, _BROWN, radius=0.007 * s),
+                      (length / 2 + r - 0.003 * s, 0, 0.003 * s))]
+            return self._multibody(parts), r
+        if kind == "pear":
+            r, top = 0.031 * s, 0.02 * s
+            parts = [(self._visual(p.GEOM_SPHERE, rgba or _YELLOW, radius=r), None),
+                     (self._visual(p.GEOM_SPHERE, rgba or _YELLOW, radius=top),
+                      (0, 0, 0.03 * s)),
+                     (self._visual(p.GEOM_CYLINDER, _BROWN, radius=0.003 * s,
+                                   length=0.014 * s), (0, 0, 0.03 * s + top + 0.004 * s))]
             return self._multibody(parts), r
         raise ValueError(f"unknown fruit kind {kind!r}")
 
@@ -268,12 +339,15 @@ class Scene:
         thick = 0.02
         table_col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, thick],
                                            physicsClientId=cid)
-        table_vis = self._visual(p.GEOM_BOX, TABLE_RGBA, halfExtents=[hx, hy, thick])
-        p.createMultiBody(0, table_col, table_vis, [0, 0, -thick], physicsClientId=cid)
+        look = self.look
+        table_vis = self._visual(p.GEOM_BOX, look.table_rgba, halfExtents=[hx, hy, thick])
+        table = p.createMultiBody(0, table_col, table_vis, [0, 0, -thick], physicsClientId=cid)
+        if look.table_texture is not None:
+            self._texture(table, texture_image(look.table_texture, look.texture_seed))
         half = REGION_SIDE / 2
-        border = self._visual(p.GEOM_BOX, BORDER_RGBA, halfExtents=[half + 0.006,
-                                                                   half + 0.006, 0.0005])
-        inner = self._visual(p.GEOM_BOX, REGION_RGBA, halfExtents=[half, half, 0.0005])
+        border = self._visual(p.GEOM_BOX, look.border_rgba, halfExtents=[half + 0.006,
+                                                                        half + 0.006, 0.0005])
+        inner = self._visual(p.GEOM_BOX, look.region_rgba, halfExtents=[half, half, 0.0005])
         for cx, cy in lay.centres:
             p.createMultiBody(0, -1, border, [cx, cy, 0.0003], physicsClientId=cid)
             p.createMultiBody(0, -1, inner, [cx, cy, 0.0008], physicsClientId=cid)
@@ -288,19 +362,35 @@ class Scene:
         self._bodies: list[int] = []
         self._rest: list[float] = []
         if self.bench.blocks:
-            h = CUBE / 2
-            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[h, h, h], physicsClientId=cid)
-            vis = self._visual(p.GEOM_BOX, CUBE_RGBA, halfExtents=[h, h, h])
-            for _ in range(self.bench.spec.m):
+            shapes: dict = {}
+            for obj in look.objects:
+                key = (obj.scale, obj.rgba)
+                if key not in shapes:  # the clean look: one shape for all cubes
+                    h = CUBE / 2 * obj.scale
+                    shapes[key] = (p.createCollisionShape(p.GEOM_BOX, halfExtents=[h, h, h],
+                                                          physicsClientId=cid),
+                                   self._visual(p.GEOM_BOX, obj.rgba, halfExtents=[h, h, h]), h)
+                col, vis, h = shapes[key]
                 body = p.createMultiBody(0.1, col, vis, [0, 0, -10], physicsClientId=cid)
                 p.changeDynamics(body, -1, lateralFriction=0.9, physicsClientId=cid)
                 self._bodies.append(body)
                 self._rest.append(h)
         else:
-            for kind in self.bench.spec.objects:
-                body, rest = self._fruit(kind)
+            for obj in look.objects:
+                body, rest = self._fruit(obj.kind, obj.rgba, obj.scale)
                 self._bodies.append(body)
                 self._rest.append(rest)
+
+    def _texture(self, body: int, image: np.ndarray) -> None:
+        """Give ``body`` the texture ``image`` (through a temporary PNG file)."""
+        p = self._p
+        with tempfile.TemporaryDirectory(prefix="vggc-texture-") as tmp:
+            path = Path(tmp) / "texture.png"
+            path.write_bytes(png_bytes(image))
+            tex = p.loadTexture(str(path), physicsClientId=self._cid)
+        if tex < 0:
+            raise VggcError("PyBullet could not load the generated table texture")
+        p.changeVisualShape(body, -1, textureUniqueId=tex, physicsClientId=self._cid)
 
     # -------------------------------------------------------------- rendering
     def _put(self, body: int, xyz, yaw: float) -> None:
@@ -315,10 +405,16 @@ class Scene:
         gx, gy, gz = lay.gripper
         for r, stack in enumerate(arr.stacks):
             cx, cy = lay.centres[r]
+            base = 0.0  # top of the cubes below (a look with cubes of several sizes)
             for level, b in enumerate(stack):
                 dx, dy, yaw = arr.offsets[b]
-                z = self._rest[b] + (level * CUBE + 0.0005 * (level + 1) if self.bench.blocks
-                                     else 0.0)
+                if not self.bench.blocks:
+                    z = self._rest[b]
+                elif self.look.is_clean:
+                    z = self._rest[b] + (level * CUBE + 0.0005 * (level + 1))
+                else:
+                    z = base + self._rest[b] + 0.0005 * (level + 1)
+                    base += 2 * self._rest[b]
                 self._put(self._bodies[b], (cx + dx, cy + dy, z), yaw)
         if arr.held >= 0 and self.bench.blocks:
             self._put(self._bodies[arr.held], (10.0, 10.0, 1.0), 0.0)
@@ -338,7 +434,7 @@ class Scene:
         _, _, rgba, _, _ = p.getCameraImage(
             self.size, self.size, self._view, self._proj, renderer=p.ER_TINY_RENDERER,
             flags=p.ER_NO_SEGMENTATION_MASK, shadow=1,
-            lightDirection=list(self.layout.camera.light_direction), physicsClientId=self._cid)
+            lightDirection=list(self.camera.light_direction), physicsClientId=self._cid)
         img = np.asarray(rgba, dtype=np.uint8).reshape(self.size, self.size, 4)
         return np.ascontiguousarray(img[:, :, :3])
 
