@@ -559,8 +559,10 @@ def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
         lines += ["## Overall", "",
                   f"Passing: {n_ok} / {len(rows)} runs ({100 * n_ok / len(rows):.1f} %).",
                   calibration_line(calibration(rows)["all"])]
-        if wall_seconds is not None:
-            lines.append(f"Wall time of the run: {wall_seconds:.0f} s.")
+        learn = sum(float(r.get("seconds_learn") or 0.0) for r in rows)
+        lines.append(f"Learning time, summed over runs: {learn:.0f} s"
+                     + (f"; wall time of this invocation (cached cells reused): "
+                        f"{wall_seconds:.0f} s." if wall_seconds is not None else "."))
     return "\n".join(lines) + "\n"
 
 
