@@ -161,3 +161,17 @@ def test_randomized_look_cell(tmp_path):
     meta = load_trace(cfg.trace_path("fruit-2x3", "randomized", 0)).meta
     assert meta["look"] == "randomized"
     assert isinstance(row["suspect"], bool) and 0.0 <= row["exec"] <= 1.0
+
+
+@pytest.mark.slow
+def test_i2p_cell_measures_and_is_reused_without_i2p(tmp_path):
+    """A localizer trained on the learned labels (about a minute on 2 cores)."""
+    cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("clean",), transitions=D,
+                               n_queries=Q, i2p=True, novel=20, i2p_queries=20)
+    (row,) = rob.run_robustness(cfg, progress=False).rows
+    assert {"localization", "i2p", "exec_i2p"} <= set(row) and 0.0 <= row["i2p"] <= 1.0
+    assert cfg.novel_path("fruit-2x3", "clean", 0).is_file()
+    again = rob.run_robustness(replace(cfg, i2p=False), progress=False)
+    assert again.computed == 0 and again.rows[0]["i2p"] == row["i2p"]
+    other = rob.cell_jobs(replace(cfg, i2p_queries=21))
+    assert rob.cached_row(other[0]) is None
