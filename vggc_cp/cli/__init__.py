@@ -24,6 +24,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.benchmark_cmds",
     "vggc_cp.cli.notebook_cmds",
     "vggc_cp.cli.compare_cmds",
+    "vggc_cp.cli.robustness_cmds",
 ]
 
 

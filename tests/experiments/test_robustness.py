@@ -1,0 +1,177 @@
+"""The robustness study: a tiny real run, resumption, the pass rule, calibration, the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import pandas as pd
+import pytest
+
+from vggc_cp.cli import main
+from vggc_cp.experiments import robustness as rob
+from vggc_cp.trace import load_trace
+
+D = 50
+Q = 60
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """fruit-2x3, |D| 50, clean, seeds 0 and 1 (seed 1 held out), two workers."""
+    out = tmp_path_factory.mktemp("robustness")
+    cfg = rob.RobustnessConfig(out, ("fruit-2x3",), (0, 1), ("clean",), transitions=D,
+                               n_queries=Q, jobs=2, heldout_seeds=(1,))
+    run = rob.run_robustness(cfg, progress=False)
+    return cfg, run
+
+
+def test_rows_have_the_fields_and_the_truth(study):
+    cfg, run = study
+    assert (run.computed, run.reused) == (2, 0)
+    assert [(r["benchmark"], r["look"], r["seed"], r["split"]) for r in run.rows] == [
+        ("fruit-2x3", "clean", 0, "tuning"), ("fruit-2x3", "clean", 1, "held-out")]
+    for r in run.rows:
+        assert set(rob.ROW_FIELDS) - {"passed"} <= set(r)
+        assert r["transitions"] == D and r["true_states"] == 6
+        assert r["nodes_ratio"] == pytest.approx(r["nodes"] / 6)
+        assert 0.0 <= r["exec"] <= 1.0 and 0.0 <= r["any_path"] <= 1.0
+        assert isinstance(r["suspect"], bool) and isinstance(r["reasons"], str)
+        assert r["dynamics"] == "sim"
+        assert "i2p" not in r
+    # the clean fruit-2x3 at the paper's |D| is recovered exactly by the default solve
+    first = run.rows[0]
+    assert (first["nodes"], first["exec"], first["any_path"]) == (6, 1.0, 1.0)
+    assert rob.passes(first)
+    trace = load_trace(cfg.trace_path("fruit-2x3", "clean", 0))
+    assert trace.n_transitions == D and trace.meta.get("look", "clean") == "clean"
+    assert (cfg.out / "cells" / "fruit-2x3-clean-s1.json").is_file()
+    assert json.loads((cfg.out / "solutions" / "fruit-2x3-clean-s0.json").read_text())["labels"]
+
+
+def test_tables_have_both_splits(study):
+    cfg, run = study
+    csv, md = rob.write_tables(run.rows, cfg.out)
+    df = pd.read_csv(csv)
+    assert len(df) == 2 and list(df.columns[:3]) == ["benchmark", "look", "seed"]
+    assert list(df["split"]) == ["tuning", "held-out"]
+    text = md.read_text()
+    assert "## Tuning split: seeds 0" in text and "## Held-out split" in text
+    assert text.count("| fruit-2x3 | clean | 50 | 1 |") == 2
+    assert "Calibration:" in text and "silent failure" in text and "## Overall" in text
+    tables = [ln for ln in text.splitlines() if ln.startswith("|")]
+    assert tables and max(len(ln) for ln in tables) <= 120
+
+
+def test_rerun_computes_nothing_and_a_changed_setting_recomputes(study):
+    cfg, run = study
+    stamps = sorted(p.stat().st_mtime_ns for p in (cfg.out / "cells").iterdir())
+    again = rob.run_robustness(cfg, progress=False)
+    assert (again.computed, again.reused) == (0, 2)
+    assert again.rows == run.rows
+    assert sorted(p.stat().st_mtime_ns for p in (cfg.out / "cells").iterdir()) == stamps
+    # another Q, |D| or look is another cell: no cached row
+    for changed in (replace(cfg, n_queries=Q + 1), replace(cfg, transitions=D + 1)):
+        assert all(rob.cached_row(j) is None for j in rob.cell_jobs(changed))
+    # the split is not part of the key: re-splitting reuses the rows and relabels them
+    resplit = rob.run_robustness(replace(cfg, heldout_seeds=None), progress=False)
+    assert resplit.computed == 0 and {r["split"] for r in resplit.rows} == {"tuning"}
+
+
+def good(**kw) -> dict:
+    row = {"benchmark": "b", "look": "clean", "seed": 0, "split": "tuning", "exec": 1.0,
+           "opt_path": 1.0, "any_path": 1.0, "nodes": 10, "true_states": 10, "suspect": False,
+           "reasons": "", "transitions": 50}
+    return row | kw
+
+
+@pytest.mark.parametrize("kw, ok", [
+    ({}, True),
+    ({"exec": 0.90}, True), ({"exec": 0.899}, False), ({"exec": None}, False),
+    ({"nodes": 11}, True), ({"nodes": 9}, True), ({"nodes": 12}, False), ({"nodes": 8}, False),
+    ({"nodes": 0}, False),
+    ({"opt_path": 0.95}, True), ({"opt_path": 0.949}, False),
+    ({"any_path": 1.0 - 1e-12}, True), ({"any_path": 0.999}, False),
+    ({"i2p": 0.90}, True), ({"i2p": 0.5}, False), ({"i2p": None}, True),
+    ({"i2p": math.nan}, True),
+])
+def test_passes(kw, ok):
+    assert rob.passes(good(**kw)) is ok
+    assert (rob.failures(good(**kw)) == []) is ok
+
+
+def test_calibration_counts_and_the_silent_failure():
+    rows = [good(), good(suspect=True, reasons="x"),                       # pass quiet, alarm
+            good(exec=0.2, suspect=True, reasons="plateau"),               # caught
+            good(nodes=4, split="held-out"),                               # silent (held out)
+            good(split="held-out"), good(i2p=0.1, suspect=True, split="held-out")]
+    cal = rob.calibration(rows)
+    assert cal["tuning"] == {"passed_quiet": 1, "false_alarm": 1, "caught": 1, "silent": 0}
+    assert cal["held-out"] == {"passed_quiet": 1, "false_alarm": 0, "caught": 1, "silent": 1}
+    assert cal["all"] == {"passed_quiet": 2, "false_alarm": 1, "caught": 2, "silent": 1}
+    text = rob.table_markdown(rows)
+    assert "Passing: 2 / 3 runs (66.7 %)" in text and "Passing: 3 / 6 runs (50.0 %)" in text
+    assert "1 missed & quiet (silent failure)" in text
+    assert "- b clean seed 0: nodes 4 / 10 outside" in text
+    assert "no warning (silent failure)" in text and "warned: plateau" in text
+
+
+@pytest.mark.parametrize("argv, phrase", [
+    (["--benchmarks", "nope"], "unknown benchmark"),
+    (["--seeds", "4:1"], "--seeds"),
+    (["--seeds", "x"], "--seeds"),
+    (["--looks", "fancy"], "unknown look"),
+    (["--jobs", "0"], "--jobs"),
+    (["--queries", "0"], "--queries"),
+    (["--transitions", "0"], "--transitions"),
+])
+def test_cli_bad_values_exit_2_with_one_line(argv, phrase, tmp_path, capsys):
+    assert main(["robustness", "--out", str(tmp_path / "o"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("vggc-cp: error:") and phrase in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_seeds_parse():
+    from vggc_cp.cli.robustness_cmds import parse_seeds
+
+    assert parse_seeds("0:4") == (0, 1, 2, 3, 4)
+    assert parse_seeds("3") == (3,) and parse_seeds("0, 2") == (0, 2)
+
+
+def test_cli_reuses_the_study_and_prints_the_summary(study, capsys):
+    cfg, _ = study
+    argv = ["robustness", "--out", str(cfg.out), "--benchmarks", "fruit-2x3", "--seeds", "0:1",
+            "--looks", "clean", "--transitions", str(D), "--queries", str(Q), "--jobs", "1",
+            "--quiet"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "# Robustness of the default" in out and "0 computed, 2 reused" in out
+    assert f"wrote {cfg.out / 'robustness.md'}" in out
+
+
+@pytest.mark.skipif("randomized" not in rob.looks_available(),
+                    reason="this checkout's renderer has no randomized look (branch looks)")
+def test_randomized_look_cell(tmp_path):
+    cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("randomized",), transitions=D,
+                               n_queries=Q)
+    (row,) = rob.run_robustness(cfg, progress=False).rows
+    assert row["look"] == "randomized" and row["true_states"] == 6
+    meta = load_trace(cfg.trace_path("fruit-2x3", "randomized", 0)).meta
+    assert meta["look"] == "randomized"
+    assert isinstance(row["suspect"], bool) and 0.0 <= row["exec"] <= 1.0
+
+
+@pytest.mark.slow
+def test_i2p_cell_measures_and_is_reused_without_i2p(tmp_path):
+    """A localizer trained on the learned labels (about a minute on 2 cores)."""
+    cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("clean",), transitions=D,
+                               n_queries=Q, i2p=True, novel=20, i2p_queries=20)
+    (row,) = rob.run_robustness(cfg, progress=False).rows
+    assert {"localization", "i2p", "exec_i2p"} <= set(row) and 0.0 <= row["i2p"] <= 1.0
+    assert cfg.novel_path("fruit-2x3", "clean", 0).is_file()
+    again = rob.run_robustness(replace(cfg, i2p=False), progress=False)
+    assert again.computed == 0 and again.rows[0]["i2p"] == row["i2p"]
+    other = rob.cell_jobs(replace(cfg, i2p_queries=21))
+    assert rob.cached_row(other[0]) is None

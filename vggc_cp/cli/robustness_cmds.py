@@ -1,0 +1,84 @@
+"""``vggc-cp robustness``: the default ``solve`` on every benchmark, seed and look."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from vggc_cp.errors import VggcError
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "robustness", help="the default solve on benchmarks x seeds x looks: pass rate and "
+                           "whether the warning caught every miss",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        description="Generate (or reuse) one trace per benchmark, look and seed, learn its graph "
+                    "with the default pipeline (what `vggc-cp solve trace.npz` runs), evaluate "
+                    "it, and write robustness.csv and robustness.md into --out. Finished cells "
+                    "are cached there and skipped on a rerun with the same settings. Seeds >= 3 "
+                    "are the held-out split, reported separately.")
+    p.add_argument("--out", required=True, help="output and cache folder")
+    p.add_argument("--benchmarks", default="all",
+                   help="comma-separated benchmark names, or all")
+    p.add_argument("--seeds", default="0:4",
+                   help="trace seeds: an inclusive range A:B or comma-separated integers")
+    p.add_argument("--looks", default="clean,randomized", help="comma-separated looks")
+    p.add_argument("--transitions", type=int, default=None,
+                   help="|D| of every trace; None: the paper's per benchmark")
+    p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                   help="worker processes (cells in parallel)")
+    p.add_argument("--i2p", action="store_true",
+                   help="also train a localizer and measure localization / I2P / Exec-I2P on "
+                        "novel renders, for the seeds of --i2p-seeds (minutes per cell)")
+    p.add_argument("--i2p-seeds", default="0", help="seeds measured with --i2p")
+    p.add_argument("--novel", type=int, default=150, help="novel renders per trace for --i2p")
+    p.add_argument("--i2p-queries", type=int, default=150,
+                   help="start/goal image pairs for --i2p")
+    p.add_argument("--force", action="store_true", help="recompute cached cells")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_robustness)
+
+
+def _split(text: str) -> list[str]:
+    return [x.strip() for x in text.split(",") if x.strip()]
+
+
+def parse_seeds(text: str, option: str = "--seeds") -> tuple[int, ...]:
+    """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            if b < a:
+                raise ValueError
+            return tuple(range(a, b + 1))
+        seeds = tuple(int(s) for s in _split(text))
+    except ValueError:
+        raise VggcError(f"{option} {text!r}: expected an inclusive range A:B (A <= B) or "
+                        "comma-separated integers") from None
+    if not seeds:
+        raise VggcError(f"{option} {text!r}: no seed")
+    return seeds
+
+
+def cmd_robustness(args) -> int:
+    from pathlib import Path
+
+    from vggc_cp.experiments.robustness import RobustnessConfig, run_robustness, write_tables
+    from vggc_cp.sim import benchmark_names
+
+    benches = (tuple(benchmark_names()) if args.benchmarks == "all"
+               else tuple(_split(args.benchmarks)))
+    cfg = RobustnessConfig(Path(args.out), benches, parse_seeds(args.seeds),
+                           tuple(_split(args.looks)), args.transitions, n_queries=args.queries,
+                           jobs=args.jobs, i2p=args.i2p,
+                           i2p_seeds=parse_seeds(args.i2p_seeds, "--i2p-seeds"),
+                           novel=args.novel, i2p_queries=args.i2p_queries, force=args.force)
+    run = run_robustness(cfg, progress=not args.quiet)
+    csv, md = write_tables(run.rows, cfg.out, run.seconds)
+    print(md.read_text(encoding="utf-8"), end="")
+    print(f"\ncells: {run.computed} computed, {run.reused} reused, {run.seconds:.1f} s")
+    print(f"wrote {csv}")
+    print(f"wrote {md}")
+    return 0

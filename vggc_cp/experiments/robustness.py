@@ -1,0 +1,623 @@
+"""The robustness study: the default ``vggc-cp solve`` on every benchmark, seed and look.
+
+One **cell** per (benchmark, look, seed):
+
+1. the trace, generated once by :func:`vggc_cp.sim.explore.generate` at the paper's |D| (or
+   ``transitions``) and cached at ``OUT/traces/<bench>-<look>-d<D>-s<seed>.npz`` (with the novel
+   renders of the I2P phase beside it, ``...novel<K>.npz``);
+2. :func:`vggc_cp.pipeline.learn_graph` with its defaults (what ``vggc-cp solve trace.npz`` runs),
+   on the trace without its ground-truth states;
+3. :func:`vggc_cp.evaluate.evaluate_trace` with Q queries (Exec on the simulator's dynamics);
+4. optionally (``i2p`` and the seed among ``i2p_seeds``): a localizer trained on the learned
+   labels and localization / I2P / Exec-I2P on fresh renders
+   (:func:`vggc_cp.evaluate.i2p.evaluate_localizer`);
+5. the row, cached atomically as ``OUT/cells/<bench>-<look>-s<seed>.json`` with the settings it
+   was made under (the key). A rerun with the same settings reuses it (the study resumes where it
+   stopped); a changed setting -- or changed pipeline code -- recomputes it.
+
+Seeds ``>= HELDOUT_FROM_SEED`` (or ``heldout_seeds``) form the **held-out** split: keep them out
+of any tuning and read their table separately. :func:`passes` is the acceptance rule of a run,
+:func:`calibration` counts how the ground-truth-free warning (``Confidence.suspect``) matched it,
+and :func:`write_tables` writes ``robustness.csv`` and ``robustness.md``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from vggc_cp.atomic import write_text
+from vggc_cp.errors import VggcError, lookup
+from vggc_cp.evaluate.benchmark import (
+    BACKENDS,
+    _cached,
+    _jsonable,
+    _spread,
+    exploration_of,
+    trace_is_current,
+)
+from vggc_cp.sim import benchmark_names, get_spec
+
+CELL_FORMAT = "vggc-robustness-cell/1"
+#: The acceptance rule of one run (fractions; nodes as a multiple of |V*|).
+MIN_EXEC = 0.90
+NODES_LOW = 0.9
+NODES_HIGH = 1.1
+MIN_OPT_PATH = 0.95
+MIN_ANY_PATH = 1.0
+MIN_I2P = 0.90
+#: Slack of every comparison of :func:`failures` (floating-point rates).
+TOLERANCE = 1e-9
+#: Seeds from this one on are the held-out split by default.
+HELDOUT_FROM_SEED = 3
+TUNING, HELDOUT = "tuning", "held-out"
+SPLITS = (TUNING, HELDOUT)
+CLEAN, RANDOMIZED = "clean", "randomized"
+DEFAULT_LOOKS = (CLEAN, RANDOMIZED)
+DEFAULT_SEEDS = (0, 1, 2, 3, 4)
+#: Runs with fewer observations per true state than this are marked sparse in the tables.
+MIN_OBS_PER_STATE = 2.0
+#: Modules whose source is part of a cell's key (changed code recomputes the cells).
+CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.mdl",
+                "vggc_cp.solvers.confidence", "vggc_cp.vision.footprints",
+                "vggc_cp.vision.distances", "vggc_cp.evaluate.metrics")
+#: Columns of ``robustness.csv``, in order (measured I2P columns follow when present).
+ROW_FIELDS = ("benchmark", "look", "seed", "split", "transitions", "observations",
+              "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
+              "trans_prec", "trans_cov", "passed", "evidence", "threshold", "suspect", "reasons",
+              "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
+              "obs_per_state", "seconds_learn", "seconds_evaluate", "dynamics")
+I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
+
+
+def looks_available() -> tuple[str, ...]:
+    """The looks this checkout's renderer knows (``clean`` only before the looks were added)."""
+    try:
+        from vggc_cp.sim.looks import LOOKS
+    except ImportError:
+        return (CLEAN,)
+    return tuple(LOOKS)
+
+
+# ---------------------------------------------------------------- configuration
+
+
+@dataclass(frozen=True)
+class RobustnessConfig:
+    """One robustness study.
+
+    Attributes
+    ----------
+    out : Path
+        Folder of traces, cached cells, solutions, localizers and tables.
+    benchmarks : tuple of str
+        Names of :func:`vggc_cp.sim.benchmark_names` (default all seven).
+    seeds : tuple of int
+        Trace seeds (default 0..4).
+    looks : tuple of str
+        Looks of :func:`vggc_cp.sim.explore.generate` (default clean and randomized).
+    transitions : int or None
+        |D| of every trace; the paper's per benchmark when None.
+    size : int
+        Image side in pixels.
+    n_queries : int
+        Q of the evaluation.
+    jobs : int
+        Worker processes (cells in parallel).
+    heldout_seeds : tuple of int or None
+        Seeds of the held-out split; None: every seed ``>= HELDOUT_FROM_SEED``.
+    i2p : bool
+        Also train a localizer and measure localization / I2P / Exec-I2P on the cells whose seed
+        is in ``i2p_seeds``.
+    i2p_seeds : tuple of int
+    novel : int
+        Fresh renders per trace for the I2P phase.
+    i2p_queries : int
+        Start/goal image pairs of the I2P phase (the paper's 150).
+    force : bool
+        Recompute cached cells.
+    backend, scheduler : str, str or None
+        Parallel backend as in :class:`vggc_cp.evaluate.benchmark.BenchmarkConfig`.
+    """
+
+    out: Path
+    benchmarks: tuple[str, ...] = field(default_factory=lambda: tuple(benchmark_names()))
+    seeds: tuple[int, ...] = DEFAULT_SEEDS
+    looks: tuple[str, ...] = DEFAULT_LOOKS
+    transitions: int | None = None
+    size: int = 64
+    n_queries: int = 1500
+    jobs: int = 1
+    heldout_seeds: tuple[int, ...] | None = None
+    i2p: bool = False
+    i2p_seeds: tuple[int, ...] = (0,)
+    novel: int = 150
+    i2p_queries: int = 150
+    force: bool = False
+    backend: str = "loky"
+    scheduler: str | None = None
+
+    def __post_init__(self) -> None:
+        for b in self.benchmarks:
+            get_spec(b)
+        if not self.benchmarks or not self.seeds or not self.looks:
+            raise VggcError("robustness needs at least one benchmark, seed and look")
+        if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
+            raise VggcError(f"--seeds must be distinct non-negative integers, got "
+                            f"{list(self.seeds)}")
+        known = looks_available()
+        for look in self.looks:
+            if look not in known:
+                hint = ("" if look not in DEFAULT_LOOKS else
+                        " (this checkout's renderer has no such look yet)")
+                raise VggcError(f"unknown look {look!r}; known: {', '.join(known)}{hint}")
+        if self.jobs < 1:
+            raise VggcError(f"--jobs must be at least 1, got {self.jobs}")
+        if self.n_queries < 1:
+            raise VggcError(f"--queries must be positive, got {self.n_queries}")
+        if self.transitions is not None and self.transitions < 1:
+            raise VggcError(f"--transitions must be at least 1, got {self.transitions}")
+        if self.i2p and (self.novel < 2 or self.i2p_queries < 1):
+            raise VggcError(f"--novel must be at least 2 and --i2p-queries positive, got "
+                            f"{self.novel} and {self.i2p_queries}")
+        lookup({b: b for b in BACKENDS}, self.backend, "backend")
+
+    def n_transitions(self, benchmark: str) -> int:
+        return self.transitions or get_spec(benchmark).default_transitions
+
+    def split(self, seed: int) -> str:
+        """``tuning`` or ``held-out``."""
+        if self.heldout_seeds is not None:
+            return HELDOUT if seed in self.heldout_seeds else TUNING
+        return HELDOUT if seed >= HELDOUT_FROM_SEED else TUNING
+
+    def trace_path(self, benchmark: str, look: str, seed: int) -> Path:
+        d = self.n_transitions(benchmark)
+        return Path(self.out) / "traces" / f"{benchmark}-{look}-d{d}-s{seed}.npz"
+
+    def novel_path(self, benchmark: str, look: str, seed: int) -> Path:
+        return self.trace_path(benchmark, look, seed).with_suffix(f".novel{self.novel}.npz")
+
+    def cell_name(self, benchmark: str, look: str, seed: int) -> str:
+        return f"{benchmark}-{look}-s{seed}"
+
+
+@dataclass(frozen=True)
+class RobustCell:
+    """Everything a worker needs for one (benchmark, look, seed) cell (picklable)."""
+
+    benchmark: str
+    look: str
+    seed: int
+    split: str
+    transitions: int
+    size: int
+    queries: int
+    trace_path: Path
+    cell_path: Path
+    solution_path: Path
+    i2p: bool
+    novel: int
+    novel_path: Path
+    model_path: Path
+    i2p_queries: int
+    threads: int
+    key: dict
+    i2p_key: dict | None = None
+
+
+def i2p_key(cfg: RobustnessConfig) -> dict:
+    """The settings of a cell's I2P figures (novel renders, queries, localizer training)."""
+    from vggc_cp.localize import TrainConfig
+
+    return _jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
+                      "train": TrainConfig().as_dict()})
+
+
+def code_digest() -> str:
+    """SHA-256 (12 hex digits) of the source of :data:`CODE_MODULES`."""
+    h = hashlib.sha256()
+    for name in CODE_MODULES:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin and Path(spec.origin).is_file():
+            h.update(name.encode() + b"\0" + Path(spec.origin).read_bytes())
+    return h.hexdigest()[:12]
+
+
+def learn_key() -> dict:
+    """The default :class:`vggc_cp.pipeline.LearnOptions` as JSON values (part of a cell's key)."""
+    from vggc_cp.pipeline import LearnOptions
+
+    opts = LearnOptions()
+    out = {k: v for k, v in asdict(opts).items() if k != "distance"}
+    out["distance"] = opts.distance.key()
+    return _jsonable(out)
+
+
+def cell_jobs(cfg: RobustnessConfig) -> list[RobustCell]:
+    """Every cell of the study, benchmark-major, then look, then seed."""
+    out = Path(cfg.out)
+    base = {"format": CELL_FORMAT, "size": cfg.size, "queries": cfg.n_queries,
+            "learn": learn_key(), "code": code_digest()}
+    threads = max(1, (os.cpu_count() or 1) // max(1, cfg.jobs))
+    jobs = []
+    for bench in cfg.benchmarks:
+        d = cfg.n_transitions(bench)
+        for look in cfg.looks:
+            for seed in cfg.seeds:
+                measured = bool(cfg.i2p and seed in cfg.i2p_seeds)
+                name = cfg.cell_name(bench, look, seed)
+                key = base | {"benchmark": bench, "look": look, "seed": int(seed),
+                              "transitions": d, "exploration": exploration_of(bench)}
+                jobs.append(RobustCell(bench, look, int(seed), cfg.split(seed), d, cfg.size,
+                                       cfg.n_queries, cfg.trace_path(bench, look, seed),
+                                       out / "cells" / f"{name}.json",
+                                       out / "solutions" / f"{name}.json", measured, cfg.novel,
+                                       cfg.novel_path(bench, look, seed),
+                                       out / "models" / f"{name}.pt", cfg.i2p_queries, threads,
+                                       key, i2p_key(cfg) if measured else None))
+    return jobs
+
+
+def cached_row(job: RobustCell) -> dict | None:
+    """The cached row of ``job`` when it was made with the same settings (and, when the cell
+    measures I2P, holds I2P figures made with the same I2P settings), else None. A row with
+    I2P figures also serves a run that does not measure them."""
+    row = _cached(job.cell_path, job.key, "row")
+    if row is None or not job.i2p:
+        return row
+    return row if _cached(job.cell_path, job.key, "i2p_key") == job.i2p_key else None
+
+
+# ---------------------------------------------------------------- one cell
+
+
+def _generate(job: RobustCell, novel: int):
+    from vggc_cp.sim.explore import generate
+
+    kwargs = {} if job.look == CLEAN else {"look": job.look}
+    return generate(job.benchmark, job.transitions, job.seed, size=job.size, novel=novel,
+                    **kwargs)
+
+
+def _trace_fits(job: RobustCell) -> bool:
+    from vggc_cp.trace import load_trace
+
+    if not trace_is_current(job.trace_path, job.benchmark):
+        return False
+    meta = load_trace(job.trace_path, validate_trace=False).meta or {}
+    return (meta.get("look", CLEAN) == job.look and meta.get("transitions") == job.transitions
+            and list(meta.get("image_size", [])) == [job.size, job.size])
+
+
+def ensure_trace(job: RobustCell):
+    """The cell's trace, generated (with its novel renders when the cell measures I2P) or read
+    from the cache."""
+    from vggc_cp.sim.novel import save_novel
+    from vggc_cp.trace import load_trace, save_trace
+
+    need_novel = job.i2p and not job.novel_path.is_file()
+    if _trace_fits(job):
+        trace = load_trace(job.trace_path)
+        if need_novel:
+            g = _generate(job, job.novel)
+            save_novel(job.novel_path, g.novel_observations, g.novel_states)
+        return trace
+    for stale in job.trace_path.parent.glob(f"{job.trace_path.stem}.novel*.npz"):
+        stale.unlink()
+    g = _generate(job, job.novel if job.i2p else 0)
+    save_trace(g.trace, job.trace_path)
+    if job.i2p:
+        save_novel(job.novel_path, g.novel_observations, g.novel_states)
+    return g.trace
+
+
+def _finite(x):
+    return None if x is None or not math.isfinite(float(x)) else float(x)
+
+
+def run_cell(job: RobustCell) -> dict:
+    """Generate or read the trace, learn with the default pipeline, evaluate, cache the row."""
+    import numpy as np
+
+    from vggc_cp.evaluate import evaluate_trace
+    from vggc_cp.pipeline import LearnOptions, learn_graph
+    from vggc_cp.solution import labels_solution, write_solution
+
+    trace = ensure_trace(job)
+    learned = learn_graph(trace.without_states(), LearnOptions(), progress=False)
+    t0 = time.perf_counter()
+    metrics, dynamics = evaluate_trace(trace, learned.graph, learned.labels,
+                                       n_queries=job.queries, seed=0)
+    conf = learned.confidence
+    held = conf.heldout
+    true_states = int(len(np.unique(trace.states)))
+    row = {"benchmark": job.benchmark, "look": job.look, "seed": job.seed, "split": job.split,
+           "transitions": trace.n_transitions, "observations": trace.n_obs,
+           "true_states": int(metrics.true_states), "nodes": int(metrics.nodes),
+           "nodes_ratio": metrics.nodes / max(int(metrics.true_states), 1),
+           "exec": metrics.exec, "opt_path": metrics.opt_path, "any_path": metrics.any_path,
+           "trans_prec": metrics.trans_prec, "trans_cov": metrics.trans_cov,
+           "evidence": learned.chosen.evidence, "threshold": _finite(learned.threshold),
+           "suspect": bool(conf.suspect), "reasons": "; ".join(conf.reasons),
+           "margin": _finite(conf.margin), "plateau": int(conf.plateau),
+           "heldout_predicted": None if held is None else held.predicted,
+           "heldout_contradicted": None if held is None else held.contradicted,
+           "obs_per_node": _finite(conf.obs_per_node),
+           "obs_per_state": trace.n_obs / max(true_states, 1),
+           "seconds_learn": round(learned.seconds, 3), "dynamics": dynamics}
+    row["seconds_evaluate"] = round(time.perf_counter() - t0, 3)
+    write_solution(job.solution_path,
+                   labels_solution(trace, learned.labels, solver="learn_graph",
+                                   status="feasible", evidence=learned.chosen.evidence,
+                                   threshold=_finite(learned.threshold),
+                                   confidence=_jsonable(conf.as_dict())))
+    if job.i2p:
+        row |= run_i2p(job, trace)
+    row = _jsonable(row)
+    record = {"key": job.key, "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {})
+    write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
+    return row
+
+
+def run_i2p(job: RobustCell, trace) -> dict:
+    """Train a localizer on the cell's learned labels (its solution file) and measure
+    localization, I2P and Exec-I2P on the novel renders."""
+    import torch
+
+    from vggc_cp.evaluate.i2p import evaluate_localizer
+    from vggc_cp.localize import TrainConfig, save_localizer, train_localizer
+    from vggc_cp.sim.novel import load_novel
+    from vggc_cp.solution import read_solution
+
+    torch.set_num_threads(job.threads)
+    solution = read_solution(job.solution_path)
+    localizer, report = train_localizer(trace, solution, TrainConfig(seed=job.seed),
+                                        trace_path=job.trace_path,
+                                        solution_path=job.solution_path)
+    save_localizer(job.model_path, localizer)
+    obs, states = load_novel(job.novel_path)
+    m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=job.i2p_queries,
+                           seed=0)
+    return {"localization": m.localization, "i2p": m.i2p, "exec_i2p": m.exec_i2p,
+            "seconds_localizer": round(report.seconds, 3)}
+
+
+# ---------------------------------------------------------------- the study
+
+
+@dataclass(frozen=True)
+class RobustnessRun:
+    """What :func:`run_robustness` did: the rows (cell order), counts and wall time."""
+
+    rows: list[dict]
+    computed: int
+    reused: int
+    seconds: float
+
+
+def run_robustness(cfg: RobustnessConfig, progress: bool = True) -> RobustnessRun:
+    """Run every cell of ``cfg`` that has no cached row made under the same settings."""
+    t0 = time.perf_counter()
+    jobs = cell_jobs(cfg)
+    rows: dict[tuple[str, str, int], dict] = {}
+    todo = []
+    for job in jobs:
+        row = None if cfg.force else cached_row(job)
+        if row is None:
+            todo.append(job)
+        else:
+            rows[(job.benchmark, job.look, job.seed)] = row | {"split": job.split}
+    for row in _spread(run_cell, todo, cfg, "robustness cells", progress):
+        rows[(row["benchmark"], row["look"], row["seed"])] = row
+    ordered = [rows[(j.benchmark, j.look, j.seed)] for j in jobs]
+    return RobustnessRun(ordered, len(todo), len(jobs) - len(todo), time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------- pass rule and calibration
+
+
+def _measured(x) -> bool:
+    return x is not None and not (isinstance(x, float) and math.isnan(x))
+
+
+def failures(row: dict) -> list[str]:
+    """Each condition of the pass rule that ``row`` misses, as a short phrase (empty: passed)."""
+    out = []
+    ex, op, ap = row.get("exec"), row.get("opt_path"), row.get("any_path")
+    if not _measured(ex) or ex < MIN_EXEC - TOLERANCE:
+        out.append(f"Exec {_pct(ex)} % < {_pct(MIN_EXEC)} %")
+    nodes, true = row.get("nodes"), row.get("true_states")
+    if (not _measured(nodes) or not true or not
+            NODES_LOW * true - TOLERANCE <= nodes <= NODES_HIGH * true + TOLERANCE):
+        out.append(f"nodes {nodes} / {true} outside [{NODES_LOW}, {NODES_HIGH}] x |V*|")
+    if not _measured(op) or op < MIN_OPT_PATH - TOLERANCE:
+        out.append(f"OptPath {_pct(op)} % < {_pct(MIN_OPT_PATH)} %")
+    if not _measured(ap) or ap < MIN_ANY_PATH - TOLERANCE:
+        out.append(f"AnyPath {_pct(ap)} % < {_pct(MIN_ANY_PATH)} %")
+    i2p = row.get("i2p")
+    if _measured(i2p) and i2p < MIN_I2P - TOLERANCE:
+        out.append(f"I2P {_pct(i2p)} % < {_pct(MIN_I2P)} %")
+    return out
+
+
+def passes(row: dict) -> bool:
+    """The acceptance rule: Exec >= :data:`MIN_EXEC`, nodes within [:data:`NODES_LOW`,
+    :data:`NODES_HIGH`] x |V*|, OptPath >= :data:`MIN_OPT_PATH`, AnyPath >= :data:`MIN_ANY_PATH`
+    and, where measured, I2P >= :data:`MIN_I2P` (each with :data:`TOLERANCE`)."""
+    return not failures(row)
+
+
+CALIBRATION = ("passed_quiet", "false_alarm", "caught", "silent")
+CALIBRATION_TITLES = {"passed_quiet": "passed & quiet", "false_alarm": "passed & warned "
+                      "(false alarm)", "caught": "missed & warned (caught)",
+                      "silent": "missed & quiet (silent failure)"}
+
+
+def calibration(rows: list[dict]) -> dict[str, dict[str, int]]:
+    """Per split (and ``all``), how the warning matched the pass rule: counts of
+    :data:`CALIBRATION` (``silent`` is the one that must be 0)."""
+    out = {s: dict.fromkeys(CALIBRATION, 0) for s in (*SPLITS, "all")}
+    for r in rows:
+        ok, warned = passes(r), bool(r.get("suspect"))
+        kind = ("false_alarm" if warned else "passed_quiet") if ok else \
+            ("caught" if warned else "silent")
+        for s in (r.get("split", TUNING), "all"):
+            out.setdefault(s, dict.fromkeys(CALIBRATION, 0))[kind] += 1
+    return out
+
+
+def calibration_line(counts: dict[str, int]) -> str:
+    return "Calibration: " + ", ".join(f"{counts[k]} {CALIBRATION_TITLES[k]}"
+                                       for k in CALIBRATION) + "."
+
+
+# ---------------------------------------------------------------- tables
+
+
+def _pct(x) -> str:
+    return "–" if not _measured(x) else f"{100 * float(x):.1f}"
+
+
+def _mean(rows: list[dict], key: str):
+    vals = [float(r[key]) for r in rows if _measured(r.get(key))]
+    return sum(vals) / len(vals) if vals else None
+
+
+def _ratio_range(rows: list[dict]) -> str:
+    ratios = [r["nodes"] / r["true_states"] for r in rows if r.get("true_states")]
+    if not ratios:
+        return "–"
+    lo, hi = min(ratios), max(ratios)
+    return f"{lo:.2f}" if abs(hi - lo) < 5e-3 else f"{lo:.2f}–{hi:.2f}"
+
+
+def split_markdown(rows: list[dict]) -> str:
+    """One split's table: per benchmark x look, runs, passed, mean Exec / OptPath / AnyPath
+    (%), the range of nodes / |V*|, warned runs (and mean I2P where measured)."""
+    i2p = any(_measured(r.get("i2p")) for r in rows)
+    head = ("| benchmark | look | \\|D\\| | runs | passed | Exec | OptPath | AnyPath "
+            "| nodes / \\|V*\\| | warned |" + (" I2P |" if i2p else ""))
+    lines = [head, "|" + "---|" * (10 + i2p)]
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["benchmark"], r["look"]), []).append(r)
+    for (bench, look), g in groups.items():
+        d = "/".join(str(x) for x in dict.fromkeys(r["transitions"] for r in g))
+        cells = [bench, look, d, str(len(g)), str(sum(passes(r) for r in g)),
+                 _pct(_mean(g, "exec")), _pct(_mean(g, "opt_path")), _pct(_mean(g, "any_path")),
+                 _ratio_range(g), str(sum(bool(r.get("suspect")) for r in g))]
+        if i2p:
+            cells.append(_pct(_mean(g, "i2p")))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _missed_line(r: dict) -> str:
+    sparse = (f" (sparse: {r['obs_per_state']:.1f} observations per state)"
+              if _measured(r.get("obs_per_state")) and r["obs_per_state"] < MIN_OBS_PER_STATE
+              else "")
+    warn = (f"warned: {r.get('reasons') or 'suspect'}" if r.get("suspect")
+            else "**no warning (silent failure)**")
+    return (f"- {r['benchmark']} {r['look']} seed {r['seed']}{sparse}: "
+            + "; ".join(failures(r)) + f" -- {warn}")
+
+
+def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
+    """The whole report: the rule, then per split its table, share passing, calibration and
+    missed runs, then the overall share and calibration."""
+    seeds = {s: sorted({r["seed"] for r in rows if r.get("split") == s}) for s in SPLITS}
+    lines = ["# Robustness of the default `vggc-cp solve`", "",
+             f"A run passes with Exec >= {_pct(MIN_EXEC)} %, nodes within [{NODES_LOW}, "
+             f"{NODES_HIGH}] x |V*|, OptPath >= {_pct(MIN_OPT_PATH)} %, AnyPath "
+             f"{_pct(MIN_ANY_PATH)} %",
+             f"and I2P >= {_pct(MIN_I2P)} % where measured. Metrics in % (means over seeds); "
+             "'warned': runs the solver flagged suspect.", ""]
+    for split in SPLITS:
+        sub = [r for r in rows if r.get("split") == split]
+        title = "Tuning split" if split == TUNING else "Held-out split (kept out of tuning)"
+        lines += [f"## {title}: seeds {', '.join(map(str, seeds[split])) or 'none'}", ""]
+        if not sub:
+            lines += [f"No run in this split (by default seeds >= {HELDOUT_FROM_SEED} are "
+                      "held out).", ""]
+            continue
+        n_ok = sum(passes(r) for r in sub)
+        lines += [split_markdown(sub).rstrip("\n"), "",
+                  f"Passing: {n_ok} / {len(sub)} runs ({100 * n_ok / len(sub):.1f} %).",
+                  calibration_line(calibration(sub)[split]), ""]
+        missed = [r for r in sub if not passes(r)]
+        lines += (["Missed runs:", *[_missed_line(r) for r in missed], ""] if missed
+                  else ["No run missed.", ""])
+    if rows:
+        n_ok = sum(passes(r) for r in rows)
+        lines += ["## Overall", "",
+                  f"Passing: {n_ok} / {len(rows)} runs ({100 * n_ok / len(rows):.1f} %).",
+                  calibration_line(calibration(rows)["all"])]
+        learn = sum(float(r.get("seconds_learn") or 0.0) for r in rows)
+        lines.append(f"Learning time, summed over runs: {learn:.0f} s"
+                     + (f"; wall time of this invocation (cached cells reused): "
+                        f"{wall_seconds:.0f} s." if wall_seconds is not None else "."))
+    return "\n".join(lines) + "\n"
+
+
+def rows_frame(rows: list[dict]):
+    """The rows as a pandas DataFrame with :data:`ROW_FIELDS` first and ``passed`` filled."""
+    import pandas as pd
+
+    recs = [r | {"passed": passes(r)} for r in rows]
+    df = pd.DataFrame.from_records(recs)
+    first = [c for c in (*ROW_FIELDS, *I2P_FIELDS) if c in df.columns]
+    return df[first + [c for c in df.columns if c not in first]]
+
+
+def write_tables(rows: list[dict], out: Path,
+                 wall_seconds: float | None = None) -> tuple[Path, Path]:
+    """Write ``robustness.csv`` (one row per cell) and ``robustness.md`` into ``out``."""
+    out = Path(out)
+    csv, md = out / "robustness.csv", out / "robustness.md"
+    write_text(csv, rows_frame(rows).to_csv(index=False))
+    write_text(md, table_markdown(rows, wall_seconds))
+    return csv, md
+
+
+def plot_exec(rows: list[dict], path: str | Path, *, title: str | None = None) -> None:
+    """Exec of every run, grouped by benchmark, one colour per look; warned runs drawn as
+    crosses, quiet ones as dots; the dashed line is :data:`MIN_EXEC`."""
+    import numpy as np
+
+    from vggc_cp.plots import _pyplot, _save
+
+    plt = _pyplot()
+    benches = list(dict.fromkeys(r["benchmark"] for r in rows))
+    looks = list(dict.fromkeys(r["look"] for r in rows))
+    fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(benches), 3.6), constrained_layout=True)
+    width = 0.7 / max(len(looks), 1)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for j, look in enumerate(looks):
+        for warned, marker in ((False, "o"), (True, "X")):
+            pts = [(benches.index(r["benchmark"]) + (j - (len(looks) - 1) / 2) * width,
+                    100 * float(r["exec"]))
+                   for r in rows if r["look"] == look and bool(r.get("suspect")) == warned
+                   and _measured(r.get("exec"))]
+            if not pts:
+                continue
+            x, y = np.array(pts).T
+            x = x + np.linspace(-0.25, 0.25, len(x)) * width
+            ax.scatter(x, y, marker=marker, s=46 if warned else 26,
+                       color=colours[j % len(colours)], edgecolors="black" if warned else "none",
+                       label=f"{look}{' (warned)' if warned else ''}", zorder=3)
+    ax.axhline(100 * MIN_EXEC, color="grey", ls="--", lw=1)
+    ax.set_xticks(np.arange(len(benches)), benches, rotation=20, fontsize=8)
+    ax.set_xlim(-0.6, len(benches) - 0.4)
+    ax.set_ylabel("Exec (%)")
+    ax.set_ylim(-3, 103)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title(title or "default solve: Exec per run", fontsize=10)
+    _save(fig, path)
