@@ -4,9 +4,9 @@
 
 * **Evidence.** ``footprints`` (:mod:`vggc_cp.vision.footprints`, no weights, the trace's
   actions localize where states differ) first. With ``evidence="auto"``, when the footprint
-  graph is suspect (below), the paper's attention distances (``saliency`` and ``keypoints``
-  Sinkhorn divergences, :mod:`vggc_cp.vision.distances`) are tried too, and the candidate
-  that the criterion prefers among those that are not suspect is kept.
+  graph is suspect (below), the ``keypoints`` attention distances (Sinkhorn divergences,
+  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate that the criterion
+  prefers among those that are not suspect is kept.
 * **Threshold.** Congruence-closure merging (:mod:`vggc_cp.solvers.merge`) over a geometric
   grid of thresholds from the noise scale (the median nearest-neighbour distance) up to a
   high quantile of all distances.
@@ -47,7 +47,7 @@ AUTO = "auto"
 #: What ``vggc-cp solve --evidence`` accepts (``attention``: the backend of ``--attention``).
 EVIDENCES = (AUTO, FOOTPRINTS, "attention")
 #: Attention backends that ``auto`` tries when the footprint graph is suspect.
-AUTO_FALLBACK = ("keypoints", "saliency")
+AUTO_FALLBACK = ("keypoints",)
 
 
 @dataclass(frozen=True)

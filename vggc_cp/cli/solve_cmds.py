@@ -61,7 +61,7 @@ def register(sub) -> None:
                         "percentile of all distances)")
     p.add_argument("--evidence", default="auto", metavar="NAME",
                    help="merge solver: the visual evidence; auto (action footprints, and the "
-                        "keypoint/saliency attention distances when the footprint graph is "
+                        "keypoint attention distances when the footprint graph is "
                         "suspect, the criterion choosing), footprints, or attention (the "
                         "Sinkhorn distances of --attention) (default auto)")
     p.add_argument("--exact", action="store_true",
