@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import os
 import sys
@@ -98,6 +99,17 @@ def register(sub) -> None:
 
 
 def register_bench(bench_sub) -> None:
+    p = bench_sub.add_parser(
+        "solve", help="time the default solve against the previous default (saliency "
+                      "Sinkhorn + cascade) on one trace, in one run (default: fruit-6x8, "
+                      "|D| = 1500, seed 0)",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--trace", default=None, help="trace .npz; none: generate fruit-6x8 at the paper's |D|")
+    p.add_argument("--seed", type=int, default=0, help="seed of the generated trace")
+    p.add_argument("--limit", type=float, default=2.0,
+                   help="the largest acceptable ratio of the default to the previous default")
+    p.set_defaults(func=cmd_bench_solve)
+
     p = bench_sub.add_parser(
         "sweep", help=f"time the whole greedy sweep on {BENCH_NAME} at |D|={BENCH_TRANSITIONS} "
                       f"(distances cached): jobs=2 against jobs=1")
@@ -399,6 +411,28 @@ def _bench_trace(args):
     trace = generate(BENCH_NAME, args.transitions, args.seed).trace
     save_trace(trace, path)
     return trace, path, time.perf_counter() - t0
+
+
+def cmd_bench_solve(args) -> int:
+    from vggc_cp.experiments.perf import bench_solve
+    from vggc_cp.trace import load_trace
+
+    if args.trace:
+        trace, name = load_trace(args.trace), args.trace
+    else:
+        from vggc_cp.sim.explore import generate
+
+        trace = generate("fruit-6x8", None, args.seed).trace
+        name = f"fruit-6x8, |D| = {trace.n_transitions}, seed {args.seed} (generated)"
+    t = bench_solve(trace.without_states())
+    print(f"solve          {name}: {trace.n_obs} observations")
+    print(f"  default (pipeline, evidence {t.default_evidence}): {t.default_seconds:.1f} s, "
+          f"{t.default_nodes} nodes{', suspect' if t.default_suspect else ''}")
+    print(f"  baseline, previous default (saliency Sinkhorn, uncached, + cascade): "
+          f"{t.previous_seconds:.1f} s, {t.previous_nodes} nodes")
+    verdict = "within" if t.ratio <= args.limit else "OVER"
+    print(f"  ratio {t.ratio:.2f}x: {verdict} the {args.limit:g}x target")
+    return 0
 
 
 def cmd_bench_sweep(args) -> int:

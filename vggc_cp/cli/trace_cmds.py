@@ -66,6 +66,9 @@ def cmd_evaluate(args) -> int:
     i2p = i2p_results(args, trace, solution)
     if i2p is not None:
         out["i2p"] = i2p
+    calibration = _calibration(solution, out)
+    if calibration is not None:
+        out["warning"] = calibration
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -81,7 +84,32 @@ def cmd_evaluate(args) -> int:
         print(f"{name:<14} {100 * value:6.2f} %")
     if i2p is not None:
         print_i2p(i2p)
+    if calibration is not None:
+        said = "suspect" if calibration["fired"] else "no warning"
+        verdict = ("passes" if not calibration["misses"] else
+                   "misses (" + "; ".join(calibration["misses"]) + ")")
+        right = "right" if calibration["right"] else (
+            "a false alarm" if calibration["fired"] else "WRONG: a silent failure")
+        print(f"warning        solve said {said}; the graph {verdict} -> the warning was {right}")
     return 0
+
+
+def _calibration(solution, metrics: dict) -> dict | None:
+    """Whether ``solve``'s warning matched the graph's quality (the robustness study's pass
+    rule), for solutions that record a confidence; None otherwise."""
+    conf = solution.extra.get("confidence")
+    if not isinstance(conf, dict) or not isinstance(conf.get("suspect"), bool):
+        return None
+    from vggc_cp.experiments.robustness import failures
+
+    row = {"exec": metrics["exec"], "opt_path": metrics["opt_path"],
+           "any_path": metrics["any_path"], "nodes": metrics["nodes"],
+           "true_states": metrics["true_states"]}
+    if isinstance(metrics.get("i2p"), dict):
+        row["i2p"] = metrics["i2p"].get("i2p")
+    misses = failures(row)
+    fired = conf["suspect"]
+    return {"fired": fired, "misses": misses, "right": fired == bool(misses)}
 
 
 def register_bench(bench_sub) -> None:

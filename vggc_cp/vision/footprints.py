@@ -21,9 +21,10 @@ observation ``o`` is described in every footprint by
 * its **chroma** ``c_a(o)``: the chromaticity ``(r, g) / (r + g + b)`` of the mean colour of
   the deviating pixels (weights ``F_a(p) |x_o(p) - e_a(p)|_1``), which tells a red object from
   a yellow one whatever their shapes. The objects an action ``a`` moves are of one task class,
-  so the spread ``s_a`` of their chroma (the median distance of the occupied observations'
-  chroma from their median) is what one class varies by (shades, stems, lighting); a chroma
-  difference counts from ``chroma`` times ``s_a`` on and in full from twice that.
+  so the spread ``s_a`` of their chroma (the 75th percentile of the occupied observations'
+  chroma distances from their median, at least 0.02) is what one class varies by (shades,
+  stems, lighting, placement); a chroma difference counts from ``chroma`` times ``s_a`` on
+  and in full from twice that.
 
 Two renders of one state agree in every footprint; two states differ by an object present in
 one footprint and absent in another, or of another colour. The distance counts the footprints
@@ -66,19 +67,28 @@ class FootprintParams:
     chroma : float
         Multiple of an action's within-class chroma spread ``s_a`` that a difference may
         reach before it counts (in full from twice that).
+    spread_quantile, spread_floor : float
+        ``s_a`` is this quantile of the occupied observations' chroma distances from their
+        median, and at least the floor (identical objects would otherwise make placement
+        jitter, which mixes the table into the footprint, count as another colour).
     """
 
     gripper: float = 0.5
     support: float = 0.2
     saturation: float = 0.5
     chroma: float = 2.0
+    spread_quantile: float = 0.75
+    spread_floor: float = 0.02
 
     def __post_init__(self) -> None:
         for name in ("gripper", "support"):
             v = getattr(self, name)
             if not 0 <= v < 1:
                 raise VggcError(f"footprint {name} must lie in [0, 1), got {v}")
-        for name in ("saturation", "chroma"):
+        if not 0 < self.spread_quantile <= 1:
+            raise VggcError(f"footprint spread_quantile must lie in (0, 1], got "
+                            f"{self.spread_quantile}")
+        for name in ("saturation", "chroma", "spread_floor"):
             v = getattr(self, name)
             if not v > 0:
                 raise VggcError(f"footprint {name} must be positive, got {v}")
@@ -189,8 +199,8 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
         colour = np.einsum("np,npc->nc", wdev, pixels) / np.maximum(wdev.sum(1), 1e-12)[:, None]
         chroma[:, a] = colour[:, :2] / np.maximum(colour.sum(axis=1, keepdims=True), 1e-12)
         own = chroma[occupied, a]
-        spread[a] = max(float(np.median(np.linalg.norm(own - np.median(own, axis=0), axis=1))),
-                        1e-3)
+        spread[a] = max(float(np.quantile(np.linalg.norm(own - np.median(own, axis=0), axis=1),
+                                          params.spread_quantile)), params.spread_floor)
     return Footprints(maps, presence, chroma, spread, counts)
 
 

@@ -1,0 +1,73 @@
+"""The default pipeline: evidence, selection and confidence decided from the trace alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vggc_cp.errors import VggcError
+from vggc_cp.pipeline import LearnOptions, choose, learn_graph, threshold_grid
+from vggc_cp.trace import PICK, PLACE, Trace, load_trace
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return load_trace(DATA)
+
+
+def test_the_shipped_trace_gives_its_true_graph_without_a_warning(shipped):
+    learned = learn_graph(shipped.without_states(), LearnOptions(evidence="footprints"))
+    same = learned.labels[:, None] == learned.labels[None, :]
+    np.testing.assert_array_equal(same, shipped.states[:, None] == shipped.states[None, :])
+    conf = learned.confidence
+    assert not conf.suspect and conf.plateau >= 3 and conf.margin > 0
+    assert conf.heldout is not None and conf.heldout.contradicted < 0.05
+    assert learned.chosen.evidence == "footprints" and len(learned.candidates) == 1
+    ts = learned.chosen.path.thresholds
+    assert list(ts) == sorted(ts) and learned.threshold in ts
+
+
+def test_a_trace_whose_images_say_nothing_is_flagged(shipped):
+    """Images shuffled within each role: no graph the trace supports can be right, and the
+    tool must say so rather than print a confident graph."""
+    rng = np.random.default_rng(0)
+    obs = shipped.observations.copy()
+    roles = shipped.roles()
+    for r in (PICK, PLACE):
+        idx = np.flatnonzero(roles == r)
+        obs[idx] = obs[rng.permutation(idx)]
+    noise = Trace(obs, shipped.actions, shipped.action_names, None, shipped.meta)
+    learned = learn_graph(noise, LearnOptions(evidence="footprints"))
+    assert learned.confidence.suspect and learned.confidence.reasons
+
+
+def test_auto_keeps_the_footprints_when_they_are_not_suspect(shipped):
+    learned = learn_graph(shipped.without_states())
+    assert learned.chosen.evidence == "footprints" and len(learned.candidates) == 1
+
+
+def test_choose_prefers_a_candidate_that_is_not_suspect():
+    class C:
+        def __init__(self, dl, suspect):
+            self.description_length = dl
+            self.confidence = type("K", (), {"suspect": suspect})()
+
+    a, b, c = C(10.0, True), C(12.0, False), C(11.0, False)
+    assert choose([a, b, c]) is c
+    assert choose([a, C(9.0, True)]).description_length == 9.0
+
+
+def test_threshold_grid_and_errors(shipped):
+    from vggc_cp.solvers.base import Problem
+    from vggc_cp.vision.footprints import footprint_distances
+
+    dp, dq = footprint_distances(shipped)
+    grid = threshold_grid(Problem.from_trace(shipped, dp, dq), steps=10)
+    assert len(grid) == 10 and np.all(np.diff(grid) > 0)
+    empty = Trace(shipped.observations[:1], np.zeros(0, dtype=np.int64), shipped.action_names)
+    with pytest.raises(VggcError):
+        learn_graph(empty)
