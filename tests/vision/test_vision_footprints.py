@@ -52,7 +52,8 @@ def test_footprint_distances_put_every_observation_next_to_its_own_state(shipped
 
 def test_a_per_frame_lighting_gain_and_tint_cancel(shipped):
     rng = np.random.default_rng(0)
-    gain = rng.uniform(0.8, 1.15, size=(shipped.n_obs, 1, 1, 3))
+    # gains below 1 (nothing clips), a different one per frame and channel
+    gain = rng.uniform(0.8, 1.0, size=(shipped.n_obs, 1, 1, 3))
     lit = np.clip(shipped.observations * gain, 0, 255).astype(np.uint8)
     x0, x1 = normalise_frames(shipped.observations), normalise_frames(lit)
     assert np.abs(x0 - x1).mean() < 0.02
