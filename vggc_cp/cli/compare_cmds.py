@@ -27,7 +27,7 @@ def add_cpsat_arguments(p) -> None:
                    help="CP-SAT: observations farther apart than visual distance D never "
                         "share a node")
     p.add_argument("--objective", choices=("J", "none"), default="J",
-                   help="CP-SAT: minimize the quantized visual score J (default) or decide "
+                   help="CP-SAT: minimize the quantized visual score J or decide "
                         "feasibility only")
     p.add_argument("--hint", default=None, metavar="SOLUTION",
                    help="CP-SAT: a solution JSON of this trace (e.g. of a larger cell) offered "
@@ -35,7 +35,7 @@ def add_cpsat_arguments(p) -> None:
                         "and repaired by CP-SAT (a start, never a proof)")
     p.add_argument("--optimize", choices=("minimal", "all"), default="minimal",
                    help="CP-SAT cells whose J is minimized: those of the fewest feasible nodes "
-                        "(default) or every feasible cell")
+                        "or every feasible cell")
 
 
 def make_cpsat_solver(args, tau: float | None = None, n_obs: int | None = None):

@@ -49,7 +49,7 @@ def register(sub) -> None:
     p.add_argument("solution", help="solution .json (its labels supervise the classifier)")
     p.add_argument("-o", "--output", required=True, help="checkpoint to write (.pt)")
     p.add_argument("--backbone", default="cnn",
-                   help="backbone: cnn (a small CNN trained from scratch, default) or dinov2 "
+                   help="backbone: cnn (a small CNN trained from scratch) or dinov2 "
                         "(local weights, frozen except the last block)")
     p.add_argument("--weights", default=None,
                    help="local weights file of a pretrained backbone (dinov2)")
@@ -60,7 +60,7 @@ def register(sub) -> None:
     p.add_argument("--epochs", default="10,20,40", help="epoch grid (comma-separated)")
     p.add_argument("--folds", type=int, default=3, help="k of the k-fold cross-validation")
     p.add_argument("--seed", type=int, default=0, help="seed of initialisation, folds, batches")
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
 
@@ -70,7 +70,7 @@ def register(sub) -> None:
     d.add_argument("--seed", type=int, default=0, help="seed of every stage")
     d.add_argument("--workdir", default=None,
                    help="keep the intermediate files here (default: a temporary folder)")
-    d.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    d.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     d.add_argument("--quiet", action="store_true", help="no progress output")
     d.set_defaults(func=cmd_demo)
 
@@ -162,7 +162,7 @@ def add_i2p_options(p) -> None:
                    help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P")
     p.add_argument("--novel", default=None, help="novel renders .npz for --model")
     p.add_argument("--i2p-queries", type=int, default=150,
-                   help="start/goal image pairs for I2P (default 150, the paper's Q)")
+                   help="start/goal image pairs for I2P (the paper's Q is 150)")
 
 
 def i2p_results(args, trace, solution) -> dict | None:
