@@ -153,9 +153,18 @@ def _grid(problem, k_pick: str | None, k_place: str | None):
             parse_range(k_place, "--k-place") if k_place else dq)
 
 
+def check_solver_name(name: str) -> None:
+    """Refuse an unknown ``--solver`` before any work, listing every valid name (``both`` too)."""
+    from vggc_cp.errors import lookup
+    from vggc_cp.solvers import SOLVERS
+
+    lookup({**SOLVERS, "both": None}, name, "solver")
+
+
 def cmd_solve(args) -> int:
     from vggc_cp.solvers.sweep import get_selection, run_sweep
 
+    check_solver_name(args.solver)
     if args.solver == "merge":
         return _solve_merge(args)
     args.select = args.select or "fewest"
