@@ -64,8 +64,16 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
 
-    d = sub.add_parser("demo", help="generate fruit-2x3, learn its graph, train the localizer, "
-                                    "plan between two novel images, execute, draw a strip")
+    d = sub.add_parser(
+        "demo", help="generate fruit-2x3, learn its graph as `vggc-cp solve` does by default, "
+                     "train the localizer, plan between two novel images, execute, draw a strip",
+        description="The whole chain on fruit-2x3, from pixels to an executed plan: generate a "
+                    "trace, learn its task graph with the default of `vggc-cp solve` (the "
+                    "pipeline vggc_cp.pipeline.learn_graph: action-footprint evidence, "
+                    "congruence-closure merging over distance thresholds, the threshold of "
+                    "least description length, a confidence with a warning), train the "
+                    "image -> node localizer on its labels, localize two novel renders, plan "
+                    "between them, execute the plan in the simulator and draw the strip.")
     d.add_argument("-o", "--output", default="demo.png", help="picture strip (PNG)")
     d.add_argument("--seed", type=int, default=0, help="seed of every stage")
     d.add_argument("--workdir", default=None,
