@@ -110,7 +110,7 @@ def cmd_compare(args) -> int:
     from vggc_cp.atomic import write_text
     from vggc_cp.solvers import Problem
     from vggc_cp.solvers.cpsat import compare_records, node_frontier
-    from vggc_cp.solvers.sweep import default_grid, parse_range
+    from vggc_cp.solvers.sweep import action_counts, default_grid, parse_range
     from vggc_cp.trace import load_trace
     from vggc_cp.vision import compute_distances, config_from_args
 
@@ -147,15 +147,16 @@ def cmd_compare(args) -> int:
     print(f"greedy         colouring in {int(table['greedy_feasible'].sum())} cells; CP-SAT "
           f"lower J in {better} of {len(both)} shared cells; colouring where greedy has none: "
           f"{len(only_cp)} cells")
-    cp_front = node_frontier(exact)
-    g_front = node_frontier(greedy, proof=exact)
+    need = max(*action_counts(problem), 1)
+    cp_front = node_frontier(exact, need=need)
+    g_front = node_frontier(greedy, proof=exact, need=need)
     for name, front, sweep in (("greedy", g_front, greedy), ("cpsat", cp_front, exact)):
         best = sweep.best
         if front.nodes is None:
             print(f"{name:<14} no colouring in the grid")
             continue
         print(f"{name:<14} fewest nodes {front.nodes} in cells {list(front.cells)}; proved "
-              f"minimal: {'yes' if front.proved else 'no'}; selected ({best.k_pick}, "
+              f"minimal: {front.verdict}; selected ({best.k_pick}, "
               f"{best.k_place}) J {best.J:.4f} {best.status}")
     if args.csv:
         write_text(args.csv, table.to_csv(index=False))
