@@ -46,11 +46,12 @@ def test_compare_on_a_restricted_range_proves_nothing(tmp_path, toy_trace, capsy
     """No cell with fewer nodes was tried: the report must not claim minimality."""
     path = tmp_path / "t.npz"
     save_trace(toy_trace, path)
-    rc = main(["compare", str(path), "--k-pick", "3:3", "--k-place", "2:2", "--quiet",
+    rc = main(["compare", str(path), "--k-pick", "3:3", "--k-place", "2:2",
                "--cpsat-params", "max_time_in_seconds:10,num_workers:1",
                "--grid", "4", "--cache-dir", str(tmp_path / "cache")])
     assert rc == 0
     text = capsys.readouterr().out
+    assert max(len(line) for line in text.splitlines() if line.startswith("|")) <= 120
     assert "proved minimal: yes" not in text
     assert text.count("proved minimal: not proved (smaller cells not tried)") == 2
 
