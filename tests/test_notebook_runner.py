@@ -38,3 +38,21 @@ def test_failing_cell_is_a_clear_error(tmp_path, capsys):
     assert main(["notebook", str(src), "-p", "size=2", "-o", str(tmp_path / "o.ipynb")]) == 2
     assert "a cell failed" in capsys.readouterr().err
     assert not (tmp_path / "o.ipynb").exists()
+
+
+def test_cli_without_output_keeps_the_input(tmp_path, capsys):
+    src = tiny_notebook(tmp_path / "nb.ipynb")
+    before = src.read_bytes()
+    assert main(["notebook", str(src), "-p", "size=5"]) == 0
+    assert src.read_bytes() == before  # the (tracked) input is never overwritten
+    executed = tmp_path / "nb.executed.ipynb"
+    assert str(executed) in capsys.readouterr().out
+    assert nbformat.read(executed, as_version=4).cells[1].metadata["tags"] == [
+        "injected-parameters"]
+
+
+def test_default_output_names():
+    from vggc_cp.cli.notebook_cmds import default_output
+
+    assert default_output("notebooks/a.ipynb").as_posix() == "notebooks/a.executed.ipynb"
+    assert default_output("a.executed.ipynb").as_posix() == "a.executed.ipynb"

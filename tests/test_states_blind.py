@@ -38,8 +38,13 @@ def traces(tmp_path_factory):
     return folder, full, bare, trace
 
 
-CASES = ([("greedy", rule) for rule in sorted(SELECTIONS)]
-         + [("cpsat", rule) for rule in sorted(SELECTIONS)]
+#: The grid solvers' cases compute Sinkhorn distances and sweep the grid (about a minute on
+#: two cores): slow, run by the full CI. Their quick counterparts are
+#: tests/solvers/test_greedy.py::test_states_removed_gives_the_identical_solution and
+#: tests/test_cli_solve.py::test_states_removed_solves_identically; the default (merge) stays quick.
+_SLOW = pytest.mark.slow
+CASES = ([pytest.param("greedy", rule, marks=_SLOW) for rule in sorted(SELECTIONS)]
+         + [pytest.param("cpsat", rule, marks=_SLOW) for rule in sorted(SELECTIONS)]
          + [("merge", rule) for rule in sorted(PATH_SELECTIONS)])
 
 

@@ -394,6 +394,7 @@ def heuristic_vs_exact(benchmarks: Sequence[str], seeds: Sequence[int] = (0,), *
     """
     from vggc_cp.sim import get_spec
     from vggc_cp.solvers.cpsat import compare_records, node_frontier
+    from vggc_cp.solvers.sweep import action_counts
 
     cells, summary = [], []
     bar = _bar(len(benchmarks) * len(seeds), "benchmarks", progress)
@@ -423,8 +424,9 @@ def heuristic_vs_exact(benchmarks: Sequence[str], seeds: Sequence[int] = (0,), *
             sel_gap = math.nan
             if g_best is not None and c_best is not None and g_best.J > 0:
                 sel_gap = (g_best.J - c_best.J) / g_best.J
-            g_front = node_frontier(greedy, proof=exact)
-            c_front = node_frontier(exact)
+            need = max(*action_counts(inst.problem), 1)
+            g_front = node_frontier(greedy, proof=exact, need=need)
+            c_front = node_frontier(exact, need=need)
             for name, sweep, best, front, secs in (("greedy", greedy, g_best, g_front, t_g),
                                                    ("cpsat", exact, c_best, c_front, t_c)):
                 summary.append(base | {

@@ -162,6 +162,7 @@ def test_table_only_marks_unfinished_cells(tmp_path, capsys):
     assert "| PCA-HDBSCAN (ours) | " in out and not (tmp_path / "cells" / "fruit-2x3__lsr__s0.json").exists()
 
 
+@pytest.mark.slow  # trains a localizer per cell: minutes on two cores
 def test_i2p_phase_trains_evaluates_and_resumes(tmp_path, capsys):
     out = tmp_path / "bench"
     argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan",

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import csv
 
+import numpy as np
+
 from vggc_cp.cli import main
 from vggc_cp.trace import save_trace
 
@@ -38,6 +40,45 @@ def test_compare_end_to_end(tmp_path, toy_trace, capsys):
         if r["greedy_feasible"] == "True":
             assert float(r["cpsat_J"]) <= float(r["greedy_J"]) + 1e-9
     assert out_png.stat().st_size > 1000
+
+
+def test_compare_on_a_restricted_range_proves_nothing(tmp_path, toy_trace, capsys):
+    """No cell with fewer nodes was tried: the report must not claim minimality."""
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    rc = main(["compare", str(path), "--k-pick", "3:3", "--k-place", "2:2",
+               "--cpsat-params", "max_time_in_seconds:10,num_workers:1",
+               "--grid", "4", "--cache-dir", str(tmp_path / "cache")])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert max(len(line) for line in text.splitlines() if line.startswith("|")) <= 120
+    assert "proved minimal: yes" not in text
+    assert text.count("proved minimal: not proved (smaller cells not tried)") == 2
+
+
+def test_node_frontier_needs_every_smaller_cell_decided():
+    from vggc_cp.solvers import SolveResult
+    from vggc_cp.solvers.cpsat import node_frontier
+    from vggc_cp.solvers.sweep import Sweep
+
+    def cell(a, b, status, nodes=None):
+        labels = None if nodes is None else np.arange(nodes)
+        return SolveResult(labels, a, b, 0.0 if nodes else float("nan"), status, "cpsat")
+
+    found = cell(2, 2, "optimal", nodes=4)
+    only = Sweep((found,), 0, "fewest", "cpsat", 0.0, 1)
+    front = node_frontier(only)
+    assert not front.proved and front.untried == 3  # (1,1), (1,2), (2,1) never tried
+    assert front.verdict == "not proved (smaller cells not tried)"
+    # with two actions per role, (1,1) has too few colour pairs: counting rules it out
+    assert node_frontier(only, need=2).untried == 2
+    below = (cell(1, 2, "infeasible"), cell(2, 1, "infeasible"))
+    full = Sweep(below + (found,), 2, "fewest", "cpsat", 0.0, 1)
+    assert node_frontier(full, need=2).verdict == "yes"
+    assert node_frontier(full).verdict == "not proved (smaller cells not tried)"
+    undecided = Sweep((cell(1, 1, "infeasible"), cell(1, 2, "unknown"), cell(2, 1, "infeasible"),
+                       found), 3, "fewest", "cpsat", 0.0, 1)
+    assert node_frontier(undecided).verdict == "no"
 
 
 def test_solve_without_a_colouring_says_proved_or_undecided(tmp_path, toy_trace, capsys):

@@ -36,7 +36,7 @@ def _problem():
     return chain_problem(eps, NAMES, dist)
 
 
-@pytest.mark.parametrize("optimize", ["minimal", "all"])
+@pytest.mark.parametrize("optimize", ["minimal", pytest.param("all", marks=pytest.mark.slow)])
 def test_exact_sweep_decides_every_cell_like_brute_force(optimize):
     p = _problem()
     kp, kq = range(1, 5), range(1, 4)

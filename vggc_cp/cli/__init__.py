@@ -28,10 +28,41 @@ COMMAND_MODULES = [
 ]
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Every option's help ends with its default, unless there is nothing to show.
+
+    Nothing is added when the default is None, False or empty (the help says in words what
+    happens then) or when the help already speaks of its default (``%(default)s`` or
+    ``(default ...``), so no help reads ``(default 2) (default: 2)``.
+    """
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        default = action.default
+        if (default is None or default is False or default is argparse.SUPPRESS
+                or (isinstance(default, (str, list, tuple)) and not default)
+                or "%(default" in text or "(default" in text):
+            return text
+        return super()._get_help_string(action)
+
+
+def iter_parsers(parser: argparse.ArgumentParser, prefix: str = "vggc-cp"):
+    """Yield ``(name, parser)`` for ``parser`` and every sub-command parser below it."""
+    yield prefix, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            seen = set()
+            for name, child in action.choices.items():
+                if id(child) not in seen:  # aliases share one parser
+                    seen.add(id(child))
+                    yield from iter_parsers(child, f"{prefix} {name}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vggc-cp",
         description="Learn discrete pick/place task graphs from RGB traces (VGGC + CP-SAT).",
+        formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -43,6 +74,8 @@ def build_parser() -> argparse.ArgumentParser:
         module.register(sub)
         if hasattr(module, "register_bench"):
             module.register_bench(bench_sub)
+    for _name, each in iter_parsers(parser):
+        each.formatter_class = HelpFormatter  # every --help shows the defaults
     return parser
 
 

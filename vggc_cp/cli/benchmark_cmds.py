@@ -87,20 +87,20 @@ def register_benchmark(sub) -> None:
                                    "Q queries, write table1.csv and table1.md into --out. "
                                    "Finished cells are cached there and skipped on a rerun.")
     p.add_argument("--benchmarks", default="all",
-                   help="comma-separated benchmark names, or all (default)")
+                   help="comma-separated benchmark names, or all")
     p.add_argument("--methods", default=",".join(DEFAULT_METHODS),
-                   help=f"comma-separated methods: {', '.join(METHODS)} (default all)")
-    p.add_argument("--seeds", default="0", help="comma-separated trace seeds (default 0)")
+                   help=f"comma-separated methods: {', '.join(METHODS)} ")
+    p.add_argument("--seeds", default="0", help="comma-separated trace seeds")
     p.add_argument("--transitions", type=int, default=None,
                    help="|D| of every trace (default: the paper's per benchmark)")
-    p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries (1500)")
+    p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
-                   help="worker processes / cluster tasks (default: the CPU count)")
+                   help="worker processes / cluster tasks (default: the CPU count, here %(default)s)")
     p.add_argument("--backend", choices=BACKENDS, default="loky",
-                   help="loky: local processes (default); dask or ray: a cluster (extras)")
+                   help="loky: local processes; dask or ray: a cluster (extras)")
     p.add_argument("--scheduler", default=None,
                    help="address of an existing dask scheduler or ray cluster")
-    p.add_argument("--out", default="benchmark", help="output and cache folder (./benchmark)")
+    p.add_argument("--out", default="benchmark", help="output and cache folder")
     p.add_argument("--param", action="append", default=[], metavar="METHOD.KEY=VALUE",
                    help="method option, e.g. cpsat.params=max_time_in_seconds:5 or "
                         "lsr.steps=300; repeatable")
@@ -108,13 +108,13 @@ def register_benchmark(sub) -> None:
                    help="comma-separated methods whose graphs also get a trained localizer and "
                         "localization / I2P / Exec-I2P on novel renders (default none)")
     p.add_argument("--novel", type=int, default=150,
-                   help="novel renders per trace for --i2p (default 150)")
+                   help="novel renders per trace for --i2p")
     p.add_argument("--i2p-queries", type=int, default=150,
-                   help="start/goal image pairs for --i2p (default 150, the paper's Q)")
+                   help="start/goal image pairs for --i2p (the paper's Q is 150)")
     p.add_argument("--attention", default="saliency", metavar="NAME",
                    help="attention backend of the visual distances (saliency, keypoints, "
                         "dinov2), or auto: each benchmark's own (fruit keypoints, blocks "
-                        "saliency) (default saliency)")
+                        "saliency)")
     p.add_argument("--force", action="store_true", help="recompute cached cells")
     p.add_argument("--table-only", action="store_true",
                    help="run nothing: write the tables from the cells cached so far "

@@ -49,7 +49,7 @@ def register(sub) -> None:
     p.add_argument("solution", help="solution .json (its labels supervise the classifier)")
     p.add_argument("-o", "--output", required=True, help="checkpoint to write (.pt)")
     p.add_argument("--backbone", default="cnn",
-                   help="backbone: cnn (a small CNN trained from scratch, default) or dinov2 "
+                   help="backbone: cnn (a small CNN trained from scratch) or dinov2 "
                         "(local weights, frozen except the last block)")
     p.add_argument("--weights", default=None,
                    help="local weights file of a pretrained backbone (dinov2)")
@@ -60,17 +60,25 @@ def register(sub) -> None:
     p.add_argument("--epochs", default="10,20,40", help="epoch grid (comma-separated)")
     p.add_argument("--folds", type=int, default=3, help="k of the k-fold cross-validation")
     p.add_argument("--seed", type=int, default=0, help="seed of initialisation, folds, batches")
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
 
-    d = sub.add_parser("demo", help="generate fruit-2x3, learn its graph, train the localizer, "
-                                    "plan between two novel images, execute, draw a strip")
+    d = sub.add_parser(
+        "demo", help="generate fruit-2x3, learn its graph as `vggc-cp solve` does by default, "
+                     "train the localizer, plan between two novel images, execute, draw a strip",
+        description="The whole chain on fruit-2x3, from pixels to an executed plan: generate a "
+                    "trace, learn its task graph with the default of `vggc-cp solve` (the "
+                    "pipeline vggc_cp.pipeline.learn_graph: action-footprint evidence, "
+                    "congruence-closure merging over distance thresholds, the threshold of "
+                    "least description length, a confidence with a warning), train the "
+                    "image -> node localizer on its labels, localize two novel renders, plan "
+                    "between them, execute the plan in the simulator and draw the strip.")
     d.add_argument("-o", "--output", default="demo.png", help="picture strip (PNG)")
     d.add_argument("--seed", type=int, default=0, help="seed of every stage")
     d.add_argument("--workdir", default=None,
                    help="keep the intermediate files here (default: a temporary folder)")
-    d.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    d.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     d.add_argument("--quiet", action="store_true", help="no progress output")
     d.set_defaults(func=cmd_demo)
 
@@ -162,7 +170,7 @@ def add_i2p_options(p) -> None:
                    help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P")
     p.add_argument("--novel", default=None, help="novel renders .npz for --model")
     p.add_argument("--i2p-queries", type=int, default=150,
-                   help="start/goal image pairs for I2P (default 150, the paper's Q)")
+                   help="start/goal image pairs for I2P (the paper's Q is 150)")
 
 
 def i2p_results(args, trace, solution) -> dict | None:

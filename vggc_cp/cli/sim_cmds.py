@@ -25,12 +25,12 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", required=True, help="trace .npz to write")
     p.add_argument("--transitions", type=int, default=None,
                    help="|D|, number of transitions (default: the paper's)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--size", type=int, default=64, help="image side in pixels (default 64)")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--size", type=int, default=64, help="image side in pixels")
     p.add_argument("--novel", type=int, default=0, metavar="K",
                    help="also write K fresh renders of visited states to <output stem>.novel.npz")
     p.add_argument("--look", default="clean", metavar="LOOK",
-                   help="clean (default): the renderer the learning defaults were tuned on; "
+                   help="clean: the renderer the learning defaults were tuned on; "
                         "randomized: a stand-in for another renderer or a real camera -- table "
                         "colour and texture, region markers, camera pose, light, object shapes, "
                         "sizes and shades drawn per trace, lighting gain, tint and sensor noise "
@@ -44,7 +44,7 @@ def register(sub) -> None:
     p = sub.add_parser("render", help="draw a contact sheet of a trace's observations")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("-o", "--output", required=True, help="image to write (.png)")
-    p.add_argument("--max", type=int, default=48, help="at most this many observations (48)")
+    p.add_argument("--max", type=int, default=48, help="at most this many observations")
     p.add_argument("--no-states", action="store_true", help="leave ground-truth states out")
     p.set_defaults(func=cmd_render)
 
@@ -53,8 +53,9 @@ def register_bench(bench_sub) -> None:
     p = bench_sub.add_parser(
         "generate", help=f"time `generate {BENCH_NAME}` at |D|={BENCH_TRANSITIONS}, "
                          f"{BENCH_SIZE} px, against a bare PyBullet render")
-    p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS)
-    p.add_argument("--size", type=int, default=BENCH_SIZE)
+    p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS,
+                   help="|D| of the generated trace")
+    p.add_argument("--size", type=int, default=BENCH_SIZE, help="image side in pixels")
     p.set_defaults(func=cmd_bench_generate)
 
 

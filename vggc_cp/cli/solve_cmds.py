@@ -49,7 +49,7 @@ def register(sub) -> None:
                         "grid solvers only)")
     p.add_argument("--k-place", default=None, metavar="A:B",
                    help="k_place values, inclusive (default: derived from the actions)")
-    p.add_argument("--jobs", type=int, default=1, help="parallel worker processes (default 1)")
+    p.add_argument("--jobs", type=int, default=1, help="parallel worker processes")
     p.add_argument("--tau", type=float, default=None,
                    help="K_vis temperature (default: per role, the median within-role distance)")
     p.add_argument("--select", default=None,
@@ -64,7 +64,7 @@ def register(sub) -> None:
                    help="merge solver: the visual evidence; auto (action footprints, and the "
                         "keypoint attention distances when the footprint graph is "
                         "suspect, the criterion choosing), footprints, or attention (the "
-                        "Sinkhorn distances of --attention) (default auto)")
+                        "Sinkhorn distances of --attention)")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
@@ -72,7 +72,7 @@ def register(sub) -> None:
                         "node-minimal")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw J over the grid")
     p.add_argument("--table", choices=("pivot", "cells", "none"), default="pivot",
-                   help="print the grid as J per cell (pivot, default), one row per cell with "
+                   help="print the grid as J per cell (pivot), one row per cell with "
                         "feasible, status, J, seconds (cells), or not at all")
     p.add_argument("--quiet", action="store_true", help="no progress bars, no grid table")
     p.add_argument("--timings", action="store_true",
@@ -113,12 +113,13 @@ def register_bench(bench_sub) -> None:
     p = bench_sub.add_parser(
         "sweep", help=f"time the whole greedy sweep on {BENCH_NAME} at |D|={BENCH_TRANSITIONS} "
                       f"(distances cached): jobs=2 against jobs=1")
-    p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--transitions", type=int, default=BENCH_TRANSITIONS,
+                   help="|D| of the generated trace")
+    p.add_argument("--seed", type=int, default=0, help="seed of the generated trace")
     p.add_argument("--cache-dir", default=None,
                    help="where the generated trace is kept (default $VGGC_CP_CACHE/bench or "
                         "./.cache/vggc-cp/bench); distances use their own cache")
-    p.add_argument("--jobs", type=int, default=2, help="workers of the timed sweep (default 2)")
+    p.add_argument("--jobs", type=int, default=2, help="workers of the timed sweep")
     p.set_defaults(func=cmd_bench_sweep)
 
 
@@ -152,9 +153,18 @@ def _grid(problem, k_pick: str | None, k_place: str | None):
             parse_range(k_place, "--k-place") if k_place else dq)
 
 
+def check_solver_name(name: str) -> None:
+    """Refuse an unknown ``--solver`` before any work, listing every valid name (``both`` too)."""
+    from vggc_cp.errors import lookup
+    from vggc_cp.solvers import SOLVERS
+
+    lookup({**SOLVERS, "both": None}, name, "solver")
+
+
 def cmd_solve(args) -> int:
     from vggc_cp.solvers.sweep import get_selection, run_sweep
 
+    check_solver_name(args.solver)
     if args.solver == "merge":
         return _solve_merge(args)
     args.select = args.select or "fewest"

@@ -42,7 +42,7 @@ def register_evaluate(sub) -> None:
     p = sub.add_parser("evaluate", help="score a solution against the trace's ground truth")
     p.add_argument("trace", help="trace .npz with ground-truth 'states'")
     p.add_argument("solution", help="solution .json")
-    p.add_argument("--queries", "-Q", type=int, default=1500, help="start/goal queries (default 1500)")
+    p.add_argument("--queries", "-Q", type=int, default=1500, help="start/goal queries")
     p.add_argument("--seed", type=int, default=0, help="seed of the query sampler")
     p.add_argument("--dynamics", choices=DYNAMICS, default="auto",
                    help="true transitions for Exec: the simulator's (sim), the trace's (trace), "
@@ -115,10 +115,10 @@ def _calibration(solution, metrics: dict) -> dict | None:
 def register_bench(bench_sub) -> None:
     p = bench_sub.add_parser("evaluate", help="exact metrics vs plan enumeration, per query")
     p.add_argument("--trace", help="trace .npz (default: fruit-6x8, |D|=1500, seed 0, 32 px)")
-    p.add_argument("--queries", "-Q", type=int, default=1500)
+    p.add_argument("--queries", "-Q", type=int, default=1500, help="start/goal queries")
     p.add_argument("--reference-queries", type=int, default=100,
-                   help="queries the enumeration baseline runs (default 100)")
-    p.add_argument("--seed", type=int, default=0)
+                   help="queries the enumeration baseline runs")
+    p.add_argument("--seed", type=int, default=0, help="seed of the query sampler")
     p.set_defaults(func=cmd_bench_evaluate)
 
 

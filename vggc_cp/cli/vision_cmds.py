@@ -22,14 +22,14 @@ def register(sub) -> None:
     s = sub.add_parser("show-attention", help="draw attention maps over their images")
     s.add_argument("trace", help="trace .npz")
     s.add_argument("-i", "--indices", default="0", metavar="I,J,...",
-                   help="observation indices (comma-separated, default 0)")
+                   help="observation indices (comma-separated)")
     s.add_argument("-o", "--output", required=True, help="PNG to write")
     s.add_argument("--attention", default="saliency", metavar="NAME",
                    help=f"attention backend: {', '.join(sorted(ATTENTION_BACKENDS))}")
     s.add_argument("--weights", default=None, metavar="PATH",
                    help="DINOv2 weights file (default $VGGC_CP_DINOV2_WEIGHTS)")
-    s.add_argument("--grid", type=int, default=16, help="patch grid side (default 16)")
-    s.add_argument("--floor", type=float, default=0.01, help="uniform floor (default 0.01)")
+    s.add_argument("--grid", type=int, default=16, help="patch grid side")
+    s.add_argument("--floor", type=float, default=0.01, help="uniform floor")
     s.set_defaults(func=cmd_show_attention)
 
 
@@ -39,21 +39,21 @@ def register_bench(bench_sub) -> None:
                          "loop and POT's batched solver, on the same pairs")
     b.add_argument("--trace", default=None,
                    help="take saliency maps of this trace (default: synthetic blob maps)")
-    b.add_argument("--pairs", type=int, default=20000, help="pairs timed for ours (default 20000)")
+    b.add_argument("--pairs", type=int, default=20000, help="pairs timed for ours")
     b.add_argument("--naive-pairs", type=int, default=60,
-                   help="first pairs timed for the naive loop (default 60)")
+                   help="first pairs timed for the naive loop")
     b.add_argument("--batch-pairs", type=int, default=16,
-                   help="first pairs timed for POT's batched solver (default 16)")
+                   help="first pairs timed for POT's batched solver")
     b.add_argument("--batch-size", type=int, default=16,
                    help="problems per ot.batch call (default 16, POT's fastest here: a "
                         "batch iterates until its slowest problem converges)")
-    b.add_argument("--maps", type=int, default=600, help="synthetic maps (default 600)")
-    b.add_argument("--grid", type=int, default=16, help="patch grid side (default 16)")
-    b.add_argument("--eps", type=float, default=0.05, help="entropic regularisation (0.05)")
-    b.add_argument("--tol", type=float, default=1e-6, help="marginal tolerance (1e-6)")
-    b.add_argument("--threads", type=int, default=2, help="CPU threads of ours (default 2)")
-    b.add_argument("--device", default="torch", help="device of ours (default torch)")
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--maps", type=int, default=600, help="synthetic maps")
+    b.add_argument("--grid", type=int, default=16, help="patch grid side")
+    b.add_argument("--eps", type=float, default=0.05, help="entropic regularisation")
+    b.add_argument("--tol", type=float, default=1e-6, help="marginal tolerance")
+    b.add_argument("--threads", type=int, default=2, help="CPU threads of ours")
+    b.add_argument("--device", default="torch", help="device of ours")
+    b.add_argument("--seed", type=int, default=0, help="seed of the synthetic maps and the timed pairs")
     b.set_defaults(func=cmd_bench_distance)
 
 

@@ -1379,17 +1379,37 @@ class NodeFrontier:
     cells : tuple of (k_pick, k_place)
         The minimal cells (no other such cell below them) whose colouring uses that many nodes.
     proved : bool
-        Every grid cell with ``k_pick + k_place < nodes`` is proved infeasible (by the
-        CP-SAT sweep ``proof``): no colouring of the grid uses fewer nodes.
+        Every cell ``(k_pick, k_place)`` with ``k_pick + k_place < nodes`` (both at least 1) is
+        proved infeasible: by the CP-SAT sweep ``proof``, or by counting (fewer colour pairs
+        than distinct actions of a role). No colouring of any grid uses fewer nodes.
+    untried : int
+        Cells with fewer nodes that the run neither tried nor rules out by counting (a
+        restricted ``--k-pick``/``--k-place`` range): while any remain, nothing is proved.
     """
 
     nodes: int | None
     cells: tuple
     proved: bool
+    untried: int = 0
+
+    @property
+    def verdict(self) -> str:
+        """``yes``, ``not proved (smaller cells not tried)`` or ``no``, for reports."""
+        if self.proved:
+            return "yes"
+        if self.untried:
+            return "not proved (smaller cells not tried)"
+        return "no"
 
 
-def node_frontier(sweep, proof=None) -> NodeFrontier:
-    """:class:`NodeFrontier` of ``sweep``, with infeasibility proofs from ``proof`` (or itself)."""
+def node_frontier(sweep, proof=None, need: int = 1) -> NodeFrontier:
+    """:class:`NodeFrontier` of ``sweep``, with infeasibility proofs from ``proof`` (or itself).
+
+    ``need`` is the larger count of distinct pick and place actions
+    (:func:`~vggc_cp.solvers.sweep.action_counts`): Exactly-One gives every action of a role
+    its own colour pair, so a cell with ``k_pick * k_place < need`` has no colouring and needs
+    no run. With the default 1 every smaller cell must have been decided in the run.
+    """
     found = [r for r in sweep.results if r.found]
     if not found:
         return NodeFrontier(None, (), False)
@@ -1398,8 +1418,12 @@ def node_frontier(sweep, proof=None) -> NodeFrontier:
     cells = tuple(sorted(c for c in at if not any(o != c and o[0] <= c[0] and o[1] <= c[1]
                                                   for o in at)))
     proof = sweep if proof is None else proof
-    below = [r for r in proof.results if r.k_pick + r.k_place < nodes]
-    return NodeFrontier(nodes, cells, all(r.status == INFEASIBLE for r in below))
+    status = {(r.k_pick, r.k_place): r.status for r in proof.results}
+    smaller = [(a, b) for a in range(1, nodes) for b in range(1, nodes - a)
+               if a * b >= need]  # the rest are infeasible by counting
+    untried = sum((a, b) not in status for a, b in smaller)
+    proved = untried == 0 and all(status[c] == INFEASIBLE for c in smaller)
+    return NodeFrontier(nodes, cells, proved, untried)
 
 
 def _with(res: SolveResult, seconds: float, stats: dict) -> SolveResult:
