@@ -50,15 +50,23 @@ def test_auto_keeps_the_footprints_when_they_are_not_suspect(shipped):
     assert learned.chosen.evidence == "footprints" and len(learned.candidates) == 1
 
 
-def test_choose_prefers_a_candidate_that_is_not_suspect():
-    class C:
-        def __init__(self, dl, suspect):
-            self.description_length = dl
-            self.confidence = type("K", (), {"suspect": suspect})()
+def test_choose_takes_the_least_description_length_and_disagreement_warns(shipped):
+    from dataclasses import replace
 
-    a, b, c = C(10.0, True), C(12.0, False), C(11.0, False)
-    assert choose([a, b, c]) is c
-    assert choose([a, C(9.0, True)]).description_length == 9.0
+    from vggc_cp.pipeline import _with_disagreement, run_candidate
+
+    options = LearnOptions()
+    fp = run_candidate(shipped.without_states(), "footprints", options)
+    worse = replace(fp, description_lengths=tuple(d + 5 for d in fp.description_lengths))
+    assert choose([worse, fp]) is fp and choose([fp, worse]) is fp
+    # another evidence, not suspect, with another node count: the chosen one is flagged
+    other_labels = np.arange(shipped.n_obs)
+    other_path = replace(fp.path, results=tuple(replace(r, labels=other_labels)
+                                                for r in fp.path.results))
+    other = replace(fp, evidence="keypoints", path=other_path)
+    flagged = _with_disagreement(fp, [fp, other], options.warning)
+    assert flagged.confidence.suspect and "disagree" in flagged.confidence.reasons[-1]
+    assert _with_disagreement(fp, [fp, worse], options.warning) is fp
 
 
 def test_threshold_grid_and_errors(shipped):

@@ -5,8 +5,9 @@
 * **Evidence.** ``footprints`` (:mod:`vggc_cp.vision.footprints`, no weights, the trace's
   actions localize where states differ) first. With ``evidence="auto"``, when the footprint
   graph is suspect (below), the ``keypoints`` attention distances (Sinkhorn divergences,
-  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate that the criterion
-  prefers among those that are not suspect is kept.
+  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate of least description
+  length is kept; when another evidence that is not suspect gives a graph of another size,
+  the chosen graph is flagged too (the evidences disagree).
 * **Threshold.** Congruence-closure merging (:mod:`vggc_cp.solvers.merge`) over a geometric
   grid of thresholds from the noise scale (the median nearest-neighbour distance) up to a
   high quantile of all distances.
@@ -21,7 +22,7 @@ Everything here reads observations and actions only, never ground-truth ``states
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -110,6 +111,7 @@ class Learned:
     chosen: Candidate
     candidates: tuple[Candidate, ...]
     seconds: float
+    skipped: tuple[str, ...] = ()
 
     @property
     def labels(self) -> np.ndarray:
@@ -131,6 +133,24 @@ class Learned:
     def threshold(self) -> float:
         return self.chosen.path.thresholds[self.chosen.path.selected]
 
+    def path_records(self) -> list[dict]:
+        """The chosen evidence's threshold path, one JSON-ready row per threshold, with the
+        description length of each graph."""
+        rows = self.chosen.path.records()
+        for row, dl in zip(rows, self.chosen.description_lengths):
+            row["description_length"] = round(float(dl), 4)
+        return rows
+
+    def solution_fields(self) -> dict:
+        """The fields of the solution JSON that describe how the graph was chosen
+        (``select``, ``threshold``, ``evidence``, ``confidence``, ``candidates``, ``grid``)."""
+        return {"select": self.chosen.path.rule, "threshold": self.threshold,
+                "evidence": self.chosen.evidence, "confidence": self.confidence.as_dict(),
+                "candidates": [{"evidence": c.evidence, "nodes": c.best.n_nodes,
+                                "description_length": round(c.description_length, 4),
+                                "suspect": c.confidence.suspect} for c in self.candidates],
+                "grid": self.path_records()}
+
 
 def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9) -> np.ndarray:
     """Geometric grid from the noise scale to the ``top_quantile`` of all within-role
@@ -151,8 +171,6 @@ def evidence_distances(trace: Trace, evidence: str, options: LearnOptions,
     backend)."""
     if evidence == FOOTPRINTS:
         return footprint_distances(trace, options.footprint)
-    from dataclasses import replace
-
     cfg = replace(options.distance, backend=evidence)
     return compute_distances(trace, cfg, progress=progress)
 
@@ -215,15 +233,36 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
     t0 = time.perf_counter()
     first = FOOTPRINTS if options.evidence == AUTO else options.evidence
     candidates = [run_candidate(trace, first, options, progress)]
+    skipped = []
     if options.evidence == AUTO and candidates[0].confidence.suspect:
         for backend in AUTO_FALLBACK:
-            candidates.append(run_candidate(trace, backend, options, progress))
+            try:
+                candidates.append(run_candidate(trace, backend, options, progress))
+            except VggcError as exc:  # e.g. images smaller than the attention grid
+                skipped.append(f"{backend}: {exc}")
     chosen = choose(candidates)
-    return Learned(chosen, tuple(candidates), time.perf_counter() - t0)
+    chosen = _with_disagreement(chosen, candidates, options.warning)
+    return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped))
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
-    """The candidate of least description length among those not suspect, else among all
-    (the first of equal ones)."""
-    pool = [c for c in candidates if not c.confidence.suspect] or list(candidates)
-    return min(pool, key=lambda c: c.description_length)
+    """The candidate of least description length (the first of equal ones): the same
+    criterion across evidences as across thresholds. Whether a candidate is suspect does not
+    enter the choice; it enters the warning."""
+    return min(candidates, key=lambda c: c.description_length)
+
+
+def _with_disagreement(chosen: Candidate, candidates: list[Candidate],
+                       rule: WarningRule) -> Candidate:
+    """``chosen`` with one more warning reason when another evidence that is not suspect
+    gives a graph of another size: two readings of the images disagree."""
+    others = [c for c in candidates if c is not chosen and not c.confidence.suspect
+              and c.best.n_nodes != chosen.best.n_nodes]
+    if not others:
+        return chosen
+    other = others[0]
+    conf = chosen.confidence
+    reason = (f"the {other.evidence} evidence gives {other.best.n_nodes} nodes against "
+              f"{chosen.best.n_nodes}: the evidences disagree")
+    merged = replace(conf, suspect=True, reasons=(*conf.reasons, reason))
+    return replace(chosen, confidence=merged)

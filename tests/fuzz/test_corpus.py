@@ -142,8 +142,10 @@ def test_images_smaller_than_the_grid(world, capsys, tmp_path, cmd):
     save_trace(toy_trace(size=8), path)
     out = tmp_path / "out"
     out.mkdir()
-    expect_refusal(capsys, TRACE_COMMANDS[cmd](path, world, out), [path],
-                   (path, "observations", "grid"))
+    argv = TRACE_COMMANDS[cmd](path, world, out)
+    if cmd == "solve":  # the grid belongs to the attention evidence (footprints need none)
+        argv = [*argv, "--evidence", "attention"]
+    expect_refusal(capsys, argv, [path], (path, "observations", "grid"))
 
 
 # ------------------------------------------------------------------ bad solutions

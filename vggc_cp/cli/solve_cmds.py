@@ -302,6 +302,8 @@ def _solve_merge(args) -> int:
     problem, path = chosen.problem, chosen.path
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
+    for note in learned.skipped:
+        print(f"evidence       skipped {note}")
     for cand in learned.candidates:
         mark = "*" if cand is chosen else " "
         print(f"evidence     {mark} {cand.evidence:<11} {cand.best.n_nodes} nodes, description "
@@ -311,8 +313,9 @@ def _solve_merge(args) -> int:
     if not args.quiet and args.table != "none":
         import pandas as pd
 
-        table = pd.DataFrame(_path_records(chosen))[["threshold", "nodes", "k_pick", "k_place",
-                                                     "description_length", "selected"]]
+        table = pd.DataFrame(learned.path_records())[["threshold", "nodes", "k_pick",
+                                                      "k_place", "description_length",
+                                                      "selected"]]
         print(table.to_markdown(index=False, floatfmt=".4f"))
     best = chosen.best
     extra = {}
@@ -328,12 +331,7 @@ def _solve_merge(args) -> int:
     conf = learned.confidence
     _write_chosen(args, trace, options.footprint if chosen.evidence == "footprints" else cfg,
                   problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
-                  select=path.rule, threshold=learned.threshold, evidence=chosen.evidence,
-                  confidence=_jsonable(conf.as_dict()),
-                  candidates=[{"evidence": c.evidence, "nodes": c.best.n_nodes,
-                               "description_length": round(c.description_length, 4),
-                               "suspect": c.confidence.suspect} for c in learned.candidates],
-                  grid=_path_records(chosen),
+                  **_jsonable(learned.solution_fields()),
                   seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
                   **extra)
     print(f"confidence     {conf.summary()}")
@@ -341,14 +339,6 @@ def _solve_merge(args) -> int:
         print("vggc-cp: warning: the learned graph is suspect (" + "; ".join(conf.reasons)
               + "); check it before planning on it", file=sys.stderr)
     return 0
-
-
-def _path_records(candidate) -> list[dict]:
-    """The threshold path's rows with each graph's description length."""
-    rows = candidate.path.records()
-    for row, dl in zip(rows, candidate.description_lengths):
-        row["description_length"] = round(float(dl), 4)
-    return rows
 
 
 def _jsonable(obj):

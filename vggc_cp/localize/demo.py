@@ -1,6 +1,6 @@
 """``vggc-cp demo``: the whole pipeline on fruit-2x3, from pixels to an executed plan.
 
-generate (PyBullet) -> visual distances -> greedy sweep + selection -> solution JSON ->
+generate (PyBullet) -> the default pipeline of `vggc-cp solve` -> solution JSON ->
 train the localizer -> pick two novel renders (start, goal) -> localize + plan ->
 execute the plan with the simulator's dynamics, rendering every step -> picture strip.
 
@@ -90,24 +90,21 @@ def choose_pair(bench, states: np.ndarray, rng: np.random.Generator) -> tuple[in
 
 def compute_solution(trace, *, cache_dir: str | Path | None = None,
                      progress: bool = False) -> dict:
-    """Default visual distances and the default solver of ``vggc-cp solve`` (congruence-closure
-    merging over the threshold path, ``cascade`` rule); the solution JSON object (what
-    ``vggc-cp solve`` writes with default options). The distance cache goes to ``cache_dir``
-    (default: the vision package's)."""
-    from vggc_cp.solution import solution_dict
-    from vggc_cp.solvers import Problem
-    from vggc_cp.solvers.merge import threshold_path
-    from vggc_cp.vision import DistanceConfig, compute_distances
+    """The default of ``vggc-cp solve`` (:func:`vggc_cp.pipeline.learn_graph`); the solution
+    JSON object (what ``vggc-cp solve`` writes with default options). Attention distances of
+    the fallback, if any, are cached in ``cache_dir`` (default: the vision package's)."""
+    from dataclasses import replace
 
-    dist_pick, dist_place = compute_distances(trace, DistanceConfig(), cache_dir=cache_dir,
-                                              progress=progress)
-    problem = Problem.from_trace(trace.without_states(), dist_pick, dist_place)
-    path = threshold_path(problem, rule="cascade", progress=progress)
-    best = path.best
-    return solution_dict(best.labels, problem.roles, problem.graph(best.labels),
+    from vggc_cp.pipeline import LearnOptions, learn_graph
+    from vggc_cp.solution import solution_dict
+
+    options = LearnOptions()
+    options = replace(options, distance=replace(options.distance, cache_dir=cache_dir))
+    learned = learn_graph(trace.without_states(), options, progress=progress)
+    best = learned.chosen.best
+    return solution_dict(best.labels, learned.problem.roles, learned.graph,
                          k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-                         solver=best.solver, status=best.status, select=path.rule,
-                         threshold=best.stats["threshold"])
+                         solver=best.solver, status=best.status, **learned.solution_fields())
 
 
 def execute(bench, start_state: str, actions, size: int, rng: np.random.Generator
@@ -162,7 +159,7 @@ def _run(output: Path, seed: int, work: Path, log, keep: bool) -> DemoResult:
     trace = gen.trace
     save_trace(trace, files["trace"])
     save_novel(files["novel"], gen.novel_observations, gen.novel_states)
-    log("[2/6] visual distances and greedy sweep")
+    log("[2/6] the default solve (evidence, merge, description length)")
     write_solution(files["solution"], compute_solution(trace.without_states(),
                                                        cache_dir=work / "cache"))
     solution = read_solution(files["solution"])
