@@ -701,25 +701,13 @@ def cached_i2p(job: I2PJob) -> dict | None:
 
 def run_i2p(job: I2PJob) -> tuple[tuple[str, str, int], dict]:
     """Train the cell's localizer, evaluate it on the novel renders, cache the figures."""
-    import torch
+    from vggc_cp.evaluate.i2p import train_and_measure
 
-    from vggc_cp.evaluate.i2p import evaluate_localizer
-    from vggc_cp.localize import TrainConfig, save_localizer, train_localizer
-    from vggc_cp.sim.novel import load_novel
-    from vggc_cp.solution import read_solution
-
-    torch.set_num_threads(job.threads)
-    trace = load_trace(job.trace_path)
-    solution = read_solution(job.solution_path)
-    localizer, report = train_localizer(trace, solution, TrainConfig(seed=job.seed),
-                                        trace_path=job.trace_path,
-                                        solution_path=job.solution_path)
-    save_localizer(job.model_path, localizer)
-    obs, states = load_novel(job.novel_path)
-    m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=job.queries,
-                           seed=0)
+    m, seconds = train_and_measure(load_trace(job.trace_path), job.trace_path,
+                                   job.solution_path, job.model_path, job.novel_path,
+                                   n_queries=job.queries, seed=job.seed, threads=job.threads)
     figures = {"localization": m.localization, "i2p": m.i2p, "exec_i2p": m.exec_i2p,
-               "i2p_plan_found": m.plan_found, "seconds_localizer": round(report.seconds, 3),
+               "i2p_plan_found": m.plan_found, "seconds_localizer": round(seconds, 3),
                "i2p_images": m.images, "i2p_queries": m.queries, "i2p_dynamics": m.dynamics,
                "model": str(job.model_path)}
     write_text(job.i2p_path, json.dumps({"key": job.key, "figures": _jsonable(figures)},

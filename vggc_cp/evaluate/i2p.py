@@ -197,3 +197,29 @@ def evaluate_localizer(trace, solution, localizer, novel_observations: np.ndarra
     predicted = localizer.predict(novel_observations).nodes
     return evaluate_i2p(graph, solution.labels, gt, predicted, novel_states,
                         n_queries=n_queries, seed=seed, step=step, dynamics=used)
+
+
+def train_and_measure(trace, trace_path, solution_path, model_path, novel_path, *,
+                      n_queries: int, seed: int, threads: int) -> tuple[I2PMetrics, float]:
+    """Train a localizer on a solution's labels, save it, and measure it on novel renders.
+
+    The localizer is trained with the default :class:`vggc_cp.localize.TrainConfig` (seeded
+    by ``seed``) on ``trace`` and the solution at ``solution_path``, saved to ``model_path``,
+    and evaluated with :func:`evaluate_localizer` on the novel images at ``novel_path`` over
+    ``n_queries`` start/goal pairs. Returns the metrics and the training seconds.
+    """
+    import torch
+
+    from vggc_cp.localize import TrainConfig, save_localizer, train_localizer
+    from vggc_cp.sim.novel import load_novel
+    from vggc_cp.solution import read_solution
+
+    torch.set_num_threads(threads)
+    solution = read_solution(solution_path)
+    localizer, report = train_localizer(trace, solution, TrainConfig(seed=seed),
+                                        trace_path=trace_path, solution_path=solution_path)
+    save_localizer(model_path, localizer)
+    obs, states = load_novel(novel_path)
+    metrics = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=n_queries,
+                                 seed=0)
+    return metrics, report.seconds

@@ -369,24 +369,13 @@ def run_cell(job: RobustCell) -> dict:
 def run_i2p(job: RobustCell, trace) -> dict:
     """Train a localizer on the cell's learned labels (its solution file) and measure
     localization, I2P and Exec-I2P on the novel renders."""
-    import torch
+    from vggc_cp.evaluate.i2p import train_and_measure
 
-    from vggc_cp.evaluate.i2p import evaluate_localizer
-    from vggc_cp.localize import TrainConfig, save_localizer, train_localizer
-    from vggc_cp.sim.novel import load_novel
-    from vggc_cp.solution import read_solution
-
-    torch.set_num_threads(job.threads)
-    solution = read_solution(job.solution_path)
-    localizer, report = train_localizer(trace, solution, TrainConfig(seed=job.seed),
-                                        trace_path=job.trace_path,
-                                        solution_path=job.solution_path)
-    save_localizer(job.model_path, localizer)
-    obs, states = load_novel(job.novel_path)
-    m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=job.i2p_queries,
-                           seed=0)
+    m, seconds = train_and_measure(trace, job.trace_path, job.solution_path, job.model_path,
+                                   job.novel_path, n_queries=job.i2p_queries, seed=job.seed,
+                                   threads=job.threads)
     return {"localization": m.localization, "i2p": m.i2p, "exec_i2p": m.exec_i2p,
-            "seconds_localizer": round(report.seconds, 3)}
+            "seconds_localizer": round(seconds, 3)}
 
 
 # ---------------------------------------------------------------- the study
