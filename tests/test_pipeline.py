@@ -64,9 +64,9 @@ def test_choose_takes_the_least_description_length_and_disagreement_warns(shippe
     other_path = replace(fp.path, results=tuple(replace(r, labels=other_labels)
                                                 for r in fp.path.results))
     other = replace(fp, evidence="keypoints", path=other_path)
-    flagged = _with_disagreement(fp, [fp, other], options.warning)
+    flagged = _with_disagreement(fp, [fp, other])
     assert flagged.confidence.suspect and "disagree" in flagged.confidence.reasons[-1]
-    assert _with_disagreement(fp, [fp, worse], options.warning) is fp
+    assert _with_disagreement(fp, [fp, worse]) is fp
 
 
 def test_threshold_grid_and_errors(shipped):

@@ -241,7 +241,7 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
             except VggcError as exc:  # e.g. images smaller than the attention grid
                 skipped.append(f"{backend}: {exc}")
     chosen = choose(candidates)
-    chosen = _with_disagreement(chosen, candidates, options.warning)
+    chosen = _with_disagreement(chosen, candidates)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped))
 
 
@@ -252,8 +252,7 @@ def choose(candidates: list[Candidate]) -> Candidate:
     return min(candidates, key=lambda c: c.description_length)
 
 
-def _with_disagreement(chosen: Candidate, candidates: list[Candidate],
-                       rule: WarningRule) -> Candidate:
+def _with_disagreement(chosen: Candidate, candidates: list[Candidate]) -> Candidate:
     """``chosen`` with one more warning reason when another evidence that is not suspect
     gives a graph of another size: two readings of the images disagree."""
     others = [c for c in candidates if c is not chosen and not c.confidence.suspect

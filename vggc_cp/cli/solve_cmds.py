@@ -292,7 +292,7 @@ def _learn_options(args):
 
 def _solve_merge(args) -> int:
     """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
-    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.pipeline import FOOTPRINTS, learn_graph
     from vggc_cp.trace import load_trace
 
     options, cfg = _learn_options(args)
@@ -329,7 +329,10 @@ def _solve_merge(args) -> int:
                            "cannot_link": exact.cannot_link,
                            "seconds": round(exact.seconds, 3)}}
     conf = learned.confidence
-    _write_chosen(args, trace, options.footprint if chosen.evidence == "footprints" else cfg,
+    # the settings of the evidence that was chosen (the fallback's backend, not --attention's)
+    settings = (options.footprint if chosen.evidence == FOOTPRINTS
+                else dataclasses.replace(cfg, backend=chosen.evidence))
+    _write_chosen(args, trace, settings,
                   problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
                   **_jsonable(learned.solution_fields()),
                   seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
