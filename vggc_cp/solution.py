@@ -279,12 +279,7 @@ def verify_standalone(solution: Solution, source: str = "<solution>") -> TaskGra
             raise SolutionError(f"{source}: edges[{i}] = [{u}, {a!r}, {v}] goes from a "
                                 f"{ROLE_NAMES[graph.node_role[u]]} node to a "
                                 f"{ROLE_NAMES[graph.node_role[v]]} node (roles swapped)")
-    report = check(graph)
-    tolerated = {"determinism"} | ({"exactly_one"} if solution.extra.get("constraints") == "none"
-                                   else set())
-    bad = [v for v in report.violations if v.kind not in tolerated]
-    if bad:
-        raise SolutionError(f"{source}: violates {bad[0].kind}: {bad[0].detail}")
+    refuse_violations(solution, graph, source)
     return graph
 
 
@@ -318,15 +313,20 @@ def verify_solution(solution: Solution, trace: Trace, source: str = "<solution>"
             f"induced edge {list(missing[0])} is missing"
         raise SolutionError(f"{source}: field 'edges': {what} "
                             f"({len(extra)} extra, {len(missing)} missing)")
+    refuse_violations(solution, graph, source)
+    return graph
+
+
+def refuse_violations(solution: Solution, graph: TaskGraph, source: str) -> None:
+    """Refuse a graph that breaks bipartiteness or Exactly-One. With ``"constraints": "none"``
+    (baselines) Exactly-One is not claimed, so its violations are reported by the caller
+    (:func:`vggc_cp.graph.check`) instead of refused; roles stay enforced."""
     report = check(graph)
-    # "constraints": "none" (baselines): Exactly-One is not claimed, so its violations are
-    # reported by the caller (check(graph)) instead of refused; roles stay enforced.
     tolerated = {"determinism"} | ({"exactly_one"} if solution.extra.get("constraints") == "none"
                                    else set())
     bad = [v for v in report.violations if v.kind not in tolerated]
     if bad:
         raise SolutionError(f"{source}: violates {bad[0].kind}: {bad[0].detail}")
-    return graph
 
 
 def labels_solution(trace: Trace, labels, *, solver: str = "manual", status: str = "feasible",
