@@ -194,3 +194,20 @@ def test_cpsat_structure_flags_reach_the_model(toy_path, tmp_path, capsys):
     # which the 3 x 2 grid cannot hold
     assert solve(path, tmp_path / "none.json", *base, "--cannot-link", "0") == 2
     assert "no cell" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra,word", [
+    (["--k-pick", "99:99"], "--k-pick applies to the grid solvers"),
+    (["--tau", "5"], "--tau applies to the grid solvers"),
+    (["--plot", "p.png"], "--plot applies to the grid solvers"),
+    (["--objective", "none"], "--objective applies to the grid solvers"),
+    (["--cpsat-params", "num_workers:1"], "only with --exact"),
+    (["--solver", "greedy", "--evidence", "footprints"], "--evidence applies to --solver merge"),
+    (["--solver", "greedy", "--thresholds", "0.1"], "--thresholds applies to --solver merge"),
+])
+def test_options_the_solver_would_ignore_are_refused(toy_path, tmp_path, capsys, extra, word):
+    path, _ = toy_path
+    out = tmp_path / "s.json"
+    assert main(["solve", str(path), "-o", str(out), "--quiet", *extra, *FAST]) == 2
+    err = capsys.readouterr().err
+    assert word in err and len(err.strip().splitlines()) == 1 and not out.exists()

@@ -14,6 +14,11 @@ from vggc_cp.errors import VggcError
 #: ``solve``'s solver when none is named: the pipeline (:mod:`vggc_cp.pipeline`): evidence,
 #: congruence-closure merging over thresholds, least description length, confidence.
 DEFAULT_SOLVER = "merge"
+#: ``solve`` options that only the grid solvers read: refused under ``--solver merge``.
+GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_actions",
+             "codeterministic", "cannot_link", "objective", "hint", "optimize")
+#: ``solve`` options that only the merge solver reads: refused under the grid solvers.
+MERGE_ONLY = ("evidence", "thresholds", "exact")
 BENCH_NAME = "fruit-4x6"
 BENCH_TRANSITIONS = 700
 BENCH_LIMIT_S = 120.0
@@ -82,7 +87,8 @@ def register(sub) -> None:
     from vggc_cp.cli.compare_cmds import add_cpsat_arguments
 
     add_cpsat_arguments(p)
-    p.set_defaults(func=cmd_solve)
+    p.set_defaults(func=cmd_solve, option_defaults={
+        d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
 
     q = sub.add_parser("plan", help="shortest pick/place plan on a solution's graph between the "
                                     "nodes of two trace observations (or two images)")
@@ -161,10 +167,35 @@ def check_solver_name(name: str) -> None:
     lookup({**SOLVERS, "both": None}, name, "solver")
 
 
+def _refuse_inapplicable(args) -> None:
+    """Refuse an option that the chosen solver would silently ignore."""
+    defaults = getattr(args, "option_defaults", {})
+
+    def given(dest: str) -> bool:
+        return dest in defaults and getattr(args, dest) != defaults[dest]
+
+    def flag(dest: str) -> str:
+        return "--" + dest.replace("_", "-")
+
+    if args.solver == "merge":
+        for dest in GRID_ONLY:
+            if given(dest):
+                raise VggcError(f"{flag(dest)} applies to the grid solvers (--solver greedy, "
+                                f"cpsat, both, brute), not to --solver merge")
+        if given("cpsat_params") and not args.exact:
+            raise VggcError("--cpsat-params applies to --solver merge only with --exact")
+    else:
+        for dest in MERGE_ONLY:
+            if given(dest):
+                raise VggcError(f"{flag(dest)} applies to --solver merge, not to --solver "
+                                f"{args.solver}")
+
+
 def cmd_solve(args) -> int:
     from vggc_cp.solvers.sweep import get_selection, run_sweep
 
     check_solver_name(args.solver)
+    _refuse_inapplicable(args)
     if args.solver == "merge":
         return _solve_merge(args)
     args.select = args.select or "fewest"
@@ -320,9 +351,10 @@ def _solve_merge(args) -> int:
     best = chosen.best
     extra = {}
     if args.exact:
-        from vggc_cp.solvers.merge_exact import exact_counterpart
+        from vggc_cp.solvers.merge_exact import DEFAULT_PARAMS, exact_counterpart
 
-        exact = exact_counterpart(problem, best, progress=not args.quiet)
+        exact = exact_counterpart(problem, best, params=args.cpsat_params or DEFAULT_PARAMS,
+                                  progress=not args.quiet)
         print(f"exact          CP-SAT under merge's constraints: {exact.summary()} "
               f"({exact.seconds:.1f} s)")
         extra = {"exact": {"minimal_nodes": exact.minimal_nodes, "proved": exact.proved,
