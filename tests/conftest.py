@@ -60,3 +60,16 @@ def toy_trace() -> Trace:
     ep1 = ["L", "pick_L", "H", "place_R", "R", "pick_R", "H", "place_L", "L"]
     ep2 = ["R", "pick_R", "H", "place_R", "R"]
     return make_trace([ep1, ep2], TOY_NAMES)
+
+
+def shuffled_within_roles(trace: Trace, seed: int, keep_states: bool = True) -> Trace:
+    """``trace`` with its observations permuted within each role (actions and roles kept):
+    images that say nothing about the states."""
+    rng = np.random.default_rng(seed)
+    obs = trace.observations.copy()
+    roles = trace.roles()
+    for r in np.unique(roles):
+        idx = np.flatnonzero(roles == r)
+        obs[idx] = obs[rng.permutation(idx)]
+    return Trace(obs, trace.actions, trace.action_names,
+                 trace.states if keep_states else None, trace.meta)

@@ -6,10 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import shuffled_within_roles
 
 from vggc_cp.errors import VggcError
 from vggc_cp.pipeline import LearnOptions, choose, learn_graph, threshold_grid
-from vggc_cp.trace import PICK, PLACE, Trace, load_trace
+from vggc_cp.trace import Trace, load_trace
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
 
@@ -34,13 +35,7 @@ def test_the_shipped_trace_gives_its_true_graph_without_a_warning(shipped):
 def test_a_trace_whose_images_say_nothing_is_flagged(shipped):
     """Images shuffled within each role: no graph the trace supports can be right, and the
     tool must say so rather than print a confident graph."""
-    rng = np.random.default_rng(0)
-    obs = shipped.observations.copy()
-    roles = shipped.roles()
-    for r in (PICK, PLACE):
-        idx = np.flatnonzero(roles == r)
-        obs[idx] = obs[rng.permutation(idx)]
-    noise = Trace(obs, shipped.actions, shipped.action_names, None, shipped.meta)
+    noise = shuffled_within_roles(shipped, 0, keep_states=False)
     learned = learn_graph(noise, LearnOptions(evidence="footprints"))
     assert learned.confidence.suspect and learned.confidence.reasons
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import shuffled_within_roles
 
 from vggc_cp.errors import VggcError
 from vggc_cp.trace import PICK, PLACE, Trace, load_trace
@@ -66,13 +67,7 @@ def test_a_per_frame_lighting_gain_and_tint_cancel(shipped):
 def test_shuffled_images_destroy_the_evidence(shipped):
     """The distance depends on what the images show where the actions act: shuffling the
     observations within each role breaks the separation."""
-    rng = np.random.default_rng(1)
-    obs = shipped.observations.copy()
-    roles = shipped.roles()
-    for r in (PICK, PLACE):
-        idx = np.flatnonzero(roles == r)
-        obs[idx] = obs[rng.permutation(idx)]
-    shuffled = Trace(obs, shipped.actions, shipped.action_names, shipped.states, shipped.meta)
+    shuffled = shuffled_within_roles(shipped, 1)
     dists = footprint_distances(shuffled)
     separated = [d[(s[:, None] == s[None, :]) & ~np.eye(len(d), dtype=bool)].max()
                  < d[s[:, None] != s[None, :]].min() for s, d in _per_role(shuffled, dists)]
