@@ -73,3 +73,20 @@ def shuffled_within_roles(trace: Trace, seed: int, keep_states: bool = True) -> 
         obs[idx] = obs[rng.permutation(idx)]
     return Trace(obs, trace.actions, trace.action_names,
                  trace.states if keep_states else None, trace.meta)
+
+
+def generated_twice(tmp_path, name: str, transitions: int, seed: int, novel: int, **kw):
+    """Generate ``name`` twice with the same arguments and save each trace with its novel
+    renders under ``tmp_path``; returns the two trace paths."""
+    from vggc_cp.sim.explore import generate
+    from vggc_cp.sim.novel import novel_path, save_novel
+    from vggc_cp.trace import save_trace
+
+    paths = []
+    for k in range(2):
+        g = generate(name, transitions, seed=seed, size=32, novel=novel, **kw)
+        out = tmp_path / f"run{k}.npz"
+        save_trace(g.trace, out)
+        save_novel(novel_path(out), g.novel_observations, g.novel_states)
+        paths.append(out)
+    return paths

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import generated_twice
 
 from vggc_cp.errors import VggcError
 from vggc_cp.sim import benchmark_names, get_benchmark
@@ -76,13 +77,7 @@ def test_small_generated_trace_validates(name):
 
 
 def test_same_seed_same_bytes(tmp_path):
-    paths = []
-    for k in range(2):
-        g = generate("blocks-3", 20, seed=7, size=32, novel=4)
-        out = tmp_path / f"run{k}.npz"
-        save_trace(g.trace, out)
-        save_novel(novel_path(out), g.novel_observations, g.novel_states)
-        paths.append(out)
+    paths = generated_twice(tmp_path, "blocks-3", 20, 7, 4)
     assert paths[0].read_bytes() == paths[1].read_bytes()
     assert novel_path(paths[0]).read_bytes() == novel_path(paths[1]).read_bytes()
     # the novel renders draw from their own stream: the trace does not depend on K

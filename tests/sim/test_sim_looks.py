@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import generated_twice
 
 from vggc_cp.cli import main
 from vggc_cp.errors import VggcError
@@ -28,7 +29,7 @@ from vggc_cp.sim.looks import (
     sample_look,
     texture_image,
 )
-from vggc_cp.sim.novel import novel_path, save_novel
+from vggc_cp.sim.novel import novel_path
 from vggc_cp.sim.render import Scene
 from vggc_cp.trace import load_trace, save_trace
 
@@ -70,13 +71,7 @@ def test_clean_is_the_default_and_matches_a_plain_scene():
 
 
 def test_randomized_same_seed_same_bytes(tmp_path):
-    paths = []
-    for k in range(2):
-        g = generate("multifruit-4x6", 6, seed=3, size=32, novel=3, look="randomized")
-        out = tmp_path / f"run{k}.npz"
-        save_trace(g.trace, out)
-        save_novel(novel_path(out), g.novel_observations, g.novel_states)
-        paths.append(out)
+    paths = generated_twice(tmp_path, "multifruit-4x6", 6, 3, 3, look="randomized")
     assert paths[0].read_bytes() == paths[1].read_bytes()
     assert novel_path(paths[0]).read_bytes() == novel_path(paths[1]).read_bytes()
     # novel renders have their own streams: the trace does not depend on K

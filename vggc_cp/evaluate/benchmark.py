@@ -772,20 +772,29 @@ def discard_stale_traces(cfg: BenchmarkConfig, jobs: list[CellJob]) -> None:
         path.unlink()
 
 
+def split_cached(jobs: list, cached: Callable, key: Callable, force: bool = False
+                 ) -> tuple[dict, list]:
+    """The rows of ``jobs`` that ``cached(job)`` finds, by ``key(job)``, and the jobs left to
+    run (every job when ``force``)."""
+    rows: dict = {}
+    todo = []
+    for job in jobs:
+        row = None if force else cached(job)
+        if row is None:
+            todo.append(job)
+        else:
+            rows[key(job)] = row
+    return rows, todo
+
+
 def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
     """Generate or reuse the traces, compute missing distances, run every uncached cell."""
     check_backend(cfg.backend)
     t0 = time.perf_counter()
     jobs = cell_jobs(cfg)
     discard_stale_traces(cfg, jobs)
-    rows: dict[tuple[str, str, int], dict] = {}
-    todo = []
-    for job in jobs:
-        row = None if cfg.force else cached_row(job)
-        if row is None:
-            todo.append(job)
-        else:
-            rows[(job.benchmark, job.method, job.seed)] = row
+    rows, todo = split_cached(jobs, cached_row, lambda j: (j.benchmark, j.method, j.seed),
+                              cfg.force)
     traces = sorted({(j.benchmark, j.seed, str(j.trace_path)) for j in todo
                      if not j.trace_path.is_file()})
     list(_spread(_generate, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,

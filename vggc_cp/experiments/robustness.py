@@ -40,6 +40,7 @@ from vggc_cp.evaluate.benchmark import (
     _jsonable,
     _spread,
     exploration_of,
+    split_cached,
     trace_is_current,
 )
 from vggc_cp.sim import benchmark_names, get_spec
@@ -391,18 +392,17 @@ class RobustnessRun:
     seconds: float
 
 
+def _with_split(row: dict | None, job) -> dict | None:
+    """A cached row with the job's current split (the split is not part of the cache)."""
+    return None if row is None else row | {"split": job.split}
+
+
 def run_robustness(cfg: RobustnessConfig, progress: bool = True) -> RobustnessRun:
     """Run every cell of ``cfg`` that has no cached row made under the same settings."""
     t0 = time.perf_counter()
     jobs = cell_jobs(cfg)
-    rows: dict[tuple[str, str, int], dict] = {}
-    todo = []
-    for job in jobs:
-        row = None if cfg.force else cached_row(job)
-        if row is None:
-            todo.append(job)
-        else:
-            rows[(job.benchmark, job.look, job.seed)] = row | {"split": job.split}
+    rows, todo = split_cached(jobs, lambda j: _with_split(cached_row(j), j),
+                              lambda j: (j.benchmark, j.look, j.seed), cfg.force)
     for row in _spread(run_cell, todo, cfg, "robustness cells", progress):
         rows[(row["benchmark"], row["look"], row["seed"])] = row
     ordered = [rows[(j.benchmark, j.look, j.seed)] for j in jobs]
