@@ -265,3 +265,136 @@ def _with_disagreement(chosen: Candidate, candidates: list[Candidate]) -> Candid
               f"{chosen.best.n_nodes}: the evidences disagree")
     merged = replace(conf, suspect=True, reasons=(*conf.reasons, reason))
     return replace(chosen, confidence=merged)
+
+
+# ---------------------------------------------------------------- the grid solvers' pipeline
+# trace -> Sinkhorn distances -> Problem -> greedy sweep -> CP-SAT exact sweep -> frontiers:
+# the one place every command, study and experiment does these steps.
+
+
+@dataclass(frozen=True, eq=False)
+class VisualProblem:
+    """A trace's :class:`Problem` under the Sinkhorn distances, with their cost.
+
+    Attributes
+    ----------
+    problem : Problem
+    seconds : float
+        Wall-clock seconds of this call (near zero on a cache hit).
+    compute_seconds : float
+        Seconds that computing the distances took (attention + Sinkhorn): on a cache hit the
+        ones the cache entry recorded, else (or when it recorded none) ``seconds``.
+    cached : bool
+        Whether the distances came from the cache.
+    """
+
+    problem: Problem
+    seconds: float
+    compute_seconds: float
+    cached: bool
+
+
+def _recorded_seconds(stats: dict) -> float:
+    return float(sum(stats.get("seconds", {}).values())) if stats else 0.0
+
+
+def visual_problem(trace: Trace, cfg: DistanceConfig | None = None, *, cache_dir=None,
+                   progress: bool = False) -> VisualProblem:
+    """The problem of ``trace`` (observations and actions only) under the Sinkhorn distances
+    of ``cfg`` (default :class:`DistanceConfig`), computed or taken from the cache."""
+    import json
+
+    from vggc_cp.vision.distances import compute_distances_full
+
+    t0 = time.perf_counter()
+    res = compute_distances_full(trace, cfg or DistanceConfig(), cache_dir, progress)
+    seconds = time.perf_counter() - t0
+    stats = res.stats
+    if res.cached and res.path is not None:
+        try:
+            with np.load(res.path, allow_pickle=False) as data:
+                stats = json.loads(str(data["stats"])) if "stats" in data.files else {}
+        except Exception:  # an entry written without statistics
+            stats = {}
+    recorded = _recorded_seconds(stats)
+    return VisualProblem(Problem.from_trace(trace, res.dist_pick, res.dist_place), seconds,
+                         recorded if recorded > 0 else seconds, res.cached)
+
+
+def cpsat_solver(*, params: str = "", objective: str = "J", deterministic: bool = False,
+                 max_actions: int | None = None, codeterministic: bool = False,
+                 cannot_link: float | None = None, tau: float | None = None,
+                 hint: str | None = None, n_obs: int | None = None):
+    """The :class:`~vggc_cp.solvers.cpsat.CpSatSolver` of these settings (bad ``params``:
+    :class:`VggcError`).
+
+    ``tau`` is the greedy solver's K_vis temperature (its warm start). ``hint`` is a solution
+    JSON whose labels are offered to every cell; with ``n_obs`` (the trace's observation
+    count) it must label exactly that many observations.
+    """
+    from vggc_cp.solvers.cpsat import CpSatSolver
+
+    hints = []
+    if hint:
+        from vggc_cp.solution import read_solution
+
+        labels = read_solution(hint).labels
+        if n_obs is not None and len(labels) != n_obs:
+            raise VggcError(f"{hint}: field 'labels' has {len(labels)} entries, the trace "
+                            f"has {n_obs} observations")
+        hints.append((f"--hint {hint}", labels))
+    return CpSatSolver(objective=objective, deterministic=deterministic,
+                       max_actions=max_actions, params=params,
+                       greedy_options={} if tau is None else {"tau": tau},
+                       codeterministic=codeterministic, cannot_link=cannot_link, hints=hints)
+
+
+@dataclass(frozen=True, eq=False)
+class GridSweeps:
+    """The greedy sweep of a grid and the CP-SAT exact sweep it warm-starts."""
+
+    greedy: object
+    exact: object
+
+    @property
+    def seconds(self) -> float:
+        """Both sweeps' seconds (CP-SAT's time includes its warm start)."""
+        return self.greedy.seconds + self.exact.seconds
+
+
+def greedy_then_exact(problem: Problem, k_pick, k_place, solver, *, greedy=None,
+                      jobs: int = 1, select: str = "fewest", optimize: str = "minimal",
+                      progress: bool = False) -> GridSweeps:
+    """Greedy sweep over the grid (with ``solver.greedy_options``; or the given ``greedy``
+    sweep), then :func:`~vggc_cp.solvers.cpsat.exact_sweep` warm-started by its results."""
+    from vggc_cp.solvers.cpsat import exact_sweep
+    from vggc_cp.solvers.greedy import GreedySolver
+    from vggc_cp.solvers.sweep import run_sweep
+
+    if greedy is None:
+        greedy = run_sweep(problem, GreedySolver(**solver.greedy_options), k_pick, k_place,
+                           jobs=jobs, select=select, progress=progress)
+    exact = exact_sweep(problem, k_pick, k_place, solver, greedy.results, optimize=optimize,
+                        select=select, progress=progress)
+    return GridSweeps(greedy, exact)
+
+
+def node_frontiers(problem: Problem, sweeps: GridSweeps) -> tuple:
+    """``(greedy, CP-SAT)`` :class:`~vggc_cp.solvers.cpsat.NodeFrontier`: the fewest nodes each
+    found and whether that is proved minimal (CP-SAT's proofs serve both; cells with fewer
+    colour pairs than a role's distinct actions are ruled out by counting)."""
+    from vggc_cp.solvers.cpsat import node_frontier
+    from vggc_cp.solvers.sweep import action_counts
+
+    need = max(*action_counts(problem), 1)
+    return (node_frontier(sweeps.greedy, proof=sweeps.exact, need=need),
+            node_frontier(sweeps.exact, need=need))
+
+
+def solution_record(problem: Problem, best: SolveResult, **extra) -> dict:
+    """The solution JSON object of a selected result (required fields, then ``extra``)."""
+    from vggc_cp.solution import solution_dict
+
+    return solution_dict(best.labels, problem.roles, problem.graph(best.labels),
+                         k_pick=best.k_pick, k_place=best.k_place, J=best.J,
+                         solver=best.solver, status=best.status, **extra)

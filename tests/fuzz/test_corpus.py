@@ -425,7 +425,7 @@ def test_bad_novel(world, capsys, tmp_path, name):
 
 
 def test_benchmark_cell_files_damaged_are_ignored(tmp_path, capsys):
-    from vggc_cp.evaluate.benchmark import _cached
+    from vggc_cp.experiments.table1 import _cached
 
     for i, data in enumerate((b"[" * 100_000, b"[1]", b"\xff\xfe", b'{"key": 1, "row": 5}',
                               b'{"key": {"a": 1}, "row": []}')):

@@ -186,7 +186,8 @@ def _plan(argv: list[str]) -> int:
     import argparse
     import sys
 
-    from vggc_cp.cli.localize_cmds import add_image_plan_options, cmd_image_plan
+    from vggc_cp.cli.options import add_image_plan_options
+    from vggc_cp.cli.solve_cmds import cmd_image_plan
 
     parser = argparse.ArgumentParser()
     parser.add_argument("solution")

@@ -10,16 +10,15 @@ import numpy as np
 import pytest
 
 from vggc_cp.cli import main
+from vggc_cp.cli.options import add_distance_arguments, config_from_args
 from vggc_cp.errors import UnknownNameError, VggcError
 from vggc_cp.trace import Trace, save_trace
 from vggc_cp.vision import (
     DistanceConfig,
-    add_distance_arguments,
     affinity,
     cache_path,
     compute_distances,
     compute_distances_full,
-    config_from_args,
 )
 
 FAST = dict(grid=4, threads=1)

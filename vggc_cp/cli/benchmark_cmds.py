@@ -80,7 +80,8 @@ def method_options(items: list[str]) -> dict:
 def register_benchmark(sub) -> None:
     import os
 
-    from vggc_cp.evaluate.benchmark import BACKENDS, DEFAULT_METHODS, METHODS
+    from vggc_cp.experiments.table1 import BACKENDS, DEFAULT_METHODS
+    from vggc_cp.experiments.table1_methods import METHODS
 
     p = sub.add_parser("benchmark", help="the paper's Table 1: every method on every benchmark",
                        description="Generate or reuse traces, run every method, evaluate with "
@@ -127,12 +128,8 @@ def cmd_benchmark(args) -> int:
     from pathlib import Path
 
     from vggc_cp.errors import VggcError
-    from vggc_cp.evaluate.benchmark import (
-        BenchmarkConfig,
-        collect_rows,
-        run_benchmark,
-        write_tables,
-    )
+    from vggc_cp.experiments.table1 import BenchmarkConfig, collect_rows, run_benchmark
+    from vggc_cp.experiments.table1_tables import write_tables
     from vggc_cp.sim import benchmark_names
 
     benches = benchmark_names() if args.benchmarks == "all" else tuple(_split(args.benchmarks))

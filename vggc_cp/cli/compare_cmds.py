@@ -1,85 +1,20 @@
-"""``vggc-cp compare``: the greedy heuristic against the exact CP-SAT model, cell by cell.
-
-Also provides the CP-SAT options and the sweep that ``vggc-cp solve --solver cpsat|both`` uses.
-"""
+"""``vggc-cp compare``: the greedy heuristic against the exact CP-SAT model, cell by cell."""
 
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
+from vggc_cp.cli.options import (
+    add_cpsat_arguments,
+    add_distance_arguments,
+    config_from_args,
+    cpsat_solver_from_args,
+)
 from vggc_cp.errors import VggcError
 
 
-def add_cpsat_arguments(p) -> None:
-    """The CP-SAT options shared by ``compare`` and ``solve``."""
-    p.add_argument("--cpsat-params", default="", metavar="S",
-                   help='OR-Tools CP-SAT parameters, "field:value,..." (default '
-                        '"max_time_in_seconds:10,num_workers:2", per solved cell)')
-    p.add_argument("--deterministic", action="store_true",
-                   help="CP-SAT: one node and one action lead to one node")
-    p.add_argument("--max-actions", type=int, default=None, metavar="K",
-                   help="CP-SAT: at most K distinct actions leave a node")
-    p.add_argument("--codeterministic", action="store_true",
-                   help="CP-SAT: one action into a node comes from one node")
-    p.add_argument("--cannot-link", type=float, default=None, metavar="D",
-                   help="CP-SAT: observations farther apart than visual distance D never "
-                        "share a node")
-    p.add_argument("--objective", choices=("J", "none"), default="J",
-                   help="CP-SAT: minimize the quantized visual score J or decide "
-                        "feasibility only")
-    p.add_argument("--hint", default=None, metavar="SOLUTION",
-                   help="CP-SAT: a solution JSON of this trace (e.g. of a larger cell) offered "
-                        "to every cell: a hint where valid, else merged into the cell's colours "
-                        "and repaired by CP-SAT (a start, never a proof)")
-    p.add_argument("--optimize", choices=("minimal", "all"), default="minimal",
-                   help="CP-SAT cells whose J is minimized: those of the fewest feasible nodes "
-                        "or every feasible cell")
-
-
-def make_cpsat_solver(args, tau: float | None = None, n_obs: int | None = None):
-    """The :class:`~vggc_cp.solvers.cpsat.CpSatSolver` of the parsed options (errors: exit 2).
-
-    With ``n_obs`` (the trace's observation count) a ``--hint`` solution must label exactly that
-    many observations.
-    """
-    from vggc_cp.solvers.cpsat import CpSatSolver
-
-    greedy_options = {} if tau is None else {"tau": tau}
-    hints = []
-    if getattr(args, "hint", None):
-        from vggc_cp.solution import read_solution
-
-        labels = read_solution(args.hint).labels
-        if n_obs is not None and len(labels) != n_obs:
-            raise VggcError(f"{args.hint}: field 'labels' has {len(labels)} entries, the trace "
-                            f"has {n_obs} observations")
-        hints.append((f"--hint {args.hint}", labels))
-    return CpSatSolver(objective=args.objective, deterministic=args.deterministic,
-                       max_actions=args.max_actions, params=args.cpsat_params,
-                       greedy_options=greedy_options, codeterministic=args.codeterministic,
-                       cannot_link=args.cannot_link, hints=hints)
-
-
-def cpsat_sweeps(problem, kp, kq, args, *, tau: float | None = None, jobs: int = 1,
-                 select: str = "fewest", progress: bool = False):
-    """``(greedy sweep, CP-SAT exact sweep)`` over one grid; the greedy one warm-starts CP-SAT."""
-    from vggc_cp.solvers.cpsat import exact_sweep
-    from vggc_cp.solvers.greedy import GreedySolver
-    from vggc_cp.solvers.sweep import run_sweep
-
-    solver = make_cpsat_solver(args, tau, n_obs=problem.n_obs)
-    greedy = run_sweep(problem, GreedySolver(**solver.greedy_options), kp, kq, jobs=jobs,
-                       select=select, progress=progress)
-    exact = exact_sweep(problem, kp, kq, solver, greedy.results, optimize=args.optimize,
-                        select=select, progress=progress)
-    return greedy, exact
-
-
 def register(sub) -> None:
-    from vggc_cp.vision import add_distance_arguments
-
     p = sub.add_parser("compare", help="greedy vs exact CP-SAT over the (k_pick, k_place) grid")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("--k-pick", default=None, metavar="A:B",
@@ -108,26 +43,24 @@ def cmd_compare(args) -> int:
     import pandas as pd
 
     from vggc_cp.atomic import write_text
-    from vggc_cp.solvers import Problem
-    from vggc_cp.solvers.cpsat import compare_records, node_frontier
-    from vggc_cp.solvers.sweep import action_counts, default_grid, parse_range
+    from vggc_cp.pipeline import greedy_then_exact, node_frontiers, visual_problem
+    from vggc_cp.solvers.cpsat import compare_records
+    from vggc_cp.solvers.sweep import default_grid, parse_range
     from vggc_cp.trace import load_trace
-    from vggc_cp.vision import compute_distances, config_from_args
 
-    make_cpsat_solver(args, args.tau)  # bad --cpsat-params fail before any work
+    cpsat_solver_from_args(args, args.tau)  # bad --cpsat-params fail before any work
     if args.max_actions is not None and args.max_actions < 1:
         raise VggcError(f"--max-actions must be at least 1, got {args.max_actions}")
     trace = load_trace(args.trace)
-    t0 = time.perf_counter()
-    dist_pick, dist_place = compute_distances(trace, config_from_args(args),
-                                              progress=not args.quiet)
-    t_dist = time.perf_counter() - t0
-    problem = Problem.from_trace(trace, dist_pick, dist_place)
+    vp = visual_problem(trace, config_from_args(args), progress=not args.quiet)
+    problem, t_dist = vp.problem, vp.seconds
     dp, dq = default_grid(problem)
     kp = parse_range(args.k_pick, "--k-pick") if args.k_pick else dp
     kq = parse_range(args.k_place, "--k-place") if args.k_place else dq
-    greedy, exact = cpsat_sweeps(problem, kp, kq, args, tau=args.tau, jobs=args.jobs,
-                                 progress=not args.quiet)
+    sweeps = greedy_then_exact(problem, kp, kq,
+                               cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs),
+                               jobs=args.jobs, optimize=args.optimize, progress=not args.quiet)
+    greedy, exact = sweeps.greedy, sweeps.exact
     rows = compare_records(greedy, exact)
     table = pd.DataFrame.from_records(rows)
     print(f"trace          {args.trace}: |D| = {trace.n_transitions}, pick {problem.n_pick}, "
@@ -151,9 +84,7 @@ def cmd_compare(args) -> int:
     print(f"greedy         colouring in {int(table['greedy_feasible'].sum())} cells; CP-SAT "
           f"lower J in {better} of {len(both)} shared cells; colouring where greedy has none: "
           f"{len(only_cp)} cells")
-    need = max(*action_counts(problem), 1)
-    cp_front = node_frontier(exact, need=need)
-    g_front = node_frontier(greedy, proof=exact, need=need)
+    g_front, cp_front = node_frontiers(problem, sweeps)
     for name, front, sweep in (("greedy", g_front, greedy), ("cpsat", cp_front, exact)):
         best = sweep.best
         if front.nodes is None:

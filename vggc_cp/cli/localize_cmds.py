@@ -1,11 +1,8 @@
-"""``vggc-cp train-localizer``, ``vggc-cp demo``, and the image options that ``vggc-cp plan``
-(:mod:`vggc_cp.cli.solve_cmds`) and ``vggc-cp evaluate`` (:mod:`vggc_cp.cli.trace_cmds`) add
-through :func:`add_image_plan_options` / :func:`add_i2p_options`. Parses, calls
-:mod:`vggc_cp.localize`, prints."""
+"""``vggc-cp train-localizer`` and ``vggc-cp demo``. Parses, calls :mod:`vggc_cp.localize` and
+:mod:`vggc_cp.experiments.demo`, prints."""
 
 from __future__ import annotations
 
-import json
 import sys
 
 from vggc_cp.errors import VggcError
@@ -111,108 +108,19 @@ def cmd_train(args) -> int:
     return 0
 
 
-# ------------------------------------------------------------------ plan --start/--goal
-
-
-def add_image_plan_options(p) -> None:
-    """Add ``--model``, ``--start`` and ``--goal`` to a ``plan`` parser."""
-    p.add_argument("--model", default=None, help="localizer checkpoint (.pt) for --start/--goal")
-    p.add_argument("--start", default=None, help="start image (PNG/JPEG), with --model")
-    p.add_argument("--goal", default=None, help="goal image (PNG/JPEG), with --model")
-
-
-def wants_image_plan(args) -> bool:
-    """True when ``plan`` was called with any of the image options."""
-    return any(getattr(args, k, None) is not None for k in ("model", "start", "goal"))
-
-
-def cmd_image_plan(args) -> int:
-    """``vggc-cp plan solution.json --model m.pt --start a.png --goal b.png``."""
-    from vggc_cp.localize import load_localizer, plan_images, read_image
-    from vggc_cp.solution import read_solution, verify_standalone
-
-    missing = [f"--{k}" for k in ("model", "start", "goal") if getattr(args, k, None) is None]
-    if missing:
-        raise VggcError(f"planning from images needs --model, --start and --goal "
-                        f"(missing {', '.join(missing)})")
-    solution = read_solution(args.solution)
-    verify_standalone(solution, args.solution)
-    localizer = load_localizer(args.model)
-    start, goal = read_image(args.start), read_image(args.goal)
-    result = plan_images(localizer, solution, start, goal, start_source=args.start,
-                         goal_source=args.goal, solution_source=args.solution)
-    if getattr(args, "json", False):
-        print(json.dumps({"start": result.start, "start_confidence": result.start_confidence,
-                          "goal": result.goal, "goal_confidence": result.goal_confidence,
-                          "found": result.found, "length": len(result.actions) if result.found
-                          else None, "actions": list(result.actions),
-                          "steps": list(result.steps)}, indent=2))
-        return 0 if result.found else 1
-    print(f"start          node {result.start} (confidence {result.start_confidence:.3f}) "
-          f"<- {args.start}")
-    print(f"goal           node {result.goal} (confidence {result.goal_confidence:.3f}) "
-          f"<- {args.goal}")
-    if not result.found:
-        print(f"plan           none: node {result.goal} is unreachable from node {result.start}")
-        return 1
-    print(f"plan           {len(result.actions)} actions")
-    for i, step in enumerate(result.steps, 1):
-        print(f"  {i:>3}. {step}")
-    return 0
-
-
-# ------------------------------------------------------------------ evaluate --model/--novel
-
-
-def add_i2p_options(p) -> None:
-    """Add ``--model`` and ``--novel`` to the ``evaluate`` parser."""
-    p.add_argument("--model", default=None,
-                   help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P")
-    p.add_argument("--novel", default=None, help="novel renders .npz for --model")
-    p.add_argument("--i2p-queries", type=int, default=150,
-                   help="start/goal image pairs for I2P (the paper's Q is 150)")
-
-
-def i2p_results(args, trace, solution) -> dict | None:
-    """I2P figures for ``evaluate`` when ``--model`` was given (None otherwise)."""
-    if getattr(args, "model", None) is None and getattr(args, "novel", None) is None:
-        return None
-    if args.model is None or args.novel is None:
-        raise VggcError("I2P evaluation needs both --model and --novel")
-    if args.i2p_queries < 1:
-        raise VggcError(f"--i2p-queries must be positive, got {args.i2p_queries}")
-    from vggc_cp.evaluate.i2p import evaluate_localizer
-    from vggc_cp.localize import check_model_matches, load_localizer
-    from vggc_cp.sim.novel import load_novel
-
-    localizer = load_localizer(args.model)
-    check_model_matches(localizer, solution, args.model)
-    obs, states = load_novel(args.novel)
-    if trace.states is not None and not set(states.tolist()) & set(trace.states.tolist()):
-        raise VggcError(f"{args.novel}: none of its {len(states)} images shows a state that "
-                        f"the trace {args.trace} visited (another benchmark or seed?)")
-    m = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=args.i2p_queries,
-                           seed=args.seed, dynamics=args.dynamics)
-    return m.as_dict()
-
-
-def print_i2p(d: dict) -> None:
-    print(f"novel images   {d['images']}; I2P queries Q = {d['queries']}, Exec-I2P on "
-          f"{d['dynamics']} dynamics")
-    print(f"{'Localization':<14} {100 * d['localization']:6.2f} %")
-    print(f"{'I2P':<14} {100 * d['i2p']:6.2f} %")
-    print(f"{'Exec-I2P':<14} {100 * d['exec_i2p']:6.2f} %")
-
-
 # ------------------------------------------------------------------ demo
 
 
 def cmd_demo(args) -> int:
-    from vggc_cp.localize.demo import run_demo
+    from vggc_cp.experiments.demo import run_demo
+    from vggc_cp.plots import plot_image_strip
 
     _threads(args.threads)
     say = (lambda _msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
-    result = run_demo(args.output, seed=args.seed, workdir=args.workdir, log=say)
+    result = run_demo(seed=args.seed, workdir=args.workdir, log=say)
+    strip = result.strip
+    plot_image_strip(list(strip.images), list(strip.titles), args.output,
+                     outlines=list(strip.outlines), suptitle=strip.suptitle)
     print(f"start          node {result.plan.start} (confidence "
           f"{result.plan.start_confidence:.3f}), true state {result.start_state}")
     print(f"goal           node {result.plan.goal} (confidence "

@@ -4,11 +4,20 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import sys
 import time
 from pathlib import Path
 
+from vggc_cp.cli.options import (
+    add_cpsat_arguments,
+    add_distance_arguments,
+    add_image_plan_options,
+    config_from_args,
+    cpsat_solver_from_args,
+    wants_image_plan,
+)
 from vggc_cp.errors import VggcError
 
 #: ``solve``'s solver when none is named: the pipeline (:mod:`vggc_cp.pipeline`): evidence,
@@ -24,21 +33,11 @@ BENCH_TRANSITIONS = 700
 BENCH_LIMIT_S = 120.0
 
 
-def _image_plan_module():
-    """The localizer's image options of ``plan``, where that module is installed."""
-    try:
-        from vggc_cp.cli import localize_cmds
-    except ImportError:
-        return None
-    return localize_cmds
-
-
 def register(sub) -> None:
     from vggc_cp.solvers import SOLVERS
     from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
     from vggc_cp.solvers.merge import PATH_SELECTIONS
     from vggc_cp.solvers.sweep import SELECTIONS
-    from vggc_cp.vision import add_distance_arguments
 
     p = sub.add_parser("solve", help="learn a task graph: distances, (k_pick, k_place) sweep, "
                                      "selection; writes the solution JSON")
@@ -84,8 +83,6 @@ def register(sub) -> None:
                    help="record wall-clock seconds in the solution file (off by default, so "
                         "the same inputs give the same bytes)")
     add_distance_arguments(p)
-    from vggc_cp.cli.compare_cmds import add_cpsat_arguments
-
     add_cpsat_arguments(p)
     p.set_defaults(func=cmd_solve, option_defaults={
         d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
@@ -97,10 +94,8 @@ def register(sub) -> None:
                    help="index of the start observation in the solved trace")
     q.add_argument("--goal-obs", type=int, default=None, metavar="J",
                    help="index of the goal observation in the solved trace")
-    images = _image_plan_module()
-    if images is not None:
-        images.add_image_plan_options(q)
-        q.add_argument("--json", action="store_true", help="print JSON (image planning)")
+    add_image_plan_options(q)
+    q.add_argument("--json", action="store_true", help="print JSON (image planning)")
     q.set_defaults(func=cmd_plan)
 
 
@@ -202,16 +197,18 @@ def cmd_solve(args) -> int:
     get_selection(args.select)  # unknown names fail before any work
     exact = args.solver in ("cpsat", "both")
     if exact:
-        from vggc_cp.cli.compare_cmds import cpsat_sweeps, make_cpsat_solver
-
-        make_cpsat_solver(args, args.tau)  # bad --cpsat-params fail before any work
+        cpsat_solver_from_args(args, args.tau)  # bad --cpsat-params fail before any work
     else:
         solver = _make_solver(args.solver, args.tau)
     trace, cfg, problem, t_dist = _problem(args)
     kp, kq = _grid(problem, args.k_pick, args.k_place)
     if exact:
-        greedy, sweep = cpsat_sweeps(problem, kp, kq, args, tau=args.tau, jobs=args.jobs,
-                                     select=args.select, progress=not args.quiet)
+        from vggc_cp.pipeline import greedy_then_exact
+
+        solver = cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs)
+        sweeps = greedy_then_exact(problem, kp, kq, solver, jobs=args.jobs, select=args.select,
+                                   optimize=args.optimize, progress=not args.quiet)
+        greedy, sweep = sweeps.greedy, sweeps.exact
         if args.solver == "both" and greedy.best is not None:
             g = greedy.best
             print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "
@@ -263,28 +260,24 @@ def cmd_solve(args) -> int:
 
 def _problem(args):
     """Load the trace and compute (or reuse) its distances: ``(trace, cfg, problem, seconds)``."""
-    from vggc_cp.solvers import Problem
+    from vggc_cp.pipeline import visual_problem
     from vggc_cp.trace import load_trace
-    from vggc_cp.vision import compute_distances, config_from_args
 
     trace = load_trace(args.trace)
     cfg = config_from_args(args)
-    t0 = time.perf_counter()
-    dist_pick, dist_place = compute_distances(trace, cfg, progress=not args.quiet)
-    return trace, cfg, Problem.from_trace(trace, dist_pick, dist_place), \
-        time.perf_counter() - t0
+    vp = visual_problem(trace, cfg, progress=not args.quiet)
+    return trace, cfg, vp.problem, vp.seconds
 
 
 def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
     """Write the chosen result as the solution JSON and print its summary line."""
-    from vggc_cp.solution import solution_dict, write_solution
+    from vggc_cp.pipeline import solution_record
+    from vggc_cp.solution import write_solution
 
     graph = problem.graph(best.labels)
-    data = solution_dict(
-        best.labels, problem.roles, graph, k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-        solver=best.solver, status=best.status, distances=_config_record(cfg),
-        trace=str(args.trace), trace_sha256=trace.content_hash(),
-        stats=_jsonable(best.stats), **extra)
+    data = solution_record(problem, best, distances=_config_record(cfg), trace=str(args.trace),
+                           trace_sha256=trace.content_hash(), stats=_jsonable(best.stats),
+                           **extra)
     write_solution(args.output, data, timings=getattr(args, "timings", False))
     counts = graph.count_by_role()
     print(f"chosen         {how}: {graph.n_nodes} nodes ({counts['pick']} pick, "
@@ -309,7 +302,6 @@ def _learn_options(args):
     from vggc_cp.errors import lookup
     from vggc_cp.pipeline import EVIDENCES, LearnOptions
     from vggc_cp.solvers.merge import PATH_SELECTIONS
-    from vggc_cp.vision import config_from_args
 
     rule = args.select or "mdl"
     lookup(PATH_SELECTIONS, rule, "path selection rule")
@@ -390,12 +382,11 @@ def _jsonable(obj):
 
 
 def cmd_plan(args) -> int:
-    images = _image_plan_module()
     obs_given = args.start_obs is not None or args.goal_obs is not None
-    if images is not None and images.wants_image_plan(args):
+    if wants_image_plan(args):
         if obs_given:
             raise VggcError("give either --start-obs/--goal-obs or the image options, not both")
-        return images.cmd_image_plan(args)
+        return cmd_image_plan(args)
     if args.start_obs is None or args.goal_obs is None:
         raise VggcError("plan needs --start-obs and --goal-obs")
     from vggc_cp.graph import format_plan, shortest_plan
@@ -420,6 +411,41 @@ def cmd_plan(args) -> int:
         return 1
     print(f"plan           {len(plan)} actions")
     for i, step in enumerate(format_plan(graph, plan), 1):
+        print(f"  {i:>3}. {step}")
+    return 0
+
+
+def cmd_image_plan(args) -> int:
+    """``vggc-cp plan solution.json --model m.pt --start a.png --goal b.png``."""
+    from vggc_cp.localize import load_localizer, plan_images, read_image
+    from vggc_cp.solution import read_solution, verify_standalone
+
+    missing = [f"--{k}" for k in ("model", "start", "goal") if getattr(args, k, None) is None]
+    if missing:
+        raise VggcError(f"planning from images needs --model, --start and --goal "
+                        f"(missing {', '.join(missing)})")
+    solution = read_solution(args.solution)
+    verify_standalone(solution, args.solution)
+    localizer = load_localizer(args.model)
+    start, goal = read_image(args.start), read_image(args.goal)
+    result = plan_images(localizer, solution, start, goal, start_source=args.start,
+                         goal_source=args.goal, solution_source=args.solution)
+    if getattr(args, "json", False):
+        print(json.dumps({"start": result.start, "start_confidence": result.start_confidence,
+                          "goal": result.goal, "goal_confidence": result.goal_confidence,
+                          "found": result.found, "length": len(result.actions) if result.found
+                          else None, "actions": list(result.actions),
+                          "steps": list(result.steps)}, indent=2))
+        return 0 if result.found else 1
+    print(f"start          node {result.start} (confidence {result.start_confidence:.3f}) "
+          f"<- {args.start}")
+    print(f"goal           node {result.goal} (confidence {result.goal_confidence:.3f}) "
+          f"<- {args.goal}")
+    if not result.found:
+        print(f"plan           none: node {result.goal} is unreachable from node {result.start}")
+        return 1
+    print(f"plan           {len(result.actions)} actions")
+    for i, step in enumerate(result.steps, 1):
         print(f"  {i:>3}. {step}")
     return 0
 

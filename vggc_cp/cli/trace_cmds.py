@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from vggc_cp.cli.localize_cmds import add_i2p_options, i2p_results, print_i2p
+from vggc_cp.cli.options import add_i2p_options
 from vggc_cp.errors import VggcError
 from vggc_cp.evaluate import DYNAMICS, evaluate_trace
 from vggc_cp.graph import check
@@ -153,3 +153,26 @@ def cmd_bench_evaluate(args) -> int:
         print(f"  ratio (enumeration / exact, per query): {res.ratio:.1f}x; agree: {res.agree}; "
               f"wall {total:.2f} s")
     return 0
+
+
+def i2p_results(args, trace, solution) -> dict | None:
+    """I2P figures for ``evaluate`` when ``--model`` was given (None otherwise)."""
+    if getattr(args, "model", None) is None and getattr(args, "novel", None) is None:
+        return None
+    if args.model is None or args.novel is None:
+        raise VggcError("I2P evaluation needs both --model and --novel")
+    if args.i2p_queries < 1:
+        raise VggcError(f"--i2p-queries must be positive, got {args.i2p_queries}")
+    from vggc_cp.evaluate.i2p import measure_checkpoint
+
+    return measure_checkpoint(trace, solution, args.model, args.novel,
+                              n_queries=args.i2p_queries, seed=args.seed,
+                              dynamics=args.dynamics, trace_source=args.trace).as_dict()
+
+
+def print_i2p(d: dict) -> None:
+    print(f"novel images   {d['images']}; I2P queries Q = {d['queries']}, Exec-I2P on "
+          f"{d['dynamics']} dynamics")
+    print(f"{'Localization':<14} {100 * d['localization']:6.2f} %")
+    print(f"{'I2P':<14} {100 * d['i2p']:6.2f} %")
+    print(f"{'Exec-I2P':<14} {100 * d['exec_i2p']:6.2f} %")

@@ -10,7 +10,8 @@ from vggc_cp.errors import VggcError
 
 
 def register(sub) -> None:
-    from vggc_cp.vision import ATTENTION_BACKENDS, add_distance_arguments
+    from vggc_cp.cli.options import add_distance_arguments
+    from vggc_cp.vision import ATTENTION_BACKENDS
 
     p = sub.add_parser("distances", help="compute (or load) the within-role visual distances of "
                                          "a trace and cache them")
@@ -58,8 +59,9 @@ def register_bench(bench_sub) -> None:
 
 
 def cmd_distances(args) -> int:
+    from vggc_cp.cli.options import config_from_args
     from vggc_cp.trace import load_trace
-    from vggc_cp.vision import compute_distances_full, config_from_args
+    from vggc_cp.vision import compute_distances_full
 
     cfg = config_from_args(args)
     trace = load_trace(args.trace)

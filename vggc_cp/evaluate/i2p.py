@@ -223,3 +223,22 @@ def train_and_measure(trace, trace_path, solution_path, model_path, novel_path, 
     metrics = evaluate_localizer(trace, solution, localizer, obs, states, n_queries=n_queries,
                                  seed=0)
     return metrics, report.seconds
+
+
+def measure_checkpoint(trace, solution, model_path, novel_path, *, n_queries: int = 150,
+                       seed: int = 0, dynamics: str = "auto", trace_source: str = "") -> I2PMetrics:
+    """:func:`evaluate_localizer` of a saved localizer (``model_path``) on saved novel renders
+    (``novel_path``), after checking that the model was trained on ``solution``'s nodes and
+    that the renders show states the trace visited (``trace_source`` names the trace in the
+    message)."""
+    from vggc_cp.localize import check_model_matches, load_localizer
+    from vggc_cp.sim.novel import load_novel
+
+    localizer = load_localizer(model_path)
+    check_model_matches(localizer, solution, model_path)
+    obs, states = load_novel(novel_path)
+    if trace.states is not None and not set(states.tolist()) & set(trace.states.tolist()):
+        raise VggcError(f"{novel_path}: none of its {len(states)} images shows a state that "
+                        f"the trace {trace_source} visited (another benchmark or seed?)")
+    return evaluate_localizer(trace, solution, localizer, obs, states, n_queries=n_queries,
+                              seed=seed, dynamics=dynamics)

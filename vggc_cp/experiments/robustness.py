@@ -34,7 +34,7 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
-from vggc_cp.evaluate.benchmark import (
+from vggc_cp.experiments.table1 import (
     BACKENDS,
     _cached,
     _jsonable,

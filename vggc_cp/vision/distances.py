@@ -37,7 +37,6 @@ parameter, trace or weights file never reuses a stale file.
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import os
@@ -372,56 +371,3 @@ def compute_distances(trace: Trace, cfg: DistanceConfig | None = None,
     """
     res = compute_distances_full(trace, cfg, cache_dir, progress)
     return res.dist_pick, res.dist_place
-
-
-def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the distance options (``--attention``, ``--weights``, ``--eps``, ``--grid``, ...)."""
-    d = DistanceConfig()
-    g = parser.add_argument_group("visual distances")
-    g.add_argument("--attention", default=d.backend, metavar="NAME",
-                   help=f"attention backend: {', '.join(sorted(ATTENTION_BACKENDS))} "
-                        f"(default {d.backend})")
-    g.add_argument("--weights", default=None, metavar="PATH",
-                   help="DINOv2 weights file (default $VGGC_CP_DINOV2_WEIGHTS)")
-    g.add_argument("--eps", type=float, default=d.eps,
-                   help=f"Sinkhorn entropic regularisation, costs in the unit square "
-                        f"(default {d.eps})")
-    g.add_argument("--grid", type=int, default=d.grid,
-                   help=f"attention patch grid side (default {d.grid})")
-    g.add_argument("--floor", type=float, default=d.floor,
-                   help=f"uniform mass added to every map (default {d.floor})")
-    g.add_argument("--sinkhorn-tol", type=float, default=d.tol,
-                   help=f"L1 marginal error at which Sinkhorn stops (default {d.tol:g})")
-    g.add_argument("--sinkhorn-dtype", choices=("float32", "float64"), default=d.dtype,
-                   help=f"Sinkhorn matrix-product precision (default {d.dtype})")
-    g.add_argument("--sinkhorn-device", choices=DEVICES, default=d.device,
-                   help="Sinkhorn device: torch (CUDA when present, else CPU), torch-cpu, "
-                        f"cuda, numpy (default {d.device})")
-    g.add_argument("--sinkhorn-threads", type=int, default=d.threads,
-                   help=f"CPU threads of the Sinkhorn stage (default {d.threads})")
-    g.add_argument("--colour", choices=COLOUR_MODES, default=d.colour,
-                   help="add colour-channel divergences when the trace shows two or more "
-                        f"object colours (auto) or never (off) (default {d.colour})")
-    g.add_argument("--cache-dir", default=None,
-                   help="distance cache directory (default $VGGC_CP_CACHE/distances or "
-                        "./.cache/vggc-cp/distances)")
-    g.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
-
-
-def config_from_args(args: argparse.Namespace) -> DistanceConfig:
-    """The :class:`DistanceConfig` of options added by :func:`add_distance_arguments`."""
-    d = DistanceConfig()
-    return DistanceConfig(
-        backend=getattr(args, "attention", d.backend),
-        grid=getattr(args, "grid", d.grid),
-        eps=getattr(args, "eps", d.eps),
-        floor=getattr(args, "floor", d.floor),
-        weights=getattr(args, "weights", None),
-        tol=getattr(args, "sinkhorn_tol", d.tol),
-        dtype=getattr(args, "sinkhorn_dtype", d.dtype),
-        colour=getattr(args, "colour", d.colour),
-        device=getattr(args, "sinkhorn_device", d.device),
-        threads=getattr(args, "sinkhorn_threads", d.threads),
-        cache_dir=getattr(args, "cache_dir", None),
-        use_cache=not getattr(args, "no_cache", False),
-    )

@@ -2,7 +2,9 @@
 
 generate (PyBullet) -> the default pipeline of `vggc-cp solve` -> solution JSON ->
 train the localizer -> pick two novel renders (start, goal) -> localize + plan ->
-execute the plan with the simulator's dynamics, rendering every step -> picture strip.
+execute the plan with the simulator's dynamics, rendering every step -> the panels of a
+picture strip (:class:`Strip`; the command line draws it with
+:func:`vggc_cp.plots.plot_image_strip`).
 
 The true states of the novel images are used only to choose a start/goal pair whose goal is
 a few actions away and to simulate the execution (the simulator is the robot); localization
@@ -28,6 +30,27 @@ BENCHMARK = "fruit-2x3"
 NOVEL = 12
 
 
+@dataclass(frozen=True, eq=False)
+class Strip:
+    """The panels of the demo's picture strip: start image, executed steps, goal image.
+
+    Attributes
+    ----------
+    images : tuple of ndarray
+        uint8 RGB images, each (H, W, 3).
+    titles : tuple of str
+        One per image.
+    outlines : tuple of str or None
+        Frame colour per image (None: no frame).
+    suptitle : str
+    """
+
+    images: tuple
+    titles: tuple[str, ...]
+    outlines: tuple
+    suptitle: str
+
+
 @dataclass(frozen=True)
 class DemoResult:
     """What the demo did.
@@ -42,8 +65,8 @@ class DemoResult:
         True states along the execution, the start state first.
     success : bool
         Whether the execution ended in the goal state.
-    strip : Path
-        The picture strip.
+    strip : Strip
+        The panels of the picture strip.
     files : dict
         Paths of the intermediate files (trace, novel images, solution, model, PNGs).
     """
@@ -53,7 +76,7 @@ class DemoResult:
     goal_state: str
     visited: tuple[str, ...]
     success: bool
-    strip: Path
+    strip: Strip
     files: dict
 
 
@@ -95,16 +118,12 @@ def compute_solution(trace, *, cache_dir: str | Path | None = None,
     the fallback, if any, are cached in ``cache_dir`` (default: the vision package's)."""
     from dataclasses import replace
 
-    from vggc_cp.pipeline import LearnOptions, learn_graph
-    from vggc_cp.solution import solution_dict
+    from vggc_cp.pipeline import LearnOptions, learn_graph, solution_record
 
     options = LearnOptions()
     options = replace(options, distance=replace(options.distance, cache_dir=cache_dir))
     learned = learn_graph(trace.without_states(), options, progress=progress)
-    best = learned.chosen.best
-    return solution_dict(best.labels, learned.problem.roles, learned.graph,
-                         k_pick=best.k_pick, k_place=best.k_place, J=best.J,
-                         solver=best.solver, status=best.status, **learned.solution_fields())
+    return solution_record(learned.problem, learned.chosen.best, **learned.solution_fields())
 
 
 def execute(bench, start_state: str, actions, size: int, rng: np.random.Generator
@@ -131,18 +150,17 @@ def execute(bench, start_state: str, actions, size: int, rng: np.random.Generato
     return states, frames
 
 
-def run_demo(output: str | Path = "demo.png", *, seed: int = 0,
-             workdir: str | Path | None = None,
+def run_demo(*, seed: int = 0, workdir: str | Path | None = None,
              log: Callable[[str], None] = lambda _m: None) -> DemoResult:
-    """Run the whole pipeline and draw the strip to ``output``; see the module docstring."""
+    """Run the whole pipeline; see the module docstring. The intermediate files stay in
+    ``workdir`` when given (else a temporary folder)."""
     if workdir is None:
         with tempfile.TemporaryDirectory(prefix="vggc-demo-") as tmp:
-            return _run(Path(output), seed, Path(tmp), log, keep=False)
-    return _run(Path(output), seed, Path(workdir), log, keep=True)
+            return _run(seed, Path(tmp), log, keep=False)
+    return _run(seed, Path(workdir), log, keep=True)
 
 
-def _run(output: Path, seed: int, work: Path, log, keep: bool) -> DemoResult:
-    from vggc_cp.plots import plot_image_strip
+def _run(seed: int, work: Path, log, keep: bool) -> DemoResult:
     from vggc_cp.sim import get_benchmark
     from vggc_cp.sim.explore import generate
     from vggc_cp.sim.novel import save_novel
@@ -203,9 +221,8 @@ def _run(output: Path, seed: int, work: Path, log, keep: bool) -> DemoResult:
     if not frames:
         outlines = [None, None]
     verdict = "reached the goal" if success else "did NOT reach the goal"
-    plot_image_strip(images, titles, output, outlines=outlines,
-                     suptitle=f"vggc-cp demo ({BENCHMARK}, seed {seed}): plan of "
-                              f"{len(result.actions)} actions executed in the simulator, "
-                              f"{verdict}")
-    return DemoResult(result, start_state, goal_state, tuple(visited), bool(success), output,
+    strip = Strip(tuple(images), tuple(titles), tuple(outlines),
+                  f"vggc-cp demo ({BENCHMARK}, seed {seed}): plan of {len(result.actions)} "
+                  f"actions executed in the simulator, {verdict}")
+    return DemoResult(result, start_state, goal_state, tuple(visited), bool(success), strip,
                       {k: str(v) for k, v in files.items()} if keep else {})

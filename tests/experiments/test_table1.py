@@ -10,16 +10,15 @@ import pytest
 
 from vggc_cp.cli import main
 from vggc_cp.errors import VggcError
-from vggc_cp.evaluate.benchmark import (
-    METHODS,
+from vggc_cp.experiments.table1 import (
     BenchmarkConfig,
     cell_jobs,
     check_backend,
     collect_rows,
     run_benchmark,
-    table_markdown,
-    write_tables,
 )
+from vggc_cp.experiments.table1_methods import METHODS
+from vggc_cp.experiments.table1_tables import table_markdown, write_tables
 from vggc_cp.solution import read_solution, verify_solution
 from vggc_cp.trace import load_trace
 
@@ -215,7 +214,7 @@ def test_counterpart_too_large_is_reported_not_run():
 
 
 def test_a_trace_explored_under_other_settings_is_generated_again(tmp_path, capsys):
-    from vggc_cp.evaluate.benchmark import trace_is_current
+    from vggc_cp.experiments.table1 import trace_is_current
 
     out = tmp_path / "bench"
     argv = ["benchmark", "--benchmarks", "fruit-2x3", "--methods", "pca-hdbscan",

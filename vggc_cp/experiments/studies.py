@@ -23,7 +23,6 @@ proved infeasible (the grid starts at 1, so no smaller cell is missing).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -59,7 +58,7 @@ class Instance:
         Built from the trace without its states.
     distance_seconds : float
         Time the visual distances took (attention + Sinkhorn), also when they came from the
-        cache (the time recorded when they were computed; NaN if unknown).
+        cache (the time recorded when they were computed).
     distance_cached : bool
     """
 
@@ -75,15 +74,6 @@ class Instance:
     def states_visited(self) -> int:
         """``|V*|``: distinct ground-truth states the trace visits."""
         return int(len(np.unique(self.trace.states)))
-
-
-def _cached_seconds(path) -> float:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            stats = json.loads(str(data["stats"]))
-        return float(sum(stats.get("seconds", {}).values())) or math.nan
-    except Exception:  # an old cache file without statistics
-        return math.nan
 
 
 def make_instance(benchmark: str, transitions: int, seed: int, *, size: int = 64,
@@ -108,24 +98,16 @@ def make_instance(benchmark: str, transitions: int, seed: int, *, size: int = 64
 
     trace = generate(benchmark, int(transitions), int(seed), int(size)).trace
     blind = trace.without_states()
-    t0 = time.perf_counter()
-    cached = False
     if callable(distances):
+        t0 = time.perf_counter()
         dp, dq = distances(blind)
-        seconds = time.perf_counter() - t0
-    else:
-        from vggc_cp.vision import DistanceConfig, compute_distances_full
+        return Instance(benchmark, int(transitions), int(seed), trace,
+                        Problem.from_trace(blind, dp, dq), time.perf_counter() - t0, False)
+    from vggc_cp.pipeline import visual_problem
 
-        res = compute_distances_full(blind, distances or DistanceConfig(), cache_dir=cache_dir,
-                                     progress=False)
-        dp, dq, cached = res.dist_pick, res.dist_place, res.cached
-        if cached:
-            seconds = _cached_seconds(res.path)
-        else:
-            seconds = float(sum(res.stats.get("seconds", {}).values())) \
-                or time.perf_counter() - t0
-    problem = Problem.from_trace(blind, dp, dq)
-    return Instance(benchmark, int(transitions), int(seed), trace, problem, seconds, cached)
+    vp = visual_problem(blind, distances, cache_dir=cache_dir)
+    return Instance(benchmark, int(transitions), int(seed), trace, vp.problem,
+                    vp.compute_seconds, vp.cached)
 
 
 def _params(time_limit: float, workers: int) -> str:
@@ -192,8 +174,9 @@ def feasibility_instance(inst: Instance, k_max: int, *, time_limit: float = 5.0,
                          workers: int = 2, models: Sequence[str] = MODELS
                          ) -> tuple[list[dict], list[dict]]:
     """Cells and summary rows of one instance (see :class:`FeasibilityStudy`)."""
+    from vggc_cp.pipeline import greedy_then_exact
     from vggc_cp.solvers.brute import CellConstraints, split_colours, violations
-    from vggc_cp.solvers.cpsat import CpSatSolver, exact_sweep
+    from vggc_cp.solvers.cpsat import CpSatSolver
     from vggc_cp.solvers.greedy import GreedySolver
     from vggc_cp.solvers.sweep import action_counts, run_sweep
 
@@ -220,7 +203,7 @@ def feasibility_instance(inst: Instance, k_max: int, *, time_limit: float = 5.0,
                                  "decided_by": "solved", "reason": ""})
         solver = CpSatSolver(objective="none", deterministic=det,
                              params=_params(time_limit, workers), hint="none")
-        exact = exact_sweep(problem, ks, ks, solver, greedy.results, optimize="minimal")
+        exact = greedy_then_exact(problem, ks, ks, solver, greedy=greedy).exact
         for r in exact.results:
             cells.append(base | {"model": model, "solver": "cpsat", "k_pick": r.k_pick,
                                  "k_place": r.k_place, "status": r.status, "feasible": r.found,
@@ -364,15 +347,14 @@ def solve_both(inst: Instance, *, time_limit: float = 10.0, workers: int = 2,
     The grid is :func:`~vggc_cp.solvers.sweep.default_grid` unless ``grid = (kp, kq)``; CP-SAT
     is warm-started by the greedy sweep, and its seconds include it.
     """
-    from vggc_cp.solvers.cpsat import CpSatSolver, exact_sweep
-    from vggc_cp.solvers.greedy import GreedySolver
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
+    from vggc_cp.pipeline import greedy_then_exact
+    from vggc_cp.solvers.cpsat import CpSatSolver
+    from vggc_cp.solvers.sweep import default_grid
 
     kp, kq = grid if grid is not None else default_grid(inst.problem)
-    greedy = run_sweep(inst.problem, GreedySolver(), kp, kq)
     solver = CpSatSolver(objective="J", params=_params(time_limit, workers))
-    exact = exact_sweep(inst.problem, kp, kq, solver, greedy.results, optimize=optimize)
-    return greedy, exact, greedy.seconds, greedy.seconds + exact.seconds
+    sweeps = greedy_then_exact(inst.problem, kp, kq, solver, optimize=optimize)
+    return sweeps.greedy, sweeps.exact, sweeps.greedy.seconds, sweeps.seconds
 
 
 def heuristic_vs_exact(benchmarks: Sequence[str], seeds: Sequence[int] = (0,), *,
@@ -392,9 +374,9 @@ def heuristic_vs_exact(benchmarks: Sequence[str], seeds: Sequence[int] = (0,), *
     queries : int
         Q of the planning metrics.
     """
+    from vggc_cp.pipeline import GridSweeps, node_frontiers
     from vggc_cp.sim import get_spec
-    from vggc_cp.solvers.cpsat import compare_records, node_frontier
-    from vggc_cp.solvers.sweep import action_counts
+    from vggc_cp.solvers.cpsat import compare_records
 
     cells, summary = [], []
     bar = _bar(len(benchmarks) * len(seeds), "benchmarks", progress)
@@ -424,9 +406,7 @@ def heuristic_vs_exact(benchmarks: Sequence[str], seeds: Sequence[int] = (0,), *
             sel_gap = math.nan
             if g_best is not None and c_best is not None and g_best.J > 0:
                 sel_gap = (g_best.J - c_best.J) / g_best.J
-            need = max(*action_counts(inst.problem), 1)
-            g_front = node_frontier(greedy, proof=exact, need=need)
-            c_front = node_frontier(exact, need=need)
+            g_front, c_front = node_frontiers(inst.problem, GridSweeps(greedy, exact))
             for name, sweep, best, front, secs in (("greedy", greedy, g_best, g_front, t_g),
                                                    ("cpsat", exact, c_best, c_front, t_c)):
                 summary.append(base | {

@@ -35,7 +35,7 @@ Methods (:data:`METHODS`):
   (:mod:`vggc_cp.solvers.merge_exact`);
 * ``pca-hdbscan`` and ``lsr`` — the baselines of :mod:`vggc_cp.baselines`.
 
-:func:`write_tables` writes ``table1.csv`` (one row per cell) and ``table1.md`` (means over
+:func:`vggc_cp.experiments.table1_tables.write_tables` writes ``table1.csv`` (one row per cell) and ``table1.md`` (means over
 seeds, laid out like the paper's Table 1, with the paper's rows beside ours).
 """
 
@@ -46,15 +46,12 @@ import json
 import math
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import numpy as np
-
-from vggc_cp.atomic import write_bytes, write_text
+from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
-from vggc_cp.solvers.base import SolveResult
-from vggc_cp.trace import Trace, load_trace, save_trace
+from vggc_cp.trace import load_trace
 
 CELL_FORMAT = "vggc-benchmark-cell/1"
 I2P_FORMAT = "vggc-benchmark-i2p/1"
@@ -63,9 +60,6 @@ I2P_COLUMNS = ("localization", "i2p", "exec_i2p", "i2p_plan_found", "seconds_loc
 #: Status of a cell that has no cached row yet (tables written from a partial run).
 NOT_FINISHED = "not finished"
 BACKENDS = ("loky", "dask", "ray")
-PAPER_METRICS = ("opt_path", "any_path", "trans_prec", "trans_cov")
-METRIC_TITLES = {"opt_path": "OptPath", "any_path": "AnyPath", "trans_prec": "TransPrec",
-                 "trans_cov": "TransCov", "exec": "Exec"}
 METHOD_TITLES = {"greedy": "VGGC greedy", "cpsat": "VGGC CP-SAT", "pca-hdbscan": "PCA-HDBSCAN",
                  "lsr": "LSR", "merge": "merge + cascade",
                  "cpsat-merge": "CP-SAT, fewest nodes under merge's constraints"}
@@ -74,12 +68,6 @@ METHOD_TITLES = {"greedy": "VGGC greedy", "cpsat": "VGGC CP-SAT", "pca-hdbscan":
 DEFAULT_METHODS = ("greedy", "cpsat", "merge", "cpsat-merge", "pca-hdbscan", "lsr")
 #: Methods that need the visual distances of a trace.
 VISUAL_METHODS = ("greedy", "cpsat", "merge", "cpsat-merge")
-#: Methods of the paper's Table 1, by our method name.
-PAPER_METHODS = {"greedy": "VGGC", "pca-hdbscan": "PCA-HDBSCAN", "lsr": "LSR"}
-#: Published Table 1 values, ``(benchmark, method) -> {metric: fraction}``. Only values checked
-#: against the paper belong here; none could be checked when this was written, so every paper
-#: cell prints ``n/a``.
-PAPER_TABLE1: dict[tuple[str, str], dict[str, float]] = {}
 
 
 # ---------------------------------------------------------------- configuration
@@ -148,6 +136,8 @@ class BenchmarkConfig:
 
         for b in self.benchmarks:
             get_spec(b)
+        from vggc_cp.experiments.table1_methods import METHODS
+
         for m in self.methods:
             lookup(METHODS, m, "method")
         if not self.benchmarks or not self.methods or not self.seeds:
@@ -321,249 +311,6 @@ def trace_is_current(path: Path, benchmark: str) -> bool:
     return got == want
 
 
-# ---------------------------------------------------------------- methods
-
-
-@dataclass(frozen=True, eq=False)
-class MethodRun:
-    """What a method returns: the selected result, its solution JSON and timed phases."""
-
-    result: SolveResult | None
-    solution: dict | None
-    seconds: dict
-
-
-MethodFn = Callable[[Trace, CellJob], MethodRun]
-METHODS: dict[str, MethodFn] = {}
-
-
-def register_method(name: str) -> Callable[[MethodFn], MethodFn]:
-    """Decorator: add a benchmark method ``(trace, job) -> MethodRun`` under ``name``."""
-    def deco(fn: MethodFn) -> MethodFn:
-        METHODS[name] = fn
-        return fn
-    return deco
-
-
-def compute_trace_distances(trace_path: Path, distances_path: Path,
-                            attention: str = "saliency") -> float:
-    """Compute (or take from the vision cache) and store the VGGC distances of a trace with
-    the default settings and the ``attention`` backend; returns the seconds of their
-    computation.
-
-    On a cache hit the seconds are those the cache file recorded when it was computed
-    (attention + Sinkhorn); the stored file says ``cached``.
-    """
-    try:
-        from vggc_cp.vision import DistanceConfig, compute_distances_full
-    except ImportError:
-        raise VggcError("the colouring methods need vggc_cp.vision (visual distances), which "
-                        "is not installed here; run the baselines only (--methods "
-                        "pca-hdbscan,lsr)") from None
-    import io
-
-    trace = load_trace(trace_path)
-    t0 = time.perf_counter()
-    res = compute_distances_full(trace, DistanceConfig(backend=attention),
-                                 cache_dir=distances_path.parent / "cache", progress=False)
-    seconds = time.perf_counter() - t0
-    if res.cached and res.path is not None:
-        with np.load(res.path, allow_pickle=False) as data:
-            stats = json.loads(str(data["stats"])) if "stats" in data.files else {}
-        recorded = stats.get("seconds", {})
-        seconds = float(sum(recorded.values())) if recorded else seconds
-    buf = io.BytesIO()
-    np.savez(buf, dist_pick=np.asarray(res.dist_pick, dtype=np.float64),
-             dist_place=np.asarray(res.dist_place, dtype=np.float64),
-             seconds=np.float64(seconds), cached=np.bool_(res.cached))
-    write_bytes(distances_path, buf.getvalue())
-    return seconds
-
-
-def _visual_problem(trace: Trace, job: CellJob):
-    """The solver's problem (no ground truth) from the stored distances of a cell's trace:
-    ``(problem, distance seconds, cached)``."""
-    from vggc_cp.solvers import Problem
-
-    with np.load(job.distances_path, allow_pickle=False) as data:
-        dist_pick, dist_place = data["dist_pick"], data["dist_place"]
-        t_dist = float(data["seconds"])
-        cached = bool(data["cached"]) if "cached" in data.files else False
-    return Problem.from_trace(trace.without_states(), dist_pick, dist_place), t_dist, cached
-
-
-def _solved(problem, best: SolveResult, seconds: dict, **extra) -> MethodRun:
-    """The method run of a selected result, with its solution JSON."""
-    from vggc_cp.solution import solution_dict
-
-    data = solution_dict(best.labels, problem.roles, problem.graph(best.labels),
-                         k_pick=best.k_pick, k_place=best.k_place, J=best.J, solver=best.solver,
-                         status=best.status, seconds=seconds, **extra)
-    return MethodRun(best, data, seconds)
-
-
-def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
-    import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
-    import vggc_cp.solvers.greedy  # noqa: F401
-    from vggc_cp.solvers import get_solver
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
-    problem, t_dist, cached = _visual_problem(trace, job)
-    try:
-        solver = get_solver(solver_name, **job.options)
-    except TypeError as exc:
-        raise VggcError(f"method {solver_name}: bad option ({exc})") from None
-    kp, kq = default_grid(problem)
-    sweep = run_sweep(problem, get_solver("greedy") if solver_name == "cpsat" else solver,
-                      kp, kq, jobs=1, select="fewest")
-    if solver_name == "cpsat":
-        from vggc_cp.solvers.cpsat import exact_sweep
-
-        greedy_seconds = sweep.seconds
-        sweep = exact_sweep(problem, kp, kq, solver, greedy=sweep.results, select="fewest")
-        sweep = replace(sweep, seconds=sweep.seconds + greedy_seconds)
-    seconds = {"distances": round(t_dist, 3), "method": round(sweep.seconds, 3),
-               "distances_cached": cached}
-    best = sweep.best
-    if best is None:
-        return MethodRun(None, None, seconds)
-    return _solved(problem, best, seconds, select="fewest", grid=sweep.records())
-
-
-@register_method("greedy")
-def run_greedy(trace: Trace, job: CellJob) -> MethodRun:
-    """VGGC with the greedy solver over the whole default grid."""
-    return _colouring(trace, job, "greedy")
-
-
-@register_method("cpsat")
-def run_cpsat(trace: Trace, job: CellJob) -> MethodRun:
-    """VGGC with CP-SAT: greedy sweep, then :func:`vggc_cp.solvers.cpsat.exact_sweep`."""
-    return _colouring(trace, job, "cpsat")
-
-
-def _baseline(trace: Trace, job: CellJob, name: str) -> MethodRun:
-    from vggc_cp.baselines import BASELINES, baseline_solution, get_baseline
-
-    cls = BASELINES[name]
-    try:
-        config = cls.config_class(**job.options)
-    except TypeError as exc:
-        raise VggcError(f"method {name}: bad option ({exc})") from None
-    result = get_baseline(name, config=config).fit(trace.without_states())
-    seconds = {"distances": 0.0, "method": round(result.seconds, 3)}
-    return MethodRun(result, baseline_solution(trace, result) | {"seconds": seconds}, seconds)
-
-
-@register_method("merge")
-def run_merge(trace: Trace, job: CellJob) -> MethodRun:
-    """Congruence-closure merging over the threshold path, ``cascade`` selection."""
-    from vggc_cp.solvers.merge import threshold_path
-
-    problem, t_dist, cached = _visual_problem(trace, job)
-    path = threshold_path(problem, **job.options)
-    seconds = {"distances": round(t_dist, 3), "method": round(path.seconds, 3),
-               "distances_cached": cached}
-    best = path.best
-    return _solved(problem, best, seconds, select=path.rule,
-                   threshold=best.stats["threshold"], grid=path.records())
-
-
-@register_method("cpsat-merge")
-def run_cpsat_merge(trace: Trace, job: CellJob) -> MethodRun:
-    """The exact counterpart of ``merge``: the merge path, then CP-SAT's fewest nodes under
-    determinism, co-determinism, Exactly-One and the merge's widest within-cluster distance as
-    cannot-link (:func:`vggc_cp.solvers.merge_exact.exact_counterpart`); its seconds include
-    the merge path."""
-    from vggc_cp.solvers.merge import threshold_path
-    from vggc_cp.solvers.merge_exact import exact_counterpart
-
-    problem, t_dist, cached = _visual_problem(trace, job)
-    options = dict(job.options)
-    path = threshold_path(problem, rule=options.pop("rule", "cascade"))
-    try:
-        exact = exact_counterpart(problem, path.best, **options)
-    except TypeError as exc:
-        raise VggcError(f"method cpsat-merge: bad option ({exc})") from None
-    seconds = {"distances": round(t_dist, 3), "method": round(path.seconds + exact.seconds, 3),
-               "distances_cached": cached}
-    best = exact.best
-    return _solved(problem, best, seconds, select="fewest", merge_nodes=exact.merge_nodes,
-                   minimal_nodes=exact.minimal_nodes, proved_minimal=exact.proved,
-                   cannot_link=exact.cannot_link, exact_skipped=exact.skipped,
-                   grid=exact.sweep.records())
-
-
-@register_method("pca-hdbscan")
-def run_pca_hdbscan(trace: Trace, job: CellJob) -> MethodRun:
-    """The PCA-HDBSCAN roadmap baseline."""
-    return _baseline(trace, job, "pca-hdbscan")
-
-
-@register_method("lsr")
-def run_lsr(trace: Trace, job: CellJob) -> MethodRun:
-    """The Latent Space Roadmap baseline."""
-    return _baseline(trace, job, "lsr")
-
-
-# ---------------------------------------------------------------- one cell
-
-
-def run_cell(job: CellJob) -> dict:
-    """Learn, write the solution, evaluate and cache one cell; returns its row.
-
-    The row holds the metrics as fractions, ``nodes``, ``true_states`` (|V*| of the trace),
-    ``paper_states``, ``status``, ``exactly_one`` (violations), and ``seconds`` (distances,
-    method, evaluation).
-    """
-    from vggc_cp.evaluate import evaluate_trace
-    from vggc_cp.graph import check
-    from vggc_cp.sim import get_spec
-    from vggc_cp.solution import write_solution
-
-    trace = load_trace(job.trace_path)
-    run = lookup(METHODS, job.method, "method")(trace, job)
-    row = {"benchmark": job.benchmark, "method": job.method, "seed": job.seed,
-           "transitions": trace.n_transitions, "observations": trace.n_obs,
-           "paper_states": get_spec(job.benchmark).paper_states,
-           "true_states": int(len(np.unique(trace.states))),
-           "seconds_distances": run.seconds.get("distances", 0.0),
-           "seconds_method": run.seconds.get("method", 0.0),
-           "distances_cached": run.seconds.get("distances_cached"),
-           "attention": job.attention if job.method in VISUAL_METHODS else None}
-    t0 = time.perf_counter()
-    if run.result is None or not run.result.found:
-        row |= {"status": run.result.status if run.result else "unknown", "nodes": 0,
-                "edges": 0, "k_pick": None, "k_place": None, "exactly_one": None,
-                **{m: None for m in (*PAPER_METRICS, "exec", "plan_found")}}
-    else:
-        res = run.result
-        write_solution(job.solution_path, run.solution)
-        src, act, dst = trace.transitions()
-        from vggc_cp.graph import TaskGraph
-
-        graph = TaskGraph.from_labels(res.labels, trace.roles(), src, act, dst,
-                                      trace.action_names)
-        metrics, dynamics = evaluate_trace(trace, graph, res.labels, n_queries=job.queries,
-                                           seed=0, dynamics="auto")
-        counts = graph.count_by_role()
-        row |= {"status": res.status, "nodes": graph.n_nodes, "edges": graph.n_edges,
-                "k_pick": counts["pick"], "k_place": counts["place"],
-                "exactly_one": len(check(graph).of_kind("exactly_one")),
-                "opt_path": metrics.opt_path, "any_path": metrics.any_path,
-                "trans_prec": metrics.trans_prec, "trans_cov": metrics.trans_cov,
-                "exec": metrics.exec, "plan_found": metrics.plan_found, "dynamics": dynamics,
-                "solution": str(job.solution_path)}
-        for k in ("threshold", "merge_nodes", "minimal_nodes", "proved_minimal", "cannot_link",
-                  "exact_skipped"):
-            if k in run.solution:
-                row[k] = run.solution[k]
-    row["seconds_evaluate"] = round(time.perf_counter() - t0, 3)
-    row["seconds"] = round(row["seconds_distances"] + row["seconds_method"], 3)
-    write_text(job.cell_path, json.dumps({"key": job.key, "row": _jsonable(row)}, indent=1)
-               + "\n")
-    return _jsonable(row)
-
-
 # ---------------------------------------------------------------- the run
 
 
@@ -636,19 +383,6 @@ def _spread(fn, items: list, cfg: BenchmarkConfig, desc: str, progress: bool) ->
         bar.close()
 
 
-def _generate(args: tuple[str, int, int, str]) -> str:
-    from vggc_cp.sim.explore import generate
-
-    bench, transitions, seed, path = args
-    save_trace(generate(bench, transitions, seed).trace, path)
-    return path
-
-
-def _distances(args: tuple[str, str, str]) -> str:
-    compute_trace_distances(Path(args[0]), Path(args[1]), args[2])
-    return args[1]
-
-
 # ---------------------------------------------------------------- image to plan (phase 4)
 
 
@@ -715,16 +449,6 @@ def run_i2p(job: I2PJob) -> tuple[tuple[str, str, int], dict]:
     return (job.benchmark, job.method, job.seed), _jsonable(figures)
 
 
-def _novel(args: tuple[str, int, int, int, str]) -> str:
-    from vggc_cp.sim.explore import generate
-    from vggc_cp.sim.novel import save_novel
-
-    bench, transitions, seed, novel, path = args
-    g = generate(bench, transitions, seed, novel=novel)
-    save_novel(path, g.novel_observations, g.novel_states)
-    return path
-
-
 def attach_i2p(cfg: BenchmarkConfig, rows: list[dict]) -> list[dict]:
     """``rows`` with the cached I2P figures of their cells added (no computation)."""
     found = {}
@@ -739,7 +463,9 @@ def _run_i2p_phase(cfg: BenchmarkConfig, rows: list[dict], progress: bool) -> li
     todo = [j for j in i2p_jobs(cfg, rows) if cfg.force or cached_i2p(j) is None]
     novel = sorted({(j.benchmark, cfg.n_transitions(j.benchmark), j.seed, cfg.novel,
                      str(j.novel_path)) for j in todo if not j.novel_path.is_file()})
-    list(_spread(_novel, novel, cfg, "novel renders", progress))
+    from vggc_cp.experiments.table1_methods import render_novel
+
+    list(_spread(render_novel, novel, cfg, "novel renders", progress))
     list(_spread(run_i2p, todo, cfg, "localizers", progress))
     return attach_i2p(cfg, rows)
 
@@ -797,11 +523,15 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
                               cfg.force)
     traces = sorted({(j.benchmark, j.seed, str(j.trace_path)) for j in todo
                      if not j.trace_path.is_file()})
-    list(_spread(_generate, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,
+    from vggc_cp.experiments.table1_methods import generate_trace, store_distances
+
+    list(_spread(generate_trace, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,
                  "traces", progress))
     dist = sorted({(str(j.trace_path), str(j.distances_path), j.attention) for j in todo
                    if j.method in VISUAL_METHODS and not j.distances_path.is_file()})
-    list(_spread(_distances, dist, cfg, "distances", progress))
+    list(_spread(store_distances, dist, cfg, "distances", progress))
+    from vggc_cp.experiments.table1_methods import run_cell
+
     for row in _spread(run_cell, todo, cfg, "cells", progress):
         rows[(row["benchmark"], row["method"], row["seed"])] = row
     ordered = [rows[(j.benchmark, j.method, j.seed)] for j in jobs]
@@ -831,99 +561,6 @@ def collect_rows(cfg: BenchmarkConfig) -> tuple[list[dict], int]:
         rows.append(row)
     return attach_i2p(cfg, rows) if cfg.i2p else rows, missing
 
-
-# ---------------------------------------------------------------- tables
-
-
-def _pct(x) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f}"
-
-
-def _attention_note(g) -> str:
-    """``", keypoints attention"`` for rows measured on distances of a backend other than the
-    default ``saliency`` (empty otherwise)."""
-    if "attention" not in g:
-        return ""
-    names = [a for a in dict.fromkeys(g["attention"]) if isinstance(a, str)]
-    return f", {names[0]} attention" if len(names) == 1 and names[0] != "saliency" else ""
-
-
-def table_markdown(rows: list[dict]) -> str:
-    """Table 1 as markdown: per benchmark, one row per method (ours: mean over seeds) and
-    the paper's row beside it (``n/a`` where :data:`PAPER_TABLE1` holds no checked value).
-
-    Columns: OptPath, AnyPath, TransPrec, TransCov (%), then Exec (%), nodes / |V*| (|V*| of
-    our trace, the paper's in the benchmark cell) and seconds (distances + method).
-    """
-    import pandas as pd
-
-    df = pd.DataFrame.from_records(rows)
-    head = ("| benchmark | method | OptPath | AnyPath | TransPrec | TransCov | Exec "
-            "| nodes / \\|V*\\| | seconds |")
-    lines = [head, "|" + "---|" * 9]
-    for bench in dict.fromkeys(df["benchmark"]):
-        sub = df[df["benchmark"] == bench]
-        d = int(sub["transitions"].iloc[0])
-        paper_v = int(sub["paper_states"].iloc[0])
-        label = f"{bench} (\\|D\\|={d}, paper \\|V*\\|={paper_v})"
-        for method in dict.fromkeys(sub["method"]):
-            g = sub[sub["method"] == method]
-            n_seeds = len(g)
-            seeds = f" ({n_seeds} seeds)" if n_seeds > 1 else ""
-            title = f"{METHOD_TITLES.get(method, method)} (ours{_attention_note(g)}){seeds}"
-            if "status" in g and (g["status"] == NOT_FINISHED).any():
-                lines.append(f"| {label} | {title} | " + " | ".join([NOT_FINISHED] * 7) + " |")
-            else:
-                vals = {m: g[m].astype(float).mean() if g[m].notna().all() else None
-                        for m in (*PAPER_METRICS, "exec")}
-                nodes = f"{g['nodes'].mean():.0f} / {g['true_states'].mean():.0f}"
-                lines.append(f"| {label} | {title} | "
-                             + " | ".join(_pct(vals[m]) for m in (*PAPER_METRICS, "exec"))
-                             + f" | {nodes} | {g['seconds'].mean():.1f} |")
-            label = ""
-            if method in PAPER_METHODS:
-                paper = PAPER_TABLE1.get((bench, method), {})
-                cells = [_pct(paper[m]) if m in paper else "n/a" for m in PAPER_METRICS]
-                lines.append(f"|  | {PAPER_METHODS[method]} (paper) | " + " | ".join(cells)
-                             + " | n/a | n/a | n/a |")
-    return "\n".join(lines) + "\n"
-
-
-def write_tables(rows: list[dict], out: Path, wall_seconds: float | None = None) -> tuple[Path, Path]:
-    """Write ``table1.csv`` (one row per cell) and ``table1.md`` into ``out``."""
-    import pandas as pd
-
-    out = Path(out)
-    csv = out / "table1.csv"
-    md = out / "table1.md"
-    write_text(csv, pd.DataFrame.from_records(rows).to_csv(index=False))
-    note = ("Metrics in %; ours evaluated with Q queries on the simulator's dynamics "
-            "(Exec); '–' where a method found no graph.")
-    if wall_seconds is not None:
-        note += f" Wall time of the run: {wall_seconds:.0f} s."
-    text = table_markdown(rows) + "\n" + note + "\n"
-    if any("i2p" in r for r in rows):
-        text += "\n" + i2p_markdown(rows)
-    write_text(md, text)
-    return csv, md
-
-
-def i2p_markdown(rows: list[dict]) -> str:
-    """The image-to-plan table: per benchmark and localized method, localization accuracy,
-    I2P and Exec-I2P (%, means over seeds) and the localizer's training seconds."""
-    import pandas as pd
-
-    df = pd.DataFrame.from_records([r for r in rows if "i2p" in r])
-    lines = ["| benchmark | method | Localization | I2P | Exec-I2P | nodes / \\|V*\\| "
-             "| training seconds |", "|" + "---|" * 7]
-    for (bench, method), g in df.groupby(["benchmark", "method"], sort=False):
-        title = METHOD_TITLES.get(method, method) + _attention_note(g)
-        lines.append(f"| {bench} | {title} | "
-                     + " | ".join(_pct(g[m].astype(float).mean())
-                                  for m in ("localization", "i2p", "exec_i2p"))
-                     + f" | {g['nodes'].mean():.0f} / {g['true_states'].mean():.0f} "
-                     f"| {g['seconds_localizer'].mean():.1f} |")
-    return "\n".join(lines) + "\n"
 
 
 def _jsonable(obj):

@@ -1,4 +1,4 @@
-"""The research studies (vggc_cp.studies) on tiny traces, with a cheap pixel distance."""
+"""The research studies (vggc_cp.experiments.studies) on tiny traces, with a cheap pixel distance."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from vggc_cp import plots, studies
+from vggc_cp import plots
+from vggc_cp.experiments import studies
 from vggc_cp.solvers import Problem
 from vggc_cp.trace import PICK, PLACE
 
