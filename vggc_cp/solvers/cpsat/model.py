@@ -129,7 +129,7 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
     kk = (min(k_pick, n_role[0]), min(k_place, n_role[1]))
     if kk != (k_pick, k_place):
         notes.append(f"colours capped at the observation counts: {kk[0]} pick, {kk[1]} place")
-    scale, dhat = quantize(problem, options.resolution)
+    scale, dhat = quantize(problem)
 
     def infeasible(reason: str) -> CellModel:
         return CellModel(problem, k_pick, k_place, options, None, reason, "none", scale,

@@ -2,7 +2,7 @@ r"""The objective of the CP-SAT model of a cell: the quantized visual score.
 
 Distances are symmetrized, :math:`\bar d_{ij} = (d_{ij} + d_{ji}) / 2`, and scaled to integers
 :math:`\hat d_{ij} = \mathrm{round}(s\,\bar d_{ij})` with :math:`s = R / \max \bar d` (one
-:math:`s` for both roles; ``resolution`` :math:`R`, default 1000: the largest distance
+:math:`s` for both roles; :math:`R` = :data:`RESOLUTION` = 1000: the largest distance
 becomes :math:`R`). For each colour :math:`c`: :math:`w_{ijc} \ge x_{ic} \wedge x_{jc}` (only
 pairs with :math:`\hat d_{ij} > 0`), :math:`S_c = \sum_{i<j} \hat d_{ij} w_{ijc}`, size
 :math:`n_c = \sum_i x_{ic}`, :math:`q_c = n_c (n_c - 1)` and an integer mean :math:`m_c` with
@@ -20,7 +20,7 @@ labels and reported beside :math:`\hat J`. *Optimal* means optimal for :math:`\h
 within ``quantization_margin`` :math:`= 2 (K_P + K_Q) / s` of the true optimum of J.
 ``bound`` is the proved lower bound on :math:`\hat J / s`.
 
-*Size-aware lower bound* (``size_cuts``, exact reformulation plus an implied cut). Cluster
+*Size-aware lower bound* (exact reformulation plus an implied cut). Cluster
 sizes are one-hot, :math:`\beta_{c,t} \Leftrightarrow n_c = t`, with
 :math:`\sum_t t\,\beta_{c,t} = n_c` and :math:`q_c = \sum_t t(t-1)\,\beta_{c,t}` (linear, no
 product); :math:`z_{i,c,t} = x_{ic} \wedge \beta_{c,t}` is linked by
@@ -53,10 +53,12 @@ from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.parameters import CpSatOptions
 from vggc_cp.trace import PICK, PLACE
 
+#: The largest symmetrized distance becomes this integer.
+RESOLUTION = 1000
 SIZE_CUT_SCALE = 64
 
 
-def quantize(problem: Problem, resolution: int) -> tuple[float, tuple[np.ndarray, np.ndarray]]:
+def quantize(problem: Problem, resolution: int = RESOLUTION) -> tuple[float, tuple[np.ndarray, np.ndarray]]:
     """``(s, (dhat_pick, dhat_place))``: the scale and the symmetrized integer distances.
 
     ``dhat = round(s (d + d.T) / 2)`` with ``s = resolution / max d`` (one scale for both
@@ -126,39 +128,51 @@ def add_objective(model: cp_model.CpModel, roles: list, dhat: tuple, options: Cp
                 nm = len(members)
                 size = sum(members)
                 q = model.new_int_var(0, nm * (nm - 1), f"q{r}_{c}")
-                if options.size_cuts:
-                    cand = [i for i in range(n) if x[i][c] is not None]
-                    beta = [model.new_bool_var(f"b{r}_{c}_{t}") for t in range(nm + 1)]
-                    model.add_exactly_one(beta)
-                    model.add(sum(t * b for t, b in enumerate(beta)) == size)
-                    model.add(sum(t * (t - 1) * b for t, b in enumerate(beta)) == q)
-                    z: dict = {}
-                    cut = []
-                    for i in cand:
-                        near = np.cumsum(np.sort(np.delete(dq[i], i)))  # H_i(t) = near[t-2]
-                        for t in range(1, nm + 1):
-                            v = model.new_bool_var(f"z{r}_{c}_{i}_{t}")
-                            model.add_implication(v, x[i][c])
-                            model.add_implication(v, beta[t])
-                            z[(i, t)] = v
-                            if t >= 2:
-                                coef = int(SIZE_CUT_SCALE * int(near[t - 2]) // (t * (t - 1)))
-                                if coef > 0:
-                                    cut.append(coef * v)
-                        model.add(sum(z[(i, t)] for t in range(1, nm + 1)) == x[i][c])
-                    for t in range(1, nm + 1):
-                        model.add(sum(z[(i, t)] for i in cand) == t * beta[t])
-                    sizes[(r, c)] = (beta, z)
-                else:
-                    model.add_multiplication_equality(q, [size, size - 1])
+                beta, z, cut = _size_indicators(model, [x[i][c] for i in range(n)], dq, size, q,
+                                                f"{r}_{c}")
+                sizes[(r, c)] = (beta, z)
                 m = model.new_int_var(0, dmax_i, f"m{r}_{c}")
                 prod = model.new_int_var(0, dmax_i * nm * (nm - 1), f"mq{r}_{c}")
                 model.add_multiplication_equality(prod, [m, q])
                 if s_terms:
                     model.add(prod >= 2 * sum(s_terms))
-                if options.size_cuts and cut:
+                if cut:
                     model.add(SIZE_CUT_SCALE * m >= sum(cut))
                 means[(r, c)] = (q, prod, m, nm)
                 terms.append(m)
         model.minimize(sum(terms))
     return objective_mode, pairs, means, sizes
+
+
+def _size_indicators(model: cp_model.CpModel, xc: list, dq: np.ndarray, size, q, tag: str
+                     ) -> tuple[list, dict, list]:
+    """One-hot size of one cluster and the nearest-neighbour cut on its mean (module docstring).
+
+    ``xc[i]`` is observation ``i``'s literal for the colour (None: excluded by symmetry
+    breaking); ``size`` and ``q`` are the cluster's size expression and :math:`q_c` variable.
+    Returns ``(beta, z, cut)``: ``beta[t]`` (size is t), ``z[(i, t)]`` (member of a cluster of
+    size t) and the terms of ``SIZE_CUT_SCALE * m_c >= sum(cut)``.
+    """
+    cand = [i for i, v in enumerate(xc) if v is not None]
+    nm = len(cand)
+    beta = [model.new_bool_var(f"b{tag}_{t}") for t in range(nm + 1)]
+    model.add_exactly_one(beta)
+    model.add(sum(t * b for t, b in enumerate(beta)) == size)
+    model.add(sum(t * (t - 1) * b for t, b in enumerate(beta)) == q)
+    z: dict = {}
+    cut = []
+    for i in cand:
+        near = np.cumsum(np.sort(np.delete(dq[i], i)))  # H_i(t) = near[t-2]
+        for t in range(1, nm + 1):
+            v = model.new_bool_var(f"z{tag}_{i}_{t}")
+            model.add_implication(v, xc[i])
+            model.add_implication(v, beta[t])
+            z[(i, t)] = v
+            if t >= 2:
+                coef = int(SIZE_CUT_SCALE * int(near[t - 2]) // (t * (t - 1)))
+                if coef > 0:
+                    cut.append(coef * v)
+        model.add(sum(z[(i, t)] for t in range(1, nm + 1)) == xc[i])
+    for t in range(1, nm + 1):
+        model.add(sum(z[(i, t)] for i in cand) == t * beta[t])
+    return beta, z, cut

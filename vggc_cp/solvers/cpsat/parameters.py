@@ -55,17 +55,12 @@ class CpSatOptions:
     max_actions : int or None
     params : str
         CP-SAT parameters (``--cpsat-params`` syntax), merged over :data:`DEFAULT_PARAMS`.
-    resolution : int
-        The largest distance is scaled to this integer (:mod:`vggc_cp.solvers.cpsat.objective`).
     max_pair_terms : int
         Above this many pair variables the objective is dropped (feasibility only).
     hint : {'greedy', 'none'}
         Warm start from the greedy solver of the same cell.
     symmetry : bool
         Value-precedence symmetry breaking (and the conflict clique).
-    size_cuts : bool
-        Cluster-size indicators and the nearest-neighbour lower bound on each cluster's mean
-        (:mod:`vggc_cp.solvers.cpsat.objective`); off: ``q_c = n_c (n_c - 1)`` by a product constraint.
     codeterministic : bool
         One action into a node comes from one node: :math:`\sum_{c} y_{c,c',a} \le 1`.
     cannot_link : float or None
@@ -81,11 +76,9 @@ class CpSatOptions:
     deterministic: bool = False
     max_actions: int | None = None
     params: str = ""
-    resolution: int = 1000
     max_pair_terms: int = 300_000
     hint: str = "greedy"
     symmetry: bool = True
-    size_cuts: bool = True
     enumerate_limit: int = 20_000
     codeterministic: bool = False
     cannot_link: float | None = None
@@ -95,8 +88,6 @@ class CpSatOptions:
             raise VggcError(f"unknown objective {self.objective!r}; known: {', '.join(OBJECTIVES)}")
         if self.hint not in HINTS:
             raise VggcError(f"unknown hint {self.hint!r}; known: {', '.join(HINTS)}")
-        if self.resolution < 1:
-            raise VggcError(f"resolution must be a positive integer, got {self.resolution}")
         if self.enumerate_limit < 0:
             raise VggcError(f"enumerate_limit must be >= 0, got {self.enumerate_limit}")
         self.constraints  # noqa: B018  (validates max_actions and cannot_link)

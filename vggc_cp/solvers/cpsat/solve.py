@@ -66,8 +66,8 @@ class CpSatSolver(Solver):
 
     Parameters
     ----------
-    objective, deterministic, max_actions, params, resolution, max_pair_terms, hint, symmetry,
-    size_cuts, enumerate_limit, codeterministic, cannot_link :
+    objective, deterministic, max_actions, params, max_pair_terms, hint, symmetry,
+    enumerate_limit, codeterministic, cannot_link :
         See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
@@ -84,14 +84,14 @@ class CpSatSolver(Solver):
     name = "cpsat"
 
     def __init__(self, objective: str = "J", deterministic: bool = False,
-                 max_actions: int | None = None, params: str = "", resolution: int = 1000,
+                 max_actions: int | None = None, params: str = "",
                  max_pair_terms: int = 300_000, hint: str = "greedy", symmetry: bool = True,
-                 size_cuts: bool = True, enumerate_limit: int = 20_000,
+                 enumerate_limit: int = 20_000,
                  greedy_options: dict | None = None, codeterministic: bool = False,
                  cannot_link: float | None = None,
                  hints: Sequence[tuple[str, np.ndarray]] = ()):
-        self.options = CpSatOptions(objective, deterministic, max_actions, params, resolution,
-                                    max_pair_terms, hint, symmetry, size_cuts, enumerate_limit,
+        self.options = CpSatOptions(objective, deterministic, max_actions, params,
+                                    max_pair_terms, hint, symmetry, enumerate_limit,
                                     codeterministic, cannot_link)
         self.params_text = self.options.sat_parameters_text()
         self.greedy_options = dict(greedy_options or {})
