@@ -10,7 +10,6 @@ hint is returned instead and ``stats['fell_back_to_hint']`` says so.
 
 from __future__ import annotations
 
-import importlib
 import math
 import time
 from collections.abc import Sequence
@@ -25,7 +24,6 @@ from vggc_cp.solvers.base import (
     FEASIBLE,
     INFEASIBLE,
     OPTIMAL,
-    SOLVERS,
     UNKNOWN,
     Problem,
     Solver,
@@ -37,6 +35,7 @@ from vggc_cp.solvers.cpsat.cell import CellModel
 from vggc_cp.solvers.cpsat.enumeration import Enumeration, enumerate_colourings
 from vggc_cp.solvers.cpsat.model import build_cell_model
 from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.greedy import GreedySolver
 
 #: A colouring offered as a repair hint is used only this many colour merges from the cell:
 #: each merge tries every pair of colours (quadratic), and a far-away colouring is a poor start.
@@ -44,16 +43,9 @@ REPAIR_MAX_MERGES = 6
 
 
 def greedy_result(problem: Problem, k_pick: int, k_place: int,
-                  options: dict | None = None) -> SolveResult | None:
-    """The registered greedy solver's result on the cell, or None when it is not installed."""
-    if "greedy" not in SOLVERS:
-        try:
-            importlib.import_module("vggc_cp.solvers.greedy")
-        except ImportError:
-            return None
-    if "greedy" not in SOLVERS:
-        return None
-    return SOLVERS["greedy"](**(options or {})).solve(problem, k_pick, k_place)
+                  options: dict | None = None) -> SolveResult:
+    """The greedy solver's result on the cell (the warm start), with ``options`` as keywords."""
+    return GreedySolver(**(options or {})).solve(problem, k_pick, k_place)
 
 
 _CP_STATUS = {cp_model.OPTIMAL: OPTIMAL, cp_model.FEASIBLE: FEASIBLE,
@@ -101,7 +93,7 @@ class CpSatSolver(Solver):
         hints: list[tuple[str, np.ndarray]] = []
         if self.options.hint == "greedy":
             g = greedy_result(problem, k_pick, k_place, self.greedy_options)
-            if g is not None and g.found:
+            if g.found:
                 hints.append(("greedy", g.labels))
         return self._solve_hinted(problem, k_pick, k_place, hints)
 
