@@ -29,14 +29,20 @@ determinisation).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import chain
 
 import numpy as np
 
-from vggc_cp.errors import lookup
 from vggc_cp.solvers.base import FEASIBLE, Problem, Solver, SolveResult, register_solver
+from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
+    PATH,
+    RULES,
+    get_selection,
+    select_cascade,
+    select_path_fewest,
+)
 
 
 @dataclass(frozen=True)
@@ -369,9 +375,16 @@ def _solve_prefix(problem: Problem, threshold: float, d: np.ndarray, ci: list[in
 
 @register_solver
 class MergeSolver(Solver):
-    """Congruence-closure merging at one threshold (``k_pick``/``k_place`` are not used)."""
+    """Congruence-closure merging at one threshold.
+
+    Its axis is the threshold, not the cell (:attr:`Solver.axis` ``"path"``): ``solve`` does
+    not read ``k_pick``/``k_place``, and the result's ``k_pick``/``k_place`` are the pick and
+    place nodes the merge used. :func:`threshold_path` runs it along the axis and a ``"path"``
+    rule of :mod:`vggc_cp.solvers.selection` picks one threshold.
+    """
 
     name = "merge"
+    axis = PATH
 
     def __init__(self, threshold: float = 0.08):
         self.threshold = float(threshold)
@@ -409,60 +422,9 @@ def default_thresholds(problem: Problem, factor: float = 1.25, steps: int = 17) 
     return s * factor ** np.arange(steps)
 
 
-#: A rule that picks one result of a threshold path: ``rule(results, problem) -> index``.
-PathRule = Callable[[Sequence[SolveResult], "Problem | None"], "int | None"]
-PATH_SELECTIONS: dict[str, PathRule] = {}
-
-
-def register_path_selection(name: str) -> Callable[[PathRule], PathRule]:
-    """Decorator: add a rule that picks one result of a threshold path (ascending thresholds)."""
-    def deco(fn: PathRule) -> PathRule:
-        PATH_SELECTIONS[name] = fn
-        return fn
-    return deco
-
-
-@register_path_selection("cascade")
-def select_cascade(results: Sequence[SolveResult], problem: Problem | None = None,
-                   stable: float = 0.05) -> int | None:
-    """The threshold just after the cascade: where the node count stops collapsing.
-
-    As the threshold grows, noise-level merges first shrink the node count steadily, then
-    congruence closure collapses the near-duplicates of each state into one node (the largest
-    relative drop of the path), and past the true structure merges slow down until wrong
-    merges set in. The rule takes the largest relative drop ``n_k -> n_{k+1}`` and, after it,
-    the plateaus: runs of thresholds ``j, j+1, ..., j+r`` whose counts stay within ``stable``
-    of ``n_j``. It returns the start ``j`` of the longest plateau (the first of equally long
-    ones), or the last index when no step after the drop loses less than ``stable``. The
-    longest, not the first: a collapse can pause for one threshold on its way down (39, 22, 21,
-    12, 12, 12, ... on one multifruit-2x3 trace, whose true graph is the 12-node plateau).
-    """
-    nodes = [r.n_nodes for r in results]
-    if not nodes:
-        return None
-    if len(nodes) == 1:
-        return 0
-    drops = [(nodes[k] - nodes[k + 1]) / max(nodes[k], 1) for k in range(len(nodes) - 1)]
-    k = int(np.argmax(drops))
-    best, best_len = len(nodes) - 1, 0
-    j = k + 1
-    while j < len(nodes) - 1:
-        end = j
-        while end < len(nodes) - 1 and nodes[end + 1] >= (1 - stable) * nodes[j]:
-            end += 1
-        if end - j > best_len:
-            best, best_len = j, end - j
-        j = max(end, j + 1)
-    return best
-
-
-@register_path_selection("fewest")
-def select_path_fewest(results: Sequence[SolveResult],
-                       problem: Problem | None = None) -> int | None:
-    """Fewest nodes, then lowest J (the paper's rule applied to the path)."""
-    if not results:
-        return None
-    return min(range(len(results)), key=lambda i: (results[i].n_nodes, results[i].J))
+#: The threshold path's selection rules (the ``"path"`` axis of
+#: :data:`vggc_cp.solvers.selection.RULES`).
+PATH_SELECTIONS = RULES[PATH]
 
 
 @dataclass(frozen=True, eq=False)
@@ -490,7 +452,7 @@ class ThresholdPath:
 def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
                    rule: str = "cascade", progress: bool = False) -> ThresholdPath:
     """Run :class:`MergeSolver` at every threshold (ascending) and select one by ``rule``."""
-    fn = lookup(PATH_SELECTIONS, rule, "path selection rule")
+    fn = get_selection(rule, PATH)
     ts = np.sort(np.asarray(default_thresholds(problem) if thresholds is None else thresholds,
                             dtype=np.float64))
     t0 = time.perf_counter()

@@ -15,6 +15,7 @@ from vggc_cp.errors import VggcError
 from vggc_cp.solvers.base import FEASIBLE, INFEASIBLE, UNKNOWN, Problem, SolveResult
 from vggc_cp.solvers.brute import split_colours, violations
 from vggc_cp.solvers.cpsat.solve import CpSatSolver
+from vggc_cp.solvers.selection import get_selection
 
 OPTIMIZE = ("minimal", "all")
 
@@ -50,13 +51,13 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
         Greedy results of (some of) the cells; used as witnesses and hints.
     optimize : {'minimal', 'all'}
     select : str
-        Selection rule (:data:`vggc_cp.solvers.sweep.SELECTIONS`).
+        A ``"grid"`` rule of :mod:`vggc_cp.solvers.selection`.
 
     Returns
     -------
     vggc_cp.solvers.sweep.Sweep
     """
-    from vggc_cp.solvers.sweep import Sweep, get_selection
+    from vggc_cp.solvers.sweep import Sweep
 
     if optimize not in OPTIMIZE:
         raise VggcError(f"unknown optimize mode {optimize!r}; known: {', '.join(OPTIMIZE)}")
