@@ -17,6 +17,7 @@ import numpy as np
 from vggc_cp.errors import lookup
 from vggc_cp.graph import TaskGraph
 from vggc_cp.score import visual_score
+from vggc_cp.solvers.selection import GRID
 from vggc_cp.trace import PICK, PLACE, Trace
 
 OPTIMAL = "optimal"
@@ -176,9 +177,30 @@ class SolveResult:
 
 
 class Solver(abc.ABC):
-    """Base class of a colouring solver for one ``(k_pick, k_place)`` cell."""
+    """The one solver protocol: ``solve(problem, k_pick, k_place) -> SolveResult``.
+
+    Every registered solver (:data:`SOLVERS`: brute, cpsat, greedy, merge) takes one
+    :class:`Problem`, never mutates it, and returns one :class:`SolveResult` whose ``labels``
+    induce a bipartite, Exactly-One task graph (or None), ``J`` their visual score and
+    ``status`` one of :data:`STATUSES`. A solver runs along one *axis*, and a selection rule of
+    that axis (:mod:`vggc_cp.solvers.selection`) picks one of its results:
+
+    * ``axis = "grid"`` (brute, cpsat, greedy): ``solve`` colours the cell ``(k_pick,
+      k_place)`` (upper bounds on colours per role); a sweep runs it over a grid of cells;
+    * ``axis = "path"`` (merge): the solver's own parameter (a threshold) is the axis;
+      ``solve`` does not read ``k_pick``/``k_place`` and reports the colours it used in the
+      result's ``k_pick``/``k_place``; a threshold path runs it along the axis.
+
+    Attributes
+    ----------
+    name : str
+        Registry name.
+    axis : {'grid', 'path'}
+        What the solver's results run along (the selection rules that apply).
+    """
 
     name: str = "base"
+    axis: str = GRID
 
     def solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
         """Solve one cell; times the call and fills ``seconds``."""

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from vggc_cp.solvers.base import Problem, SolveResult
-from vggc_cp.solvers.merge import register_path_selection
+from vggc_cp.solvers.selection import PATH, register_selection
 
 
 def description_length(problem: Problem, labels: np.ndarray) -> float:
@@ -54,7 +54,7 @@ def description_length(problem: Problem, labels: np.ndarray) -> float:
     return -loglik + 0.5 * np.log(n_trans) * len(keys)
 
 
-@register_path_selection("mdl")
+@register_selection("mdl", PATH)
 def select_mdl(results: Sequence[SolveResult], problem: Problem | None = None) -> int | None:
     """The result of least description length (:func:`description_length`); the first of
     equal ones (the lowest threshold that gives that graph)."""

@@ -3,8 +3,7 @@
 Within each role, candidate pairs of observations are visited in order of increasing visual
 distance. Merging the clusters of a pair *forces* further merges: the clusters that one action
 reaches from the merged cluster must become one (determinism: one node and one action lead to
-one node) and, with ``bidirectional``, the clusters from which one action reaches it must
-become one (co-determinism, which holds for pick/place rearrangement: the state before placing
+one node) and the clusters from which one action reaches it must become one (co-determinism, which holds for pick/place rearrangement: the state before placing
 into region r is the state after, with that object removed). Forced merges are closed
 transitively (congruence closure, as in DFA state merging). The whole merge is refused when
 any forced merge joins two clusters whose average-linkage distance exceeds ``threshold``,
@@ -29,16 +28,21 @@ determinisation).
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import chain
 
 import numpy as np
 
-from vggc_cp.errors import lookup
 from vggc_cp.solvers.base import FEASIBLE, Problem, Solver, SolveResult, register_solver
+from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
+    PATH,
+    RULES,
+    get_selection,
+    select_cascade,
+    select_path_fewest,
+)
 
 
 @dataclass(frozen=True)
@@ -56,46 +60,6 @@ class MergeStats:
     vetoed_exactly_one: int
     vetoed_work: int
     vetoes_replayed: int = 0
-    vetoed_support: int = 0
-
-
-LINKAGES = ("average", "energy", "ward", "pooled", "pooled_ward")
-
-
-@dataclass(frozen=True)
-class MergeOptions:
-    """Variants of the veto (the defaults give the plain average-linkage closure).
-
-    ``linkage``: the statistic of a forced merge compared with the threshold (see
-    :func:`_linkage_stat`); ``pooled*`` compare the closure's pooled statistic with the
-    threshold and each forced merge with ``cap`` times the threshold. ``support``: a closure of
-    fewer forced merges is accepted only when every statistic in it is within ``lone`` (None:
-    the noise scale, or the smallest threshold of a path); with ``ramp`` the bound rises
-    linearly from ``lone`` (one merge) to the threshold (``support`` merges) and applies to the
-    pooled statistic of the pooled linkages. ``anneal`` (threshold paths only): each threshold
-    continues from the clustering of the one below, so merges that a lower threshold already
-    accepts are made first.
-    """
-
-    linkage: str = "average"
-    cap: float = 2.0
-    support: int = 1
-    lone: float | None = None
-    ramp: bool = False
-    anneal: bool = False
-
-    def __post_init__(self):
-        lookup({k: k for k in LINKAGES}, self.linkage, "linkage")
-        if self.support < 1 or self.cap <= 0:
-            raise ValueError("support must be >= 1 and cap > 0")
-
-    def changed(self) -> dict:
-        """The options that differ from the defaults (for the result's stats)."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if getattr(self, f.name) != f.default}
-
-
-_PLAIN = MergeOptions()
 
 
 class _Clusters:
@@ -185,9 +149,8 @@ class _Clusters:
                 sig[head] = self._compress(pairs)
 
 
-def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: bool,
-               max_work: int, read: set[int] | None = None,
-               opts: MergeOptions | None = None) -> tuple[dict[int, list[int]] | None, str]:
+def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
+               read: set[int] | None = None) -> tuple[dict[int, list[int]] | None, str]:
     """Close the merge of the clusters of ``i`` and ``j`` under congruence; return the groups
     to commit (head root -> absorbed roots) or None with the reason of the veto.
 
@@ -200,9 +163,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
     ``read``, when given, collects every committed root the closure looked at: the outcome
     depends on nothing else, so it repeats exactly while none of them changes.
     """
-    opts = opts or _PLAIN
-    linkage, cap, support = opts.linkage, opts.cap, opts.support
-    lone = np.inf if opts.lone is None else opts.lone
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
     parent = cl.parent
@@ -219,13 +179,9 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
 
     queue = [(i, j)]
     push = queue.append
-    pooled_sum, pooled_n = 0.0, 0
-    max_stat = 0.0
     touched: set[int] = set()
     work = 0
     directions = ((cl.sig[0], cl.first[0], {}, {}), (cl.sig[1], cl.first[1], {}, {}))
-    if not bidirectional:
-        directions = directions[:1]
     while queue:
         a, b = queue.pop()
         ha, hb = head(a), head(b)
@@ -240,22 +196,8 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
         rb = groups.get(hb) or [hb]
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
-        if linkage == "average":
-            stat = cl.link_sum(ra, rb) / (na * nb)
-            if stat > threshold:
-                return None, "distance"
-        else:
-            stat = _linkage_stat(cl, ra, rb, na, nb, linkage)
-            if linkage.startswith("pooled"):
-                if stat > cap * threshold:
-                    return None, "distance"
-                w = na * nb if linkage == "pooled" else 1
-                pooled_sum += stat * w
-                pooled_n += w
-            elif stat > threshold:
-                return None, "distance"
-        if stat > max_stat:
-            max_stat = stat
+        if cl.link_sum(ra, rb) / (na * nb) > threshold:  # average linkage
+            return None, "distance"
         groups[ha] = ra + rb
         groups.pop(hb, None)
         for r in rb:
@@ -306,16 +248,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
                     return None, "exactly_one"
             if still:
                 mism[ha] = still
-    if pooled_n and pooled_sum / pooled_n > threshold:
-        return None, "distance"
-    # support: a closure of fewer than ``support`` merges carries no evidence beyond its own
-    # distances; it is accepted only when all of them are within ``lone``
-    if work < support:
-        allowed = lone
-        if opts.ramp and support > 1:
-            allowed = lone + max(threshold - lone, 0.0) * (work - 1) / (support - 1)
-        if (pooled_sum / pooled_n if opts.ramp and pooled_n else max_stat) > allowed:
-            return None, "support"
     # Exactly-One around every touched cluster, in both directions
     for h in touched:
         if head(h) != h:
@@ -331,27 +263,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, bidirectional: b
         if head(h) == h:
             result[h] = [r for r in rs if r != h]
     return result, ""
-
-
-def _linkage_stat(cl: _Clusters, ra: list[int], rb: list[int], na: int, nb: int,
-                  linkage: str) -> float:
-    """Cluster-level statistic of a forced merge of the groups ``ra`` and ``rb`` (roots).
-
-    * ``energy``: ``E = cross mean - (within mean A + within mean B) / 2`` (means over all
-      ordered pairs, zero diagonal included); ``E = d`` for singletons and, for a squared
-      distance, the squared distance of the group means;
-    * ``ward`` (and ``pooled_ward``): ``2 E / (1/na + 1/nb)``, the Ward increase scaled so that
-      it is ``d`` for singletons and about the within-state distance for two groups of one
-      state whatever their sizes, while between states it grows with the sizes;
-    * ``pooled``: the average linkage (pooled over the closure by the caller).
-    """
-    cross = cl.link_sum(ra, rb) / (na * nb)
-    if linkage == "pooled":
-        return cross
-    e = cross - 0.5 * (cl.link_sum(ra, ra) / (na * na) + cl.link_sum(rb, rb) / (nb * nb))
-    if linkage == "energy":
-        return e
-    return 2.0 * e / (1.0 / na + 1.0 / nb)
 
 
 def _candidates(problem: Problem, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -374,15 +285,12 @@ def _candidates(problem: Problem, threshold: float) -> tuple[np.ndarray, np.ndar
 
 
 def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int],
-                  threshold: float, bidirectional: bool, max_work: int,
-                  opts: MergeOptions | None = None, cl: _Clusters | None = None
-                  ) -> tuple[np.ndarray, MergeStats]:
-    """:func:`congruence_merge` on candidate pairs already filtered and sorted; ``cl``, when
-    given, is the clustering to continue from (it is updated in place)."""
-    cl = _Clusters(problem) if cl is None else cl
+                  threshold: float, max_work: int) -> tuple[np.ndarray, MergeStats]:
+    """:func:`congruence_merge` on candidate pairs already filtered and sorted."""
+    cl = _Clusters(problem)
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "support": 0}
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0}
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -409,7 +317,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
             replayed += 1
             continue
         read: set[int] = set()
-        groups, why = _try_merge(cl, i, j, threshold, bidirectional, max_work, read, opts)
+        groups, why = _try_merge(cl, i, j, threshold, max_work, read)
         if groups is None:
             vetoed[key] = epoch
             vetoes[why] += 1
@@ -430,11 +338,10 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
-                              vetoes["work"], replayed, vetoes["support"])
+                              vetoes["work"], replayed)
 
 
-def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = True,
-                     max_work: int = 2_000, opts: MergeOptions | None = None
+def congruence_merge(problem: Problem, threshold: float, max_work: int = 2_000
                      ) -> tuple[np.ndarray, MergeStats]:
     """Labels of the merged clustering and counters.
 
@@ -443,63 +350,54 @@ def congruence_merge(problem: Problem, threshold: float, bidirectional: bool = T
     problem : Problem
     threshold : float
         Largest average-linkage visual distance allowed inside any forced merge.
-    bidirectional : bool
-        Also close under co-determinism (one action into a cluster comes from one cluster).
     max_work : int
         Cap on forced merges examined per attempt (a larger closure is vetoed).
-    opts : MergeOptions, optional
-        Variants of the veto; ``lone=None`` with ``support > 1`` means the noise scale.
 
     Returns
     -------
     labels : ndarray of int64, shape (N,)
     stats : MergeStats
     """
-    if opts is not None and opts.support > 1 and opts.lone is None:
-        opts = dataclasses.replace(opts, lone=noise_scale(problem))
     _, ci, cj = _candidates(problem, threshold)
-    return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, bidirectional, max_work,
-                         opts)
+    return _merge_sorted(problem, ci.tolist(), cj.tolist(), threshold, max_work)
 
 
-def _solve_prefix(problem: Problem, threshold: float, bidirectional: bool, d: np.ndarray,
-                  ci: list[int], cj: list[int], opts: MergeOptions | None = None,
-                  cl: _Clusters | None = None) -> SolveResult:
+def _solve_prefix(problem: Problem, threshold: float, d: np.ndarray, ci: list[int],
+                  cj: list[int]) -> SolveResult:
     """:meth:`MergeSolver.solve` at ``threshold`` from candidates sorted for a larger one."""
     t0 = time.perf_counter()
     n = int(np.searchsorted(d, threshold, side="right"))
-    labels, stats = _merge_sorted(problem, ci[:n], cj[:n], threshold, bidirectional, 2_000, opts,
-                                  cl)
-    res = MergeSolver(threshold, bidirectional, opts=opts)._result(problem, labels, stats)
+    labels, stats = _merge_sorted(problem, ci[:n], cj[:n], threshold, 2_000)
+    res = MergeSolver(threshold)._result(problem, labels, stats)
     return SolveResult(res.labels, res.k_pick, res.k_place, res.J, res.status, res.solver,
                        time.perf_counter() - t0, res.bound, res.stats)
 
 
 @register_solver
 class MergeSolver(Solver):
-    """Congruence-closure merging at one threshold (``k_pick``/``k_place`` are not used)."""
+    """Congruence-closure merging at one threshold.
+
+    Its axis is the threshold, not the cell (:attr:`Solver.axis` ``"path"``): ``solve`` does
+    not read ``k_pick``/``k_place``, and the result's ``k_pick``/``k_place`` are the pick and
+    place nodes the merge used. :func:`threshold_path` runs it along the axis and a ``"path"``
+    rule of :mod:`vggc_cp.solvers.selection` picks one threshold.
+    """
 
     name = "merge"
+    axis = PATH
 
-    def __init__(self, threshold: float = 0.08, bidirectional: bool = True,
-                 opts: MergeOptions | None = None, **options):
+    def __init__(self, threshold: float = 0.08):
         self.threshold = float(threshold)
-        self.bidirectional = bool(bidirectional)
-        self.opts = opts if opts is not None else MergeOptions(**options)
 
     def _solve(self, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
-        labels, stats = congruence_merge(problem, self.threshold, self.bidirectional,
-                                         opts=self.opts)
+        labels, stats = congruence_merge(problem, self.threshold)
         return self._result(problem, labels, stats)
 
     def _result(self, problem: Problem, labels: np.ndarray, stats: MergeStats) -> SolveResult:
         n_pick = len(np.unique(labels[problem.pick_obs]))
         n_place = len(np.unique(labels[problem.place_obs]))
         return SolveResult(labels, n_pick, n_place, problem.visual_score(labels), FEASIBLE,
-                           self.name, stats={"threshold": self.threshold,
-                                             "bidirectional": self.bidirectional,
-                                             **self.opts.changed(),
-                                             **stats.__dict__})
+                           self.name, stats={"threshold": self.threshold, **stats.__dict__})
 
 
 # ------------------------------------------------------------------ threshold path
@@ -524,60 +422,9 @@ def default_thresholds(problem: Problem, factor: float = 1.25, steps: int = 17) 
     return s * factor ** np.arange(steps)
 
 
-#: A rule that picks one result of a threshold path: ``rule(results, problem) -> index``.
-PathRule = Callable[[Sequence[SolveResult], "Problem | None"], "int | None"]
-PATH_SELECTIONS: dict[str, PathRule] = {}
-
-
-def register_path_selection(name: str) -> Callable[[PathRule], PathRule]:
-    """Decorator: add a rule that picks one result of a threshold path (ascending thresholds)."""
-    def deco(fn: PathRule) -> PathRule:
-        PATH_SELECTIONS[name] = fn
-        return fn
-    return deco
-
-
-@register_path_selection("cascade")
-def select_cascade(results: Sequence[SolveResult], problem: Problem | None = None,
-                   stable: float = 0.05) -> int | None:
-    """The threshold just after the cascade: where the node count stops collapsing.
-
-    As the threshold grows, noise-level merges first shrink the node count steadily, then
-    congruence closure collapses the near-duplicates of each state into one node (the largest
-    relative drop of the path), and past the true structure merges slow down until wrong
-    merges set in. The rule takes the largest relative drop ``n_k -> n_{k+1}`` and, after it,
-    the plateaus: runs of thresholds ``j, j+1, ..., j+r`` whose counts stay within ``stable``
-    of ``n_j``. It returns the start ``j`` of the longest plateau (the first of equally long
-    ones), or the last index when no step after the drop loses less than ``stable``. The
-    longest, not the first: a collapse can pause for one threshold on its way down (39, 22, 21,
-    12, 12, 12, ... on one multifruit-2x3 trace, whose true graph is the 12-node plateau).
-    """
-    nodes = [r.n_nodes for r in results]
-    if not nodes:
-        return None
-    if len(nodes) == 1:
-        return 0
-    drops = [(nodes[k] - nodes[k + 1]) / max(nodes[k], 1) for k in range(len(nodes) - 1)]
-    k = int(np.argmax(drops))
-    best, best_len = len(nodes) - 1, 0
-    j = k + 1
-    while j < len(nodes) - 1:
-        end = j
-        while end < len(nodes) - 1 and nodes[end + 1] >= (1 - stable) * nodes[j]:
-            end += 1
-        if end - j > best_len:
-            best, best_len = j, end - j
-        j = max(end, j + 1)
-    return best
-
-
-@register_path_selection("fewest")
-def select_path_fewest(results: Sequence[SolveResult],
-                       problem: Problem | None = None) -> int | None:
-    """Fewest nodes, then lowest J (the paper's rule applied to the path)."""
-    if not results:
-        return None
-    return min(range(len(results)), key=lambda i: (results[i].n_nodes, results[i].J))
+#: The threshold path's selection rules (the ``"path"`` axis of
+#: :data:`vggc_cp.solvers.selection.RULES`).
+PATH_SELECTIONS = RULES[PATH]
 
 
 @dataclass(frozen=True, eq=False)
@@ -603,12 +450,9 @@ class ThresholdPath:
 
 
 def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
-                   rule: str = "cascade", bidirectional: bool = True,
-                   progress: bool = False, opts: MergeOptions | None = None,
-                   **options) -> ThresholdPath:
+                   rule: str = "cascade", progress: bool = False) -> ThresholdPath:
     """Run :class:`MergeSolver` at every threshold (ascending) and select one by ``rule``."""
-    fn = lookup(PATH_SELECTIONS, rule, "path selection rule")
-    opts = opts if opts is not None else MergeOptions(**options)
+    fn = get_selection(rule, PATH)
     ts = np.sort(np.asarray(default_thresholds(problem) if thresholds is None else thresholds,
                             dtype=np.float64))
     t0 = time.perf_counter()
@@ -620,12 +464,6 @@ def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
     # the candidates of a threshold are a prefix of those of the largest one: sort them once
     d, ci, cj = _candidates(problem, float(ts[-1]) if len(ts) else 0.0)
     ci, cj = ci.tolist(), cj.tolist()
-    if opts.support > 1 and opts.lone is None and len(ts):
-        opts = dataclasses.replace(opts, lone=float(ts[0]))
-    # ``anneal``: each threshold continues from the clustering of the one below, so merges
-    # that a lower threshold already accepts come first
-    cl = _Clusters(problem) if opts.anneal else None
-    results = tuple(_solve_prefix(problem, float(t), bidirectional, d, ci, cj, opts, cl)
-                    for t in iterator)
+    results = tuple(_solve_prefix(problem, float(t), d, ci, cj) for t in iterator)
     return ThresholdPath(tuple(float(t) for t in ts), results, fn(results, problem), rule,
                          time.perf_counter() - t0)

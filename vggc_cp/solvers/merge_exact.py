@@ -107,7 +107,8 @@ def exact_counterpart(problem: Problem, merge: SolveResult, *, window: int = DEF
     When the cannot-link clauses of the top cell would exceed ``max_clauses``, CP-SAT is not
     run and the result says so (``skipped``).
     """
-    from vggc_cp.solvers.cpsat import INFEASIBLE, CpSatSolver, exact_sweep
+    from vggc_cp.solvers.base import INFEASIBLE
+    from vggc_cp.solvers.cpsat import CpSatSolver, exact_sweep
     from vggc_cp.solvers.sweep import Sweep
 
     t0 = time.perf_counter()

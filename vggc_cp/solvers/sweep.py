@@ -1,7 +1,8 @@
 """The ``(k_pick, k_place)`` grid sweep around any solver, and the registry of selection rules.
 
 A sweep solves every cell of a grid (in parallel processes when ``jobs > 1``), keeps each
-cell's :class:`~vggc_cp.solvers.base.SolveResult`, and lets a *selection rule* pick one.
+cell's :class:`~vggc_cp.solvers.base.SolveResult`, and lets a *selection rule* pick one
+(:mod:`vggc_cp.solvers.selection`, axis ``"grid"``).
 The paper's rule is ``"fewest"``: the fewest abstract nodes actually used, then the lowest
 visual score J.
 
@@ -32,52 +33,31 @@ from __future__ import annotations
 import math
 import multiprocessing
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vggc_cp.errors import VggcError, lookup
+from vggc_cp.errors import VggcError
 from vggc_cp.solvers.base import Problem, Solver, SolveResult
+from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
+    GRID,
+    RULES,
+    SelectionRule,
+    get_selection,
+    register_selection,
+    select_fewest,
+)
 from vggc_cp.trace import PICK, PLACE, action_kind
 
 if TYPE_CHECKING:
     import pandas as pd
 
 GRID_MIN_TOP = 20
-SelectionRule = Callable[[Sequence[SolveResult], Problem], "int | None"]
-SELECTIONS: dict[str, SelectionRule] = {}
-
-
-def register_selection(name: str) -> Callable[[SelectionRule], SelectionRule]:
-    """Decorator: add a selection rule ``(results, problem) -> index or None`` under ``name``."""
-    def deco(fn: SelectionRule) -> SelectionRule:
-        SELECTIONS[name] = fn
-        return fn
-    return deco
-
-
-def get_selection(name: str) -> SelectionRule:
-    """The selection rule called ``name`` (unknown names list the known ones)."""
-    return lookup(SELECTIONS, name, "selection rule")
-
-
-@register_selection("fewest")
-def select_fewest(results: Sequence[SolveResult], problem: Problem | None = None) -> int | None:
-    """The paper's rule: fewest nodes used, then lowest J, then the smaller cell.
-
-    Returns the index of the chosen result, or None when no cell has a colouring.
-    """
-    best, key = None, None
-    for i, r in enumerate(results):
-        if not r.found:
-            continue
-        k = (r.n_nodes, r.J, r.k_pick + r.k_place, r.k_pick)
-        if key is None or k < key:
-            best, key = i, k
-    return best
+#: The grid's selection rules (the ``"grid"`` axis of :data:`vggc_cp.solvers.selection.RULES`).
+SELECTIONS = RULES[GRID]
 
 
 # ---------------------------------------------------------------- grid

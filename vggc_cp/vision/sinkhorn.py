@@ -59,22 +59,20 @@ Problems.* SIAM J. Sci. Comput. 41(3), 2019.
 
 from __future__ import annotations
 
-import contextlib
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+
+from vggc_cp.vision.backends import DEVICES, array_ops
 
 #: Largest ``max(M) / eps`` for which the stabilised scaling iteration is used, per dtype.
 #: ``float32``: ``exp(1.5 * 50)`` stays far from the float32 maximum (3.4e38) and the smallest
 #: kernel entry far from its smallest normal; ``float64`` likewise with ``exp(1.5 * 450)``.
 SCALING_LIMITS = {"float32": 50.0, "float64": 450.0}
 
-#: Devices :func:`sinkhorn_costs` accepts: ``numpy`` (CPU), ``torch`` (CUDA when available,
-#: else CPU), ``torch-cpu``, ``cuda``.
-DEVICES = ("numpy", "torch", "torch-cpu", "cuda")
 
 
 def patch_centres(grid: int) -> np.ndarray:
@@ -132,151 +130,6 @@ class SinkhornStats:
                 f"(max {self.iterations_max}), max marginal error {self.max_marginal_error:.2e}, "
                 f"{self.unconverged} unconverged, {self.mode} on {self.device}, "
                 f"{self.seconds:.2f} s")
-
-
-# ----------------------------------------------------------------------------- array backends
-
-
-class _NumpyOps:
-    """Array operations of the solver on numpy (CPU, BLAS threads)."""
-
-    name = "numpy"
-
-    def __init__(self, dtype: str) -> None:
-        self.dtype = np.dtype(dtype)
-
-    def array(self, x: np.ndarray, dtype=None):
-        return np.ascontiguousarray(x, dtype=self.dtype if dtype is None else dtype)
-
-    def cols(self, h, idx: np.ndarray):
-        return h[:, idx]
-
-    def colmax(self, x):
-        return x.max(axis=0)
-
-    def numpy(self, x) -> np.ndarray:
-        return np.asarray(x)
-
-    def mask(self, m: np.ndarray):
-        return m
-
-    def logsumexp(self, x, axis: int):
-        mx = x.max(axis=axis, keepdims=True)
-        mx = np.where(np.isfinite(mx), mx, 0.0)
-        return np.log(np.exp(x - mx).sum(axis=axis)) + np.squeeze(mx, axis=axis)
-
-    def float64(self, x):
-        return np.asarray(x, dtype=np.float64)
-
-    def exp(self, x):
-        return np.exp(x)
-
-    def where(self, m, x, y):
-        return np.where(m, x, y)
-
-    parallel = True
-
-    @contextlib.contextmanager
-    def session(self) -> Iterator[None]:
-        yield  # BLAS threads follow OMP/OPENBLAS_NUM_THREADS; nothing to change per call
-
-    @contextlib.contextmanager
-    def worker(self) -> Iterator[None]:
-        yield
-
-
-class _TorchOps:
-    """Array operations of the solver on torch (CUDA when asked and present, else CPU)."""
-
-    def __init__(self, dtype: str, device: str) -> None:
-        import torch
-
-        self.torch = torch
-        self.dtype = getattr(torch, dtype)
-        if device == "cuda" and not torch.cuda.is_available():
-            raise ValueError("device 'cuda' asked for, but torch sees no CUDA device")
-        if device == "torch":
-            device = "cuda" if torch.cuda.is_available() else "cpu"
-        elif device == "torch-cpu":
-            device = "cpu"
-        self.device = torch.device(device)
-        self.name = f"torch-{self.device.type}"
-
-    def array(self, x, dtype=None):
-        dt = self.dtype if dtype is None else getattr(self.torch, np.dtype(dtype).name)
-        return self.torch.as_tensor(np.ascontiguousarray(x), dtype=dt, device=self.device)
-
-    def cols(self, h, idx: np.ndarray):
-        return h[:, self.torch.as_tensor(idx, device=self.device)]
-
-    def colmax(self, x):
-        return x.amax(dim=0)
-
-    def numpy(self, x) -> np.ndarray:
-        return x.detach().cpu().numpy()
-
-    def mask(self, m: np.ndarray):
-        return self.torch.as_tensor(m, device=self.device)
-
-    def logsumexp(self, x, axis: int):
-        return self.torch.logsumexp(x, dim=axis)
-
-    def float64(self, x):
-        return x.to(self.torch.float64)
-
-    def exp(self, x):
-        return self.torch.exp(x)
-
-    def where(self, m, x, y):
-        return self.torch.where(m, x, y)
-
-    @property
-    def parallel(self) -> bool:
-        return self.device.type == "cpu"
-
-    @contextlib.contextmanager
-    def session(self) -> Iterator[None]:
-        """One intra-op thread per worker while solving (restored after).
-
-        Parallelism comes from worker threads that each own a slice of the problems (torch
-        releases the GIL), not from torch's intra-op pool: on a loaded machine the pool's
-        barriers make every small product wait for the slowest core.
-        """
-        if self.device.type != "cpu":
-            yield
-            return
-        old = self.torch.get_num_threads()
-        self.torch.set_num_threads(1)
-        try:
-            yield
-        finally:
-            self.torch.set_num_threads(old)
-
-    @contextlib.contextmanager
-    def worker(self) -> Iterator[None]:
-        """Flush denormals to zero in the calling thread (a per-thread CPU flag; restored).
-
-        Products of tiny scalings with small kernel entries are denormal floats, which make
-        CPU matrix products several times slower. A flushed value is below 1e-38 (float32)
-        while every column holds at least ``exp(-max M / eps) > 1e-22``, so the result does not
-        change beyond rounding.
-        """
-        if self.device.type != "cpu":
-            yield
-            return
-        self.torch.set_flush_denormal(True)
-        try:
-            yield
-        finally:
-            self.torch.set_flush_denormal(False)
-
-
-def _ops(device: str, dtype: str):
-    if device not in DEVICES:
-        raise ValueError(f"unknown device {device!r}; known: {', '.join(DEVICES)}")
-    if dtype not in SCALING_LIMITS:
-        raise ValueError(f"unknown dtype {dtype!r}; known: float32, float64")
-    return _NumpyOps(dtype) if device == "numpy" else _TorchOps(dtype, device)
 
 
 # ----------------------------------------------------------------------------- the solver
@@ -511,7 +364,7 @@ def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.nd
 
     def solver(prec: str):
         """``run(src, dst, omega, costs, iters, errs, on_done)`` at precision ``prec``."""
-        ops = _ops(device, prec)
+        ops = array_ops(device, prec)
         H = ops.array(hists.T, np.float64 if log_mode else None)
         if log_mode:
             logK = ops.array(-M / eps, np.float64)
@@ -624,3 +477,7 @@ def sinkhorn_divergence_pairs(hists_a: np.ndarray, hists_b: np.ndarray, M: np.nd
     dst = np.concatenate([ib, ia, ib])
     costs, stats = sinkhorn_costs(hists, src, dst, M, eps, **kwargs)
     return costs[:t] - 0.5 * costs[t:2 * t] - 0.5 * costs[2 * t:], stats
+
+
+__all__ = ["DEVICES", "SCALING_LIMITS", "SinkhornStats", "cost_matrix", "patch_centres",
+           "sinkhorn_costs", "sinkhorn_divergence_matrix", "sinkhorn_divergence_pairs"]
