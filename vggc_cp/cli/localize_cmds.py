@@ -167,7 +167,8 @@ def cmd_image_plan(args) -> int:
 def add_i2p_options(p) -> None:
     """Add ``--model`` and ``--novel`` to the ``evaluate`` parser."""
     p.add_argument("--model", default=None,
-                   help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P")
+                   help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P "
+                        "(with --novel); under --reading paper, the assignment map f")
     p.add_argument("--novel", default=None, help="novel renders .npz for --model")
     p.add_argument("--i2p-queries", type=int, default=150,
                    help="start/goal image pairs for I2P (the paper's Q is 150)")
@@ -178,6 +179,8 @@ def i2p_results(args, trace, solution) -> dict | None:
     if getattr(args, "model", None) is None and getattr(args, "novel", None) is None:
         return None
     if args.model is None or args.novel is None:
+        if args.novel is None and getattr(args, "reading", "exact") == "paper":
+            return None  # --model alone: the paper reading's assignment map, no I2P
         raise VggcError("I2P evaluation needs both --model and --novel")
     if args.i2p_queries < 1:
         raise VggcError(f"--i2p-queries must be positive, got {args.i2p_queries}")
