@@ -393,3 +393,19 @@ def test_choose_prefers_accuracy_then_fewer_epochs_then_larger_rate():
     cv = ((1e-2, 10, 0.9), (1e-2, 20, 1.0), (3e-3, 20, 1.0), (3e-3, 40, 1.0))
     assert choose(cv) == (1e-2, 20)
     assert choose(((1e-2, 10, 0.5), (3e-3, 10, 0.7))) == (3e-3, 10)
+
+
+def test_evaluate_reading_paper_takes_the_localizer_as_f(setup, capsys):
+    root = setup["root"]
+    args = ["evaluate", str(root / "trace.npz"), str(root / "sol.json"), "-Q", "200"]
+    assert main(args + ["--reading", "paper", "--model", str(root / "model.pt"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    paper = out["paper_reading"]
+    assert paper["assignment"] == "localizer" and "i2p" not in out
+    # f agrees with the labels on every trace image except where the localizer errs
+    pred = setup["localizer"].predict(setup["trace"].observations).nodes
+    assert paper["agreement"] == pytest.approx(np.mean(pred == setup["solution"].labels))
+    assert paper["agreement"] >= 0.95 and paper["any_path"] >= paper["opt_path"]
+    # --model alone is still refused outside the paper reading (I2P needs --novel)
+    assert main(args + ["--model", str(root / "model.pt")]) == 2
+    assert "--novel" in capsys.readouterr().err

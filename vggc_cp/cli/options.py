@@ -119,7 +119,8 @@ def wants_image_plan(args) -> bool:
 def add_i2p_options(p) -> None:
     """Add ``--model`` and ``--novel`` to the ``evaluate`` parser."""
     p.add_argument("--model", default=None,
-                   help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P")
+                   help="localizer checkpoint: add localization accuracy, I2P and Exec-I2P "
+                        "(with --novel); under --reading paper, the assignment map f")
     p.add_argument("--novel", default=None, help="novel renders .npz for --model")
     p.add_argument("--i2p-queries", type=int, default=150,
                    help="start/goal image pairs for I2P (the paper's Q is 150)")

@@ -7,6 +7,7 @@ import json
 from vggc_cp.cli.options import add_i2p_options
 from vggc_cp.errors import VggcError
 from vggc_cp.evaluate import DYNAMICS, evaluate_trace
+from vggc_cp.evaluate.paper_reading import CONSISTENCY, READINGS, evaluate_trace_paper
 from vggc_cp.graph import check
 from vggc_cp.solution import read_solution, verify_solution
 from vggc_cp.trace import load_trace, summarize
@@ -47,6 +48,15 @@ def register_evaluate(sub) -> None:
     p.add_argument("--dynamics", choices=DYNAMICS, default="auto",
                    help="true transitions for Exec: the simulator's (sim), the trace's (trace), "
                         "or sim when the trace names a benchmark (auto)")
+    p.add_argument("--reading", choices=READINGS, default="exact",
+                   help="exact: ours only (consistency from the labels; OptPath = every "
+                        "shortest plan validates, AnyPath = some shortest plan); paper: also the "
+                        "paper's metrics as the paper states them (OptPath = some shortest plan, "
+                        "AnyPath = some plan of any length; consistency through --model's "
+                        "predictions on the trace when given)")
+    p.add_argument("--consistency", choices=CONSISTENCY, default=None,
+                   help="--reading paper: C(u) holds every state mapped to u (all) or only "
+                        "each node's majority state (default: all)")
     p.add_argument("--json", action="store_true", help="print JSON")
     add_i2p_options(p)
     p.set_defaults(func=cmd_evaluate)
@@ -69,6 +79,9 @@ def cmd_evaluate(args) -> int:
     calibration = _calibration(solution, out)
     if calibration is not None:
         out["warning"] = calibration
+    paper = _paper_reading(args, trace, graph, solution)
+    if paper is not None:
+        out["paper_reading"] = paper.as_dict()
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -78,10 +91,13 @@ def cmd_evaluate(args) -> int:
     print(f"queries        Q = {metrics.queries} (seed {args.seed}); Exec on {used} dynamics")
     if "exactly_one_violations" in out:
         print(f"constraints    none claimed: {out['exactly_one_violations']} Exactly-One violations")
-    for name, value in (("TransPrec", metrics.trans_prec), ("TransCov", metrics.trans_cov),
-                        ("OptPath", metrics.opt_path), ("AnyPath", metrics.any_path),
-                        ("Exec", metrics.exec)):
-        print(f"{name:<14} {100 * value:6.2f} %")
+    if paper is None:
+        for name, value in (("TransPrec", metrics.trans_prec), ("TransCov", metrics.trans_cov),
+                            ("OptPath", metrics.opt_path), ("AnyPath", metrics.any_path),
+                            ("Exec", metrics.exec)):
+            print(f"{name:<14} {100 * value:6.2f} %")
+    else:
+        _print_both(metrics, paper)
     if i2p is not None:
         print_i2p(i2p)
     if calibration is not None:
@@ -92,6 +108,37 @@ def cmd_evaluate(args) -> int:
             "a false alarm" if calibration["fired"] else "WRONG: a silent failure")
         print(f"warning        solve said {said}; the graph {verdict} -> the warning was {right}")
     return 0
+
+
+def _paper_reading(args, trace, graph, solution):
+    """The paper's reading for ``--reading paper`` (None for ``exact``)."""
+    if args.reading != "paper":
+        if args.consistency is not None:
+            raise VggcError("--consistency applies to --reading paper only")
+        return None
+    localizer = None
+    if args.model is not None:
+        from vggc_cp.localize import check_model_matches, load_localizer
+
+        localizer = load_localizer(args.model)
+        check_model_matches(localizer, solution, args.model)
+    return evaluate_trace_paper(trace, graph, solution.labels, n_queries=args.queries,
+                                seed=args.seed, consistency=args.consistency or "all",
+                                localizer=localizer)
+
+
+def _print_both(metrics, paper) -> None:
+    """The four figures under both readings side by side, then Exec (ours only)."""
+    f = "the localizer" if paper.assignment == "localizer" else "the labels"
+    print(f"paper reading  f = {f} (agrees with the labels on {100 * paper.agreement:.2f} %), "
+          f"C(u): {paper.consistency} states")
+    print(f"{'':<14} {'exact':>8}   {'paper':>8}")
+    for name, ours, theirs in (("TransPrec", metrics.trans_prec, paper.trans_prec),
+                               ("TransCov", metrics.trans_cov, paper.trans_cov),
+                               ("OptPath", metrics.opt_path, paper.opt_path),
+                               ("AnyPath", metrics.any_path, paper.any_path)):
+        print(f"{name:<14} {100 * ours:6.2f} %   {100 * theirs:6.2f} %")
+    print(f"{'Exec':<14} {100 * metrics.exec:6.2f} %")
 
 
 def _calibration(solution, metrics: dict) -> dict | None:
@@ -160,6 +207,8 @@ def i2p_results(args, trace, solution) -> dict | None:
     if getattr(args, "model", None) is None and getattr(args, "novel", None) is None:
         return None
     if args.model is None or args.novel is None:
+        if args.novel is None and getattr(args, "reading", "exact") == "paper":
+            return None  # --model alone: the paper reading's assignment map, no I2P
         raise VggcError("I2P evaluation needs both --model and --novel")
     if args.i2p_queries < 1:
         raise VggcError(f"--i2p-queries must be positive, got {args.i2p_queries}")
