@@ -160,7 +160,9 @@ def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9)
     values = np.concatenate(ups) if ups else np.zeros(0)
     lo = noise_scale(problem)
     hi = float(np.quantile(values, top_quantile)) if len(values) else 0.0
-    lo = lo if lo > 0 else (hi / 100 if hi > 0 else 1e-3)
+    # near-duplicate renders may be at distance ~0: the grid then starts two decades below
+    # the top, so that its steps stay where distances are
+    lo = max(lo, hi / 100) if hi > 0 else (lo if lo > 0 else 1e-3)
     hi = max(hi, lo * 1.01)
     return np.geomspace(lo, hi, int(steps))
 
