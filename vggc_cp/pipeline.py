@@ -5,14 +5,16 @@
 * **Evidence.** ``footprints`` (:mod:`vggc_cp.vision.footprints`, no weights, the trace's
   actions localize where states differ) first. With ``evidence="auto"``, when the footprint
   graph is suspect (below), the ``keypoints`` attention distances (Sinkhorn divergences,
-  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate of least description
-  length is kept; when another evidence that is not suspect gives a graph of another size,
-  the chosen graph is flagged too (the evidences disagree).
+  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate whose graph predicts
+  held-out episodes best is kept (:func:`choose`); when another evidence that is not
+  suspect gives a graph of another size, the chosen graph is flagged too (the evidences
+  disagree).
 * **Threshold.** Congruence-closure merging (:mod:`vggc_cp.solvers.merge`) over a geometric
-  grid of thresholds from the noise scale (the median nearest-neighbour distance) up to a
-  high quantile of all distances.
-* **Selection.** Least description length (:mod:`vggc_cp.solvers.mdl`): no threshold rule
-  fitted to a benchmark, the same criterion across thresholds and across evidences.
+  grid of thresholds from the noise scale (the median nearest-neighbour distance, at least a
+  hundredth of the top) up to a high quantile of all distances.
+* **Selection.** Least description length (:mod:`vggc_cp.solvers.mdl`) along one evidence's
+  path: no threshold rule fitted to a benchmark. Across evidences, whose distances differ,
+  held-out prediction (cross-validation over episodes).
 * **Confidence.** Margin, plateau and held-out prediction
   (:mod:`vggc_cp.solvers.confidence`); the graph is flagged *suspect* with reasons.
 
@@ -248,9 +250,15 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
-    """The candidate of least description length (the first of equal ones): the same
-    criterion across evidences as across thresholds. Whether a candidate is suspect does not
-    enter the choice; it enters the warning."""
+    """The candidate whose graph predicts the held-out episodes best: the share of held-out
+    transitions it predicts less the share it contradicts (cross-validation, the criterion
+    that compares graphs from different distances on the same footing). Description length
+    breaks ties and decides alone when a candidate has no held-out figures. Whether a
+    candidate is suspect does not enter the choice; it enters the warning."""
+    if all(c.confidence.heldout is not None for c in candidates):
+        return min(candidates, key=lambda c: (-round(c.confidence.heldout.predicted
+                                                     - c.confidence.heldout.contradicted, 9),
+                                              c.description_length))
     return min(candidates, key=lambda c: c.description_length)
 
 

@@ -1,48 +1,65 @@
 """Action footprints: visual evidence localized by the trace's own actions (beyond the paper).
 
-A pick or a place changes the scene in one place. Averaging ``|o_{t+1} - o_t|`` over the
-transitions of one action ``a`` gives the image area that ``a`` acts on, its *footprint*
-``F_a`` (shape ``(H, W)``, summing to 1). Three things are removed first: the part every action
-shares (the per-pixel median over actions), the gripper (pixels where the mean pick
-observation and the mean place observation differ by more than ``gripper`` of their largest
-difference: what the gripper holds is implied by what stands on the table), and the faint
-floor that sensor noise leaves everywhere (``support`` of the footprint's peak). Frames are
-divided by their per-channel median first, so a per-frame lighting gain and tint cancel.
+A pick or a place changes the scene in one place, and the trace says which action changed
+what. Everything below is learned from the trace's observations and actions; nothing reads
+ground-truth states and nothing needs weights, so the same code adapts to another table,
+camera, lighting or object set. Frames are first divided by their per-channel median, so a
+per-frame lighting gain and tint cancel.
 
-The trace also says what the footprint looks like *empty*: after a pick of ``a`` (before a
-place of ``a``) the object is gone. With ``e_a`` the mean of those observations, every
-observation ``o`` is described in every footprint by
+**Footprints.** The mean ``|o_{t+1} - o_t|`` over the transitions of action ``a``, less the
+per-pixel median over all actions, gives the area ``a`` acts on, its footprint ``F_a``
+(shape ``(H, W)``, summing to 1). The gripper is removed from every footprint: it changes in
+*every* transition (pixels whose median change over the actions exceeds ``gripper`` times
+their largest one), and what it holds varies only while holding (pixels whose spread over the
+place-role observations exceeds ``held`` times their spread over the hand-empty pick-role
+observations, plus the typical such spread). The faint floor that sensor noise leaves
+everywhere (``support`` of the peak) goes too, and an action keeps only its heaviest connected
+component: it acts in one place.
 
-* its **presence** ``p_a(o)``: the deviation ``m_a(o) = sum_p F_a(p) |x_o(p) - e_a(p)|_1``
-  scaled so that the median over the action's empty observations is 0 and ``saturation``
-  times the median over its occupied ones (before a pick, after a place) is 1, clipped to
-  ``[0, 1]``. Objects of one task class differ in size and shape; clipping at a fraction of
-  the typical object makes any of them count as present;
-* its **chroma** ``c_a(o)``: the chromaticity ``(r, g) / (r + g + b)`` of the mean colour of
-  the deviating pixels (weights ``F_a(p) |x_o(p) - e_a(p)|_1``), which tells a red object from
-  a yellow one whatever their shapes. The objects an action ``a`` moves are of one task class,
-  so the spread ``s_a`` of their chroma (the 75th percentile of the occupied observations'
-  chroma distances from their median, at least 0.02) is what one class varies by (shades,
-  stems, lighting, placement); a chroma difference counts from ``chroma`` times ``s_a`` on
-  and in full from twice that.
+**Classes and colours.** What a pick lifts is what the next place puts down, so a pick and
+the place that follows it move one task class: the classes are the connected components of
+that relation (:func:`action_classes`, names are not read). Classes whose colours cannot be
+told apart are one colour: the chroma ``(r, g) / (r + g + b)`` of their objects, each seen in
+its own action's footprint, must be clearly likelier under its own class's kernel density
+than under another's (:func:`colour_classes`).
 
-Two renders of one state agree in every footprint; two states differ by an object present in
-one footprint and absent in another, or of another colour. The distance counts the footprints
-that differ::
+**Sites.** Objects of another colour may stand where ``a`` acts (an apple where a banana was
+picked) and have another shape. The site of ``a`` widens ``F_a`` by the footprints of the
+other colours' actions that overlap it, ``G_a = F_a + sum_b ov(a, b) F_b`` with
+``ov(a, b) = sum_p min(F_a(p), F_b(p))``, normalized. Footprints of one colour keep apart
+(a block on a block is another place than the block below it).
 
-    k_a(o, o') = clip((|c_a(o) - c_a(o')| - chroma s_a) / (chroma s_a), 0, 1)
-    d_a(o, o') = min(1, |p_a(o) - p_a(o')| + min(p_a(o), p_a(o')) k_a(o, o'))
-    d(o, o')   = mean over the actions a that the trace takes of d_a(o, o')
+**Descriptors.** After a pick of ``a`` (before a place of ``a``) the site is empty; with
+``e_a`` the mean of those observations, every observation ``o`` is described in every site by
 
-Nothing here reads ground-truth states, and nothing needs weights: the trace supervises the
-metric (its actions say where states can differ and what empty looks like), so the same code
-adapts to another table, camera or lighting. Cost: one pass over the transitions and
+* its **presence** ``p_a(o)``: the deviation ``m_a(o) = sum_p G_a(p) |x_o(p) - e_a(p)|_1``
+  scaled so that the median over the empty observations is 0 and ``saturation`` times the
+  faintest typical object at the site (the median over the occupied observations of ``a`` and
+  of every other colour's action whose footprint overlaps by ``site_overlap`` or more) is 1,
+  clipped to ``[0, 1]``: any object of any class, size or shape counts as present;
+* its **colour** ``pi_a(o)``: the posterior of each colour given the chroma of the deviating
+  pixels (weights ``G_a(p) |x_o(p) - e_a(p)|_1``) under a kernel density of that colour's
+  examples (bandwidth ``bandwidth``), equal priors: a class of several looks (an apple and a
+  strawberry are both red) keeps every look. With one colour, colour carries no information.
+
+**Nuisance.** Across a transition of an action that acts elsewhere, a site should not change;
+what it does change there is noise, lighting and gripper residue. ``nu_a`` is the
+``nuisance_quantile`` of ``d_a(o_t, o_{t+1})`` over the transitions of each action, then the
+median over the actions (most act elsewhere); differences up to it do not count.
+
+**Distance.** Two renders of one state agree in every site; two states differ by an object
+present in one and absent in the other, or of another colour::
+
+    d_a(o, o') = min(1, |p_a(o) - p_a(o')| + min(p_a(o), p_a(o')) TV(pi_a(o), pi_a(o')))
+    d(o, o')   = mean over the actions a the trace takes of clip((d_a - nu_a) / (1 - nu_a), 0, 1)
+
+with ``TV`` the total-variation distance. Cost: a few passes over the observations and
 ``O(A N^2)`` for the distances (fruit-6x8, |D| = 1500: seconds).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
@@ -58,47 +75,41 @@ class FootprintParams:
     Attributes
     ----------
     gripper : float
-        Pixels whose pick/place mean difference exceeds this share of its maximum are the
-        gripper's and leave every footprint.
+        Pixels whose median change over the actions exceeds this share of their largest
+        change are the gripper's (every transition changes it).
+    held : float
+        Pixels whose spread while holding exceeds this multiple of their spread with the hand
+        empty (plus the median such spread) are the gripper's (what it holds varies).
     support : float
         Share of a footprint's peak subtracted from it (sensor noise leaves a faint floor of
         changes over the whole image).
     saturation : float
-        Share of the typical occupied deviation at which presence reaches 1.
-    chroma : float
-        Multiple of an action's within-class chroma spread ``s_a`` that a difference may
-        reach before it counts (in full from twice that).
-    spread_quantile, spread_floor : float
-        ``s_a`` is this quantile of the occupied observations' chroma distances from their
-        median, and at least the floor (identical objects would otherwise make placement
-        jitter, which mixes the table into the footprint, count as another colour).
+        Share of the faintest typical object at a site at which presence reaches 1.
+    site_overlap : float
+        Overlap ``ov(a, b)`` from which another colour's action ``b`` stands at ``a``'s place.
+    bandwidth : float
+        Width of the colour kernel (chromaticity units).
+    nuisance_quantile : float
+        Quantile of a site's change across one action's transitions that is nuisance.
     """
 
     gripper: float = 0.5
+    held: float = 2.0
     support: float = 0.2
     saturation: float = 0.5
-    chroma: float = 2.0
-    spread_quantile: float = 0.75
-    spread_floor: float = 0.02
-    calibrate: bool = True
-    colour: str = "classes"
-    mask: str = "shared"
-    one_place: bool = True
-    held: float = 2.0
-    site: bool = True
     site_overlap: float = 0.2
-    widen: float = 0.0
+    bandwidth: float = 0.02
     nuisance_quantile: float = 0.9
 
     def __post_init__(self) -> None:
-        for name in ("gripper", "support"):
+        for name in ("gripper", "support", "site_overlap"):
             v = getattr(self, name)
             if not 0 <= v < 1:
                 raise VggcError(f"footprint {name} must lie in [0, 1), got {v}")
-        if not 0 < self.spread_quantile <= 1:
-            raise VggcError(f"footprint spread_quantile must lie in (0, 1], got "
-                            f"{self.spread_quantile}")
-        for name in ("saturation", "chroma", "spread_floor"):
+        if not 0 < self.nuisance_quantile <= 1:
+            raise VggcError(f"footprint nuisance_quantile must lie in (0, 1], got "
+                            f"{self.nuisance_quantile}")
+        for name in ("held", "saturation", "bandwidth"):
             v = getattr(self, name)
             if not v > 0:
                 raise VggcError(f"footprint {name} must be positive, got {v}")
@@ -112,29 +123,30 @@ class Footprints:
     ----------
     maps : ndarray of float32, shape (A, H, W)
         ``F_a``, each summing to 1; all zeros for an action the trace never takes.
+    sites : ndarray of float32, shape (A, H, W)
+        ``G_a``, each summing to 1.
     presence : ndarray of float64, shape (N, A)
         ``p_a(o)`` in ``[0, 1]``.
     chroma : ndarray of float64, shape (N, A, 2)
-        ``c_a(o)``.
-    spread : ndarray of float64, shape (A,)
-        ``s_a``, the chroma spread of the action's occupied observations.
+        Chromaticity of what deviates from empty in every site.
+    posterior : ndarray of float64, shape (N, A, C)
+        ``pi_a(o)`` over the trace's ``C`` colours (``C = 1``: all ones).
+    colour : ndarray of int64, shape (A,)
+        Colour of every action (-1 for an action never taken).
+    nuisance : ndarray of float64, shape (A,)
+        ``nu_a``.
     counts : ndarray of int64, shape (A,)
         Transitions of every action.
     """
 
     maps: np.ndarray
+    sites: np.ndarray
     presence: np.ndarray
     chroma: np.ndarray
-    spread: np.ndarray
+    posterior: np.ndarray
+    colour: np.ndarray
+    nuisance: np.ndarray
     counts: np.ndarray
-    nuisance: np.ndarray | None = None
-    posterior: np.ndarray | None = None
-
-    @property
-    def colour(self) -> np.ndarray:
-        """What the distance compares of the colour: class posteriors when computed, else
-        chroma."""
-        return self.chroma if self.posterior is None else self.posterior
 
     @property
     def taken(self) -> np.ndarray:
@@ -163,7 +175,16 @@ def normalise_frames(observations: np.ndarray, chunk: int = 512) -> np.ndarray:
 
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
                    dst: np.ndarray, n_actions: int, params: FootprintParams) -> np.ndarray:
-    """``F_a`` of every action (module docstring), shape ``(A, H, W)``."""
+    """``F_a`` of every action (module docstring), shape ``(A, H, W)``.
+
+    Parameters
+    ----------
+    x : ndarray of float32, shape (N, H, W, 3)
+        Normalised frames (:func:`normalise_frames`).
+    roles : ndarray, shape (N,)
+    src, act, dst : ndarray of int, shape (T,)
+        The transitions.
+    """
     h, w = x.shape[1:3]
     maps = np.zeros((n_actions, h, w), dtype=np.float32)
     counts = np.bincount(act, minlength=n_actions)
@@ -172,55 +193,24 @@ def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.nd
         maps[a] = np.abs(x[dst[sel]] - x[src[sel]]).sum(axis=-1).mean(axis=0)
     taken = counts > 0
     shared = np.median(maps[taken], axis=0)
-    if params.mask == "shared":
-        peak = maps[taken].max(axis=0)
-        gripper = shared > params.gripper * np.maximum(peak, 1e-12)
-    maps = np.maximum(maps - shared, 0.0)
-    if params.mask == "shared":
-        maps[:, gripper] = 0.0
-    if params.held > 0 and (roles == PICK).sum() > 1 and (roles == PLACE).sum() > 1:
-        # what the gripper holds varies (shapes, sizes): pixels that vary far more while
-        # holding (place role) than with the hand empty (pick role) are the gripper's
-        holding = x[roles == PLACE].std(axis=0).sum(axis=-1)          # (H, W)
+    gripper = shared > params.gripper * np.maximum(maps[taken].max(axis=0), 1e-12)
+    if (roles == PICK).sum() > 1 and (roles == PLACE).sum() > 1:
+        holding = x[roles == PLACE].std(axis=0).sum(axis=-1)
         empty = x[roles == PICK].std(axis=0).sum(axis=-1)
-        maps[:, holding > params.held * empty + np.median(empty)] = 0.0
-    elif (roles == PICK).any() and (roles == PLACE).any():
-        diff = np.abs(x[roles == PLACE].mean(axis=0) - x[roles == PICK].mean(axis=0)).sum(-1)
-        maps[:, diff > params.gripper * diff.max()] = 0.0
+        gripper |= holding > params.held * empty + np.median(empty)
+    maps = np.maximum(maps - shared, 0.0)
+    maps[:, gripper] = 0.0
     maps[~taken] = 0.0
     maps = np.maximum(maps - params.support * maps.max(axis=(1, 2), keepdims=True), 0.0)
-    if params.one_place:
-        for a in np.flatnonzero(taken):
-            maps[a] = heaviest_component(maps[a])
+    for a in np.flatnonzero(taken):
+        maps[a] = heaviest_component(maps[a])
+    return normalised(maps)
+
+
+def normalised(maps: np.ndarray) -> np.ndarray:
+    """Every map divided by its sum (all-zero maps stay zero), float32."""
     total = maps.sum(axis=(1, 2), keepdims=True)
     return np.where(total > 0, maps / np.maximum(total, 1e-12), 0.0).astype(np.float32)
-
-
-def overlaps(maps: np.ndarray) -> np.ndarray:
-    """``ov(a, b) = sum_p min(F_a(p), F_b(p))`` in ``[0, 1]``, shape (A, A): how much two
-    footprints share a place."""
-    flat = maps.reshape(len(maps), -1).astype(np.float64)
-    return np.stack([np.minimum(flat[a], flat).sum(axis=-1) for a in range(len(flat))])
-
-
-def site_maps(maps: np.ndarray, ov: np.ndarray, widen: float = 0.0) -> np.ndarray:
-    """Each footprint widened to its *site*: ``G_a = sum_b ov(a, b) F_b`` (normalized).
-    Actions at one place (a pick and a place, or the actions of two classes there) overlap
-    and share one site, which covers the shapes of every class the place holds; footprints
-    elsewhere do not overlap. Shape (A, H, W).
-    """
-    flat = maps.reshape(len(maps), -1).astype(np.float64)
-    site = (ov @ flat).reshape(maps.shape)
-    if widen > 0:
-        # objects land anywhere near their place (placement noise): widen each site by its
-        # own radius, so that an object a little off its usual spot still lies inside
-        for a in range(len(site)):
-            npix = np.count_nonzero(site[a])
-            if npix:
-                site[a] = ndimage.gaussian_filter(site[a], widen * np.sqrt(npix / np.pi))
-    total = site.sum(axis=(1, 2), keepdims=True)
-    site = np.where(total > 0, site / np.maximum(total, 1e-12), 0.0)
-    return site.astype(np.float32)
 
 
 def heaviest_component(m: np.ndarray) -> np.ndarray:
@@ -233,13 +223,29 @@ def heaviest_component(m: np.ndarray) -> np.ndarray:
     return np.where(lab == 1 + int(np.argmax(mass)), m, 0.0)
 
 
+def overlaps(maps: np.ndarray) -> np.ndarray:
+    """``ov(a, b) = sum_p min(F_a(p), F_b(p))`` in ``[0, 1]``, shape (A, A): how much two
+    footprints share a place."""
+    flat = maps.reshape(len(maps), -1).astype(np.float64)
+    return np.stack([np.minimum(flat[a], flat).sum(axis=-1) for a in range(len(flat))])
+
+
+def site_maps(maps: np.ndarray, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """``G_a = F_a + sum_b ov(a, b) F_b`` over the actions ``b`` of another colour than ``a``
+    (module docstring), normalized, shape (A, H, W)."""
+    other = (colour[:, None] != colour[None, :]) & (colour[:, None] >= 0) & (colour >= 0)
+    weight = np.where(other, ov, 0.0) + np.eye(len(ov))
+    flat = maps.reshape(len(maps), -1).astype(np.float64)
+    return normalised((weight @ flat).reshape(maps.shape))
+
+
 def action_classes(trace: Trace) -> np.ndarray:
     """Task class of every action, int64 array of shape (A,), from the trace's structure.
 
     What a pick lifts is what the next place puts down: a pick and the place that follows it
     (the two actions around one place-role observation) move an object of one class. The
     classes are the connected components of that relation (union-find); an action never
-    followed or preceded that way is a class of its own. Names are not read.
+    linked that way is a class of its own. Names are not read.
     """
     parent = np.arange(trace.n_actions)
 
@@ -250,114 +256,152 @@ def action_classes(trace: Trace) -> np.ndarray:
         return int(a)
 
     kinds = trace.action_kinds()
-    acts = trace.actions
-    prev, nxt = acts[:-1], acts[1:]
+    prev, nxt = trace.actions[:-1], trace.actions[1:]
     link = (prev >= 0) & (nxt >= 0)
     for a, b in zip(prev[link], nxt[link]):
         if kinds[a] == PICK and kinds[b] == PLACE:
             ra, rb = find(int(a)), find(int(b))
-            if ra != rb:
-                parent[max(ra, rb)] = min(ra, rb)
+            parent[max(ra, rb)] = min(ra, rb)
     roots = np.array([find(a) for a in range(trace.n_actions)], dtype=np.int64)
     return np.unique(roots, return_inverse=True)[1].astype(np.int64)
 
 
-def colour_classes(points: list[np.ndarray], floor: float, quantile: float,
-                   apart: float = 2.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def kernel_loglik(query: np.ndarray, examples: np.ndarray, bandwidth: float,
+                  chunk: int = 256) -> np.ndarray:
+    """Log of the Gaussian kernel density of ``examples`` (n, 2) at ``query`` (m, 2), up to
+    the constant every density shares; shape (m,)."""
+    out = np.empty(len(query))
+    for s in range(0, len(query), chunk):
+        d2 = ((query[s:s + chunk, None, :] - examples[None]) ** 2).sum(-1) / bandwidth ** 2
+        m = (-0.5 * d2).max(axis=1)
+        out[s:s + chunk] = m + np.log(np.exp(-0.5 * d2 - m[:, None]).mean(axis=1))
+    return out
+
+
+def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float = 1.0
+                   ) -> np.ndarray:
     """Pool task classes whose colours cannot be told apart.
+
+    A class is a colour of its own when its examples are clearly likelier under its own
+    kernel density (each example left out of it) than under any other class's: the median
+    log-likelihood ratio exceeds ``distinct`` nats. Otherwise (an action the trace never
+    linked to its class, or two classes of one colour) it joins the class it is least
+    distinct from, the least distinct first, until every class is distinct. A class of one
+    example cannot show it and joins the nearest.
 
     Parameters
     ----------
     points : list of ndarray, shape (n_k, 2)
         Chroma of each task class's occupied observations.
-    floor, quantile : float
-        A class's spread ``s_k`` is the ``quantile`` of its points' distances from their
-        median, at least ``floor``.
-    apart : float
-        Two classes whose medians are closer than ``apart`` times the larger spread are one
-        colour (e.g. an action the trace never links to a class, or two classes of one colour).
+    bandwidth : float
+    distinct : float
 
     Returns
     -------
-    group : ndarray of int, shape (K,)
-        Colour of every task class.
-    mu : ndarray, shape (C, 2)
-    sd : ndarray, shape (C,)
+    ndarray of int, shape (K,)
+        Colour of every task class, numbered from 0.
     """
     group = np.arange(len(points))
-
-    def stats(members):
-        pts = np.concatenate([points[k] for k in members])
-        m = np.median(pts, axis=0)
-        return m, max(float(np.quantile(np.linalg.norm(pts - m, axis=1), quantile)), floor)
-
-    while True:
-        ids = np.unique(group)
-        st = {g: stats(np.flatnonzero(group == g)) for g in ids}
-        close = [(np.linalg.norm(st[g][0] - st[h][0]) / max(st[g][1], st[h][1]), g, h)
-                 for i, g in enumerate(ids) for h in ids[i + 1:]]
-        close = [c for c in close if c[0] < apart]
-        if not close:
+    while len(np.unique(group)) > 1:
+        ids = list(np.unique(group))
+        pooled = {g: np.concatenate([points[k] for k in np.flatnonzero(group == g)])
+                  for g in ids}
+        worst = None
+        for g in ids:
+            own = pooled[g]
+            if len(own) == 1:
+                loo = np.full(1, -np.inf)
+            else:  # leave each example out of its own class's density
+                d2 = ((own[:, None] - own[None]) ** 2).sum(-1) / bandwidth ** 2
+                np.fill_diagonal(d2, np.inf)
+                m = (-0.5 * d2).max(axis=1)
+                loo = m + np.log(np.exp(-0.5 * d2 - m[:, None]).sum(axis=1) / (len(own) - 1))
+            for h in ids:
+                if h == g:
+                    continue
+                ratio = float(np.median(loo - kernel_loglik(own, pooled[h], bandwidth)))
+                if ratio < distinct and (worst is None or ratio < worst[0]):
+                    worst = (ratio, g, h)
+        if worst is None:
             break
-        _, g, h = min(close)
-        group[group == h] = g
-    ids, group = np.unique(group, return_inverse=True)
-    mu = np.array([st[g][0] for g in ids]).reshape(-1, 2)
-    sd = np.array([st[g][1] for g in ids])
-    return group, mu, sd
+        _, g, h = worst
+        group[group == g] = h
+    return np.unique(group, return_inverse=True)[1].astype(np.int64)
 
 
 def action_colours(chroma: np.ndarray, counts: np.ndarray, classes: np.ndarray,
-                   occupied: dict[int, np.ndarray], floor: float, quantile: float
-                   ) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Colour of every action, and every colour's examples.
-
-    The task classes (:func:`action_classes`) with observations are pooled into colours
-    (:func:`colour_classes`); a colour's examples are the chroma of its actions' occupied
-    observations, each seen in its own action's footprint. Returns ``(colour, examples)``:
-    shape (A,) (-1 for an action never taken) and one (n_c, 2) array per colour.
-    """
+                   occupied: dict[int, np.ndarray], params: FootprintParams
+                   ) -> np.ndarray:
+    """Colour of every action, shape (A,) (-1 for an action never taken): the task classes
+    (:func:`action_classes`) pooled by :func:`colour_classes` on the chroma of their actions'
+    occupied observations, each seen in its own action's footprint."""
     colour = np.full(len(counts), -1, dtype=np.int64)
-    known = [k for k in np.unique(classes)
-             if any(counts[a] > 0 for a in np.flatnonzero(classes == k))]
+    known = [k for k in np.unique(classes) if (counts[classes == k] > 0).any()]
     if not known:
-        return colour, []
+        return colour
     points = [np.concatenate([chroma[occupied[a], a]
                               for a in np.flatnonzero((classes == k) & (counts > 0))])
               for k in known]
-    group, _, _ = colour_classes(points, floor, quantile)
+    group = colour_classes(points, params.bandwidth)
     for k, g in zip(known, group):
         colour[(classes == k) & (counts > 0)] = g
-    examples = [np.concatenate([p for p, g in zip(points, group) if g == c])
-                for c in range(int(group.max()) + 1)]
-    return colour, examples
+    return colour
 
 
-def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth: float,
-                      chunk: int = 256) -> np.ndarray:
-    """Posterior of every colour for the colour seen in every footprint, shape (N, A, C).
+def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth: float
+                      ) -> np.ndarray:
+    """Posterior of every colour for the chroma seen in every site, shape (N, A, C).
 
     Each colour's likelihood is a kernel density over its examples (Gaussian kernel of width
-    ``bandwidth``): a class of several looks (an apple and a strawberry are both red) keeps
-    every look, which one prototype and spread would not. Equal priors. One colour (or
-    none): all ones, colour carries no information.
+    ``bandwidth``): a class of several looks keeps every look, which one prototype and spread
+    would not. Equal priors. One colour (or none): all ones.
     """
     n, n_act = chroma.shape[:2]
     if len(examples) <= 1:
         return np.ones((n, n_act, 1))
     flat = chroma.reshape(-1, 2)
-    logp = np.empty((len(flat), len(examples)))
-    for c, ex in enumerate(examples):
-        for s in range(0, len(flat), chunk):
-            d2 = ((flat[s:s + chunk, None, :] - ex[None]) ** 2).sum(-1) / bandwidth ** 2
-            m = (-0.5 * d2).max(axis=1)
-            logp[s:s + chunk, c] = m + np.log(np.exp(-0.5 * d2 - m[:, None]).mean(axis=1))
+    logp = np.stack([kernel_loglik(flat, ex, bandwidth) for ex in examples], axis=1)
     w = np.exp(logp - logp.max(axis=1, keepdims=True))
     return (w / w.sum(axis=1, keepdims=True)).reshape(n, n_act, len(examples))
 
 
+def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Deviation from empty and its chroma in every weighted area.
+
+    Parameters
+    ----------
+    x : ndarray of float32, shape (N, H, W, 3)
+    weights : ndarray, shape (A, H, W)
+    empty_of : dict
+        Action -> indices of the observations where its area is empty.
+
+    Returns
+    -------
+    mag : ndarray, shape (N, A)
+        ``sum_p w_a(p) |x_o(p) - e_a(p)|_1``.
+    chroma : ndarray, shape (N, A, 2)
+        Chromaticity of the deviating pixels' mean colour (weights ``w_a(p) |x_o - e_a|_1``).
+    """
+    n, n_act = len(x), len(weights)
+    mag = np.zeros((n, n_act))
+    chroma = np.zeros((n, n_act, 2))
+    for a, empty in empty_of.items():
+        support = weights[a] > 0
+        if not support.any():
+            continue
+        weight = weights[a][support]                                      # (P,)
+        pixels = x[:, support]                                            # (N, P, 3)
+        dev = np.abs(pixels - pixels[empty].mean(axis=0)).sum(axis=-1)    # (N, P)
+        mag[:, a] = dev @ weight
+        wdev = dev * weight
+        mean = np.einsum("np,npc->nc", wdev, pixels) / np.maximum(wdev.sum(1), 1e-12)[:, None]
+        chroma[:, a] = mean[:, :2] / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
+    return mag, chroma
+
+
 def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Footprints:
-    """Footprints of every action of ``trace`` and the descriptors of its observations.
+    """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
 
     Raises
     ------
@@ -371,137 +415,107 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
     x = normalise_frames(trace.observations)
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
-    ov = overlaps(maps)
-    seen = site_maps(maps, ov, params.widen) if params.site else maps
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
-    mag = np.zeros((trace.n_obs, n_act))
-    lo = np.zeros(n_act)
-    chroma = np.zeros((trace.n_obs, n_act, 2))
-    spread = np.ones(n_act)
-    occupied_of: dict[int, np.ndarray] = {}
+    empty_of, occupied_of = {}, {}
     for a in np.flatnonzero(counts):
         sel = act == a
-        empty, occupied = (dst[sel], src[sel]) if kinds[a] == PICK else (src[sel], dst[sel])
-        occupied_of[int(a)] = occupied
-        support = seen[a] > 0
-        if not support.any():
-            continue
-        weight = seen[a][support]                       # (P,)
-        pixels = x[:, support]                          # (N, P, 3)
-        dev = np.abs(pixels - pixels[empty].mean(axis=0)).sum(axis=-1)  # (N, P)
-        mag[:, a] = dev @ weight
-        lo[a] = np.median(mag[empty, a])
-        wdev = dev * weight
-        mean = np.einsum("np,npc->nc", wdev, pixels) / np.maximum(wdev.sum(1), 1e-12)[:, None]
-        chroma[:, a] = mean[:, :2] / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
-        own = chroma[occupied, a]
-        spread[a] = max(float(np.quantile(np.linalg.norm(own - np.median(own, axis=0), axis=1),
-                                          params.spread_quantile)), params.spread_floor)
-    colour, examples = action_colours(chroma, counts, action_classes(trace), occupied_of,
-                                      params.spread_floor, params.spread_quantile)
+        before, after = src[sel], dst[sel]
+        empty_of[int(a)], occupied_of[int(a)] = ((after, before) if kinds[a] == PICK
+                                                 else (before, after))
+    _, own_chroma = describe(x, maps, empty_of)
+    colour = action_colours(own_chroma, counts, action_classes(trace), occupied_of, params)
+    ov = overlaps(maps)
+    sites = site_maps(maps, ov, colour)
+    mag, chroma = describe(x, sites, empty_of)
     presence = np.zeros((trace.n_obs, n_act))
-    for a in occupied_of:
-        # objects of another colour at this place (another shape and contrast) count as
-        # present as fully as the action's own: the faintest typical object there sets 1
-        mates = [b for b in occupied_of
-                 if b == a or (ov[a, b] >= params.site_overlap and colour[b] != colour[a])]
+    for a, empty in empty_of.items():
+        lo = np.median(mag[empty, a])
+        mates = [b for b in occupied_of if b == a or (ov[a, b] >= params.site_overlap
+                                                      and colour[b] != colour[a])]
         hi = min(np.median(mag[occupied_of[b], a]) for b in mates)
-        presence[:, a] = np.clip((mag[:, a] - lo[a]) / max(params.saturation * (hi - lo[a]),
-                                                           1e-9), 0, 1)
-    posterior = (colour_posteriors(chroma, examples, params.spread_floor)
-                 if params.colour == "classes" else None)
-    fp = Footprints(maps, presence, chroma, spread, counts, posterior=posterior)
-    if not params.calibrate:
-        return fp
-    return replace(fp, nuisance=footprint_nuisance(fp, src, act, dst, params))
+        presence[:, a] = np.clip((mag[:, a] - lo) / max(params.saturation * (hi - lo), 1e-9),
+                                 0, 1)
+    n_col = int(colour.max()) + 1
+    examples = [np.concatenate([chroma[occupied_of[a], a] for a in np.flatnonzero(colour == c)])
+                for c in range(n_col)]
+    posterior = colour_posteriors(chroma, examples, params.bandwidth)
+    nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
+    return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts)
 
 
-def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray,
-                          spread: np.ndarray, params: FootprintParams) -> np.ndarray:
+def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
+                          ) -> np.ndarray:
     """``d_a(o, o')`` of aligned descriptors (module docstring), broadcasting.
 
     Parameters
     ----------
     p, q : ndarray, shape (..., A)
         Presence of ``o`` and ``o'``.
-    c, e : ndarray, shape (..., A, 2)
-        Chroma of ``o`` and ``o'``.
-    spread : ndarray, shape (A,)
+    c, e : ndarray, shape (..., A, C)
+        Colour posteriors of ``o`` and ``o'``.
 
     Returns
     -------
     ndarray, shape (..., A), values in [0, 1].
     """
-    if params.colour == "classes":
-        other = 0.5 * np.abs(c - e).sum(axis=-1)
-    else:
-        free = params.chroma * spread
-        dc = np.sqrt(((c - e) ** 2).sum(axis=-1))
-        other = np.clip((dc - free) / free, 0.0, 1.0)
+    other = 0.5 * np.abs(c - e).sum(axis=-1)
     return np.minimum(np.abs(p - q) + np.minimum(p, q) * other, 1.0)
 
 
-def footprint_distance_matrix(presence: np.ndarray, chroma: np.ndarray, spread: np.ndarray,
-                              taken: np.ndarray, params: FootprintParams | None = None,
+def footprint_nuisance(presence: np.ndarray, posterior: np.ndarray, counts: np.ndarray,
+                       src: np.ndarray, act: np.ndarray, dst: np.ndarray,
+                       params: FootprintParams) -> np.ndarray:
+    """``nu_a`` (module docstring): how much site ``a`` differs across a transition that does
+    not act on it. Returns shape (A,); 0 for an action never taken."""
+    taken = np.flatnonzero(counts > 0)
+    dif = footprint_differences(presence[src], presence[dst], posterior[src], posterior[dst])
+    per_action = np.stack([np.quantile(dif[act == a], params.nuisance_quantile, axis=0)
+                           for a in taken])                                # (A_taken, A)
+    out = np.zeros(len(counts))
+    out[taken] = np.median(per_action, axis=0)[taken]
+    return out
+
+
+def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken: np.ndarray,
                               nuisance: np.ndarray | None = None) -> np.ndarray:
     """Pairwise footprint distances of one set of observations.
 
     Parameters
     ----------
     presence : ndarray, shape (n, A)
-    chroma : ndarray, shape (n, A, 2)
-    spread : ndarray, shape (A,)
+    posterior : ndarray, shape (n, A, C)
     taken : ndarray of int
-        Actions whose footprints count.
+        Actions whose sites count.
+    nuisance : ndarray, shape (A,), optional
+        ``nu_a``; differences up to it do not count.
 
     Returns
     -------
     ndarray of float64, shape (n, n), symmetric, zero diagonal, values in [0, 1].
     """
-    params = params or FootprintParams()
     n = len(presence)
     d = np.zeros((n, n), dtype=np.float64)
     if n == 0 or len(taken) == 0:
         return d
     for a in taken:
-        p, c = presence[:, a], chroma[:, a]
-        da = footprint_differences(p[:, None], p[None, :], c[:, None, :], c[None, :, :],
-                                   spread[a], params)
-        if nuisance is not None and nuisance[a] > 0:
-            da = np.clip((da - nuisance[a]) / max(1.0 - nuisance[a], 1e-9), 0.0, 1.0)
+        p, c = presence[:, a], posterior[:, a]
+        da = footprint_differences(p[:, None], p[None, :], c[:, None, :], c[None, :, :])
+        nu = 0.0 if nuisance is None else float(nuisance[a])
+        if nu > 0:
+            da = np.clip((da - nu) / max(1.0 - nu, 1e-9), 0.0, 1.0)
         d += da
     d /= len(taken)
     np.fill_diagonal(d, 0.0)
     return d
 
 
-def footprint_nuisance(fp: Footprints, src: np.ndarray, act: np.ndarray, dst: np.ndarray,
-                       params: FootprintParams) -> np.ndarray:
-    """``nu_b``: how much footprint ``b`` differs across a transition that does not act on it.
-
-    ``d_b(o_t, o_{t+1})`` over the transitions of action ``a``, at the ``nuisance_quantile``,
-    then the median over the actions: most actions act elsewhere, so the median is what noise,
-    the gripper and lighting leave in ``b``. Returns shape (A,).
-    """
-    col = fp.colour
-    dif = footprint_differences(fp.presence[src], fp.presence[dst], col[src], col[dst],
-                                fp.spread, params)          # (T, A)
-    per_action = np.stack([np.quantile(dif[act == a], params.nuisance_quantile, axis=0)
-                           for a in fp.taken])                            # (A_taken, A)
-    nu = np.median(per_action, axis=0)
-    out = np.zeros(len(fp.counts))
-    out[fp.taken] = nu[fp.taken]
-    return out
-
-
 def footprint_distances(trace: Trace, params: FootprintParams | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
     """Within-role footprint distances of ``trace``: ``(dist_pick, dist_place)``, rows in the
     order of ``flatnonzero(roles == PICK)`` and ``flatnonzero(roles == PLACE)``."""
-    params = params or FootprintParams()
-    fp = action_footprints(trace, params)
+    fp = action_footprints(trace, params or FootprintParams())
     roles = trace.roles()
-    return tuple(footprint_distance_matrix(fp.presence[roles == role], fp.colour[roles == role],
-                                           fp.spread, fp.taken, params, fp.nuisance)
+    return tuple(footprint_distance_matrix(fp.presence[roles == role], fp.posterior[roles == role],
+                                           fp.taken, fp.nuisance)
                  for role in (PICK, PLACE))
