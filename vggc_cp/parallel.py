@@ -50,21 +50,26 @@ class Backend:
     scheduler : str or None
         Address of an existing dask scheduler or ray cluster; None: ``$VGGC_CP_SCHEDULER``,
         else a fresh local cluster. Refused with ``local``.
-    jobs : int
-        ``local``: worker processes (1: in this process); a fresh dask ``LocalCluster``: its
-        workers. An existing cluster decides its own parallelism.
+    jobs : int or None
+        ``local``: worker processes (1 or None: in this process); a fresh dask
+        ``LocalCluster``: its workers (None: dask's default, one per core). An existing
+        cluster decides its own parallelism.
     processes : bool
         A fresh dask ``LocalCluster`` runs its workers as processes (True) or threads.
+    start : str or None
+        Start method of local worker processes (``fork``, ``spawn``, ``forkserver``); None:
+        ``fork`` where the platform has it.
     """
 
     name: str = LOCAL
     scheduler: str | None = None
-    jobs: int = 1
+    jobs: int | None = 1
     processes: bool = True
+    start: str | None = None
 
     def __post_init__(self) -> None:
         lookup({b: b for b in BACKENDS}, self.name, "backend")
-        if self.jobs < 1:
+        if self.jobs is not None and self.jobs < 1:
             raise VggcError(f"--jobs must be at least 1, got {self.jobs}")
         if self.name == LOCAL and self.scheduler:
             raise VggcError("--scheduler applies to --backend dask or ray, not local")
@@ -79,7 +84,7 @@ class Backend:
     @property
     def remote(self) -> bool:
         """Whether tasks leave this process."""
-        return self.name != LOCAL or self.jobs > 1
+        return self.name != LOCAL or (self.jobs or 1) > 1
 
 
 # ---------------------------------------------------------------- executors
@@ -114,14 +119,16 @@ class ProcessExecutor(Executor):
 
     inline = False
 
-    def __init__(self, jobs: int):
+    def __init__(self, jobs: int, start: str | None = None):
         self.jobs = jobs
+        self.start = start
 
     def completed(self, fn, items):
         if not items:
             return
         methods = multiprocessing.get_all_start_methods()
-        ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+        ctx = multiprocessing.get_context(self.start or ("fork" if "fork" in methods
+                                                         else "spawn"))
         with ProcessPoolExecutor(max_workers=min(self.jobs, len(items)), mp_context=ctx) as pool:
             futures = {pool.submit(fn, item): i for i, item in enumerate(items)}
             for fut in as_completed(futures):
@@ -190,7 +197,8 @@ def open_executor(backend: Backend | None = None) -> Iterator[Executor]:
     backend = backend or Backend()
     check_backend(backend)
     if backend.name == LOCAL:
-        yield Executor() if backend.jobs == 1 else ProcessExecutor(backend.jobs)
+        jobs = backend.jobs or 1
+        yield Executor() if jobs == 1 else ProcessExecutor(jobs, backend.start)
         return
     if backend.name == "dask":
         from distributed import Client, LocalCluster
