@@ -309,15 +309,16 @@ def _recorded_seconds(stats: dict) -> float:
 
 
 def visual_problem(trace: Trace, cfg: DistanceConfig | None = None, *, cache_dir=None,
-                   progress: bool = False) -> VisualProblem:
+                   progress: bool = False, executor=None) -> VisualProblem:
     """The problem of ``trace`` (observations and actions only) under the Sinkhorn distances
-    of ``cfg`` (default :class:`DistanceConfig`), computed or taken from the cache."""
+    of ``cfg`` (default :class:`DistanceConfig`), computed or taken from the cache (its row
+    blocks on ``executor`` when given)."""
     import json
 
     from vggc_cp.vision.distances import compute_distances_full
 
     t0 = time.perf_counter()
-    res = compute_distances_full(trace, cfg or DistanceConfig(), cache_dir, progress)
+    res = compute_distances_full(trace, cfg or DistanceConfig(), cache_dir, progress, executor)
     seconds = time.perf_counter() - t0
     stats = res.stats
     if res.cached and res.path is not None:
@@ -374,18 +375,22 @@ class GridSweeps:
 
 def greedy_then_exact(problem: Problem, k_pick, k_place, solver, *, greedy=None,
                       jobs: int = 1, select: str = "fewest", optimize: str = "minimal",
-                      progress: bool = False) -> GridSweeps:
+                      progress: bool = False, executor=None) -> GridSweeps:
     """Greedy sweep over the grid (with ``solver.greedy_options``; or the given ``greedy``
-    sweep), then :func:`~vggc_cp.solvers.cpsat.exact_sweep` warm-started by its results."""
+    sweep), then :func:`~vggc_cp.solvers.cpsat.exact_sweep` warm-started by its results.
+
+    ``executor`` (:func:`vggc_cp.parallel.open_executor`, e.g. a dask cluster) runs the greedy
+    cells and the exact sweep's independent J cells; without one the greedy cells run in
+    ``jobs`` local processes and the exact sweep here. Same results either way."""
     from vggc_cp.solvers.cpsat import exact_sweep
     from vggc_cp.solvers.greedy import GreedySolver
     from vggc_cp.solvers.sweep import run_sweep
 
     if greedy is None:
         greedy = run_sweep(problem, GreedySolver(**solver.greedy_options), k_pick, k_place,
-                           jobs=jobs, select=select, progress=progress)
+                           jobs=jobs, select=select, progress=progress, executor=executor)
     exact = exact_sweep(problem, k_pick, k_place, solver, greedy.results, optimize=optimize,
-                        select=select, progress=progress)
+                        select=select, progress=progress, executor=executor)
     return GridSweeps(greedy, exact)
 
 

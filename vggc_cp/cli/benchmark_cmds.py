@@ -80,7 +80,8 @@ def method_options(items: list[str]) -> dict:
 def register_benchmark(sub) -> None:
     import os
 
-    from vggc_cp.experiments.table1 import BACKENDS, DEFAULT_METHODS
+    from vggc_cp.cli.options import add_backend_arguments
+    from vggc_cp.experiments.table1 import DEFAULT_METHODS
     from vggc_cp.experiments.table1_methods import METHODS
 
     p = sub.add_parser("benchmark", help="the paper's Table 1: every method on every benchmark",
@@ -97,10 +98,7 @@ def register_benchmark(sub) -> None:
     p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                    help="worker processes / cluster tasks (default: the CPU count, here %(default)s)")
-    p.add_argument("--backend", choices=BACKENDS, default="loky",
-                   help="loky: local processes; dask or ray: a cluster (extras)")
-    p.add_argument("--scheduler", default=None,
-                   help="address of an existing dask scheduler or ray cluster")
+    add_backend_arguments(p, "the traces, distances and cells")
     p.add_argument("--out", default="benchmark", help="output and cache folder")
     p.add_argument("--param", action="append", default=[], metavar="METHOD.KEY=VALUE",
                    help="method option, e.g. cpsat.params=max_time_in_seconds:5 or "

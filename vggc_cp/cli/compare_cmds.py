@@ -6,8 +6,10 @@ import math
 from pathlib import Path
 
 from vggc_cp.cli.options import (
+    add_backend_arguments,
     add_cpsat_arguments,
     add_distance_arguments,
+    cluster_from_args,
     config_from_args,
     cpsat_solver_from_args,
 )
@@ -28,6 +30,7 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars, no per-cell table")
     add_cpsat_arguments(p)
     add_distance_arguments(p)
+    add_backend_arguments(p, "the distance blocks, the greedy cells and the CP-SAT J cells")
     p.set_defaults(func=cmd_compare)
 
 
@@ -52,14 +55,17 @@ def cmd_compare(args) -> int:
     if args.max_actions is not None and args.max_actions < 1:
         raise VggcError(f"--max-actions must be at least 1, got {args.max_actions}")
     trace = load_trace(args.trace)
-    vp = visual_problem(trace, config_from_args(args), progress=not args.quiet)
-    problem, t_dist = vp.problem, vp.seconds
-    dp, dq = default_grid(problem)
-    kp = parse_range(args.k_pick, "--k-pick") if args.k_pick else dp
-    kq = parse_range(args.k_place, "--k-place") if args.k_place else dq
-    sweeps = greedy_then_exact(problem, kp, kq,
-                               cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs),
-                               jobs=args.jobs, optimize=args.optimize, progress=not args.quiet)
+    cfg = config_from_args(args)
+    with cluster_from_args(args) as cluster:
+        vp = visual_problem(trace, cfg, progress=not args.quiet, executor=cluster)
+        problem, t_dist = vp.problem, vp.seconds
+        dp, dq = default_grid(problem)
+        kp = parse_range(args.k_pick, "--k-pick") if args.k_pick else dp
+        kq = parse_range(args.k_place, "--k-place") if args.k_place else dq
+        sweeps = greedy_then_exact(problem, kp, kq,
+                                   cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs),
+                                   jobs=args.jobs, optimize=args.optimize,
+                                   progress=not args.quiet, executor=cluster)
     greedy, exact = sweeps.greedy, sweeps.exact
     rows = compare_records(greedy, exact)
     table = pd.DataFrame.from_records(rows)

@@ -7,7 +7,9 @@ definitions and their translation into library values; no command lives here.
 from __future__ import annotations
 
 import argparse
+import contextlib
 
+from vggc_cp.parallel import BACKENDS, LOCAL, SCHEDULER_ENV, Backend
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import COLOUR_MODES, DistanceConfig
 from vggc_cp.vision.sinkhorn import DEVICES
@@ -41,6 +43,10 @@ def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--colour", choices=COLOUR_MODES, default=d.colour,
                    help="add colour-channel divergences when the trace shows two or more "
                         f"object colours (auto) or never (off) (default {d.colour})")
+    g.add_argument("--distance-rows", type=int, default=None, metavar="R",
+                   help="split each role's Sinkhorn pairs into blocks of R rows, one task each "
+                        "(spread over --backend dask/ray); the same R gives the same numbers "
+                        "on every backend (default: one block per role)")
     g.add_argument("--cache-dir", default=None,
                    help="distance cache directory (default $VGGC_CP_CACHE/distances or "
                         "./.cache/vggc-cp/distances)")
@@ -61,9 +67,44 @@ def config_from_args(args: argparse.Namespace) -> DistanceConfig:
         colour=getattr(args, "colour", d.colour),
         device=getattr(args, "sinkhorn_device", d.device),
         threads=getattr(args, "sinkhorn_threads", d.threads),
+        rows=getattr(args, "distance_rows", None),
         cache_dir=getattr(args, "cache_dir", None),
         use_cache=not getattr(args, "no_cache", False),
     )
+
+
+def add_backend_arguments(p, what: str = "independent tasks") -> None:
+    """Add ``--backend`` and ``--scheduler`` (:mod:`vggc_cp.parallel`); ``what`` says what runs
+    there."""
+    g = p.add_argument_group("where the work runs")
+    g.add_argument("--backend", choices=BACKENDS, default=LOCAL,
+                   help=f"where {what} run: local (this machine, --jobs processes), dask or "
+                        f"ray (a cluster; extras) (default {LOCAL})")
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help=f"dask scheduler (tcp://host:8786) or ray address of an existing "
+                        f"cluster (default ${SCHEDULER_ENV}; unset: a fresh local dask cluster "
+                        f"of --jobs workers, or one per core)")
+
+
+def backend_from_args(args: argparse.Namespace) -> Backend:
+    """The :class:`~vggc_cp.parallel.Backend` of ``--backend``, ``--scheduler`` and ``--jobs``."""
+    return Backend(getattr(args, "backend", LOCAL), getattr(args, "scheduler", None),
+                   getattr(args, "jobs", None))
+
+
+@contextlib.contextmanager
+def cluster_from_args(args: argparse.Namespace):
+    """The executor of ``--backend dask|ray`` held open for the ``with`` block, or None for
+    ``--backend local`` (the command's own ``--jobs`` handling: today's behaviour)."""
+    from vggc_cp.parallel import check_backend, open_executor
+
+    backend = backend_from_args(args)
+    check_backend(backend)
+    if backend.name == LOCAL:
+        yield None
+        return
+    with open_executor(backend) as executor:
+        yield executor
 
 
 def add_cpsat_arguments(p) -> None:

@@ -11,9 +11,11 @@ import time
 from pathlib import Path
 
 from vggc_cp.cli.options import (
+    add_backend_arguments,
     add_cpsat_arguments,
     add_distance_arguments,
     add_image_plan_options,
+    cluster_from_args,
     config_from_args,
     cpsat_solver_from_args,
     wants_image_plan,
@@ -25,7 +27,8 @@ from vggc_cp.errors import VggcError
 DEFAULT_SOLVER = "merge"
 #: ``solve`` options that only the grid solvers read: refused under ``--solver merge``.
 GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_actions",
-             "codeterministic", "cannot_link", "objective", "hint", "optimize")
+             "codeterministic", "cannot_link", "objective", "hint", "optimize", "backend",
+             "scheduler")
 #: ``solve`` options that only the merge solver reads: refused under the grid solvers.
 MERGE_ONLY = ("evidence", "thresholds", "exact")
 BENCH_NAME = "fruit-4x6"
@@ -84,6 +87,7 @@ def register(sub) -> None:
                         "the same inputs give the same bytes)")
     add_distance_arguments(p)
     add_cpsat_arguments(p)
+    add_backend_arguments(p, "the grid solvers' distance blocks and cells")
     p.set_defaults(func=cmd_solve, option_defaults={
         d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
 
@@ -200,22 +204,24 @@ def cmd_solve(args) -> int:
         cpsat_solver_from_args(args, args.tau)  # bad --cpsat-params fail before any work
     else:
         solver = _make_solver(args.solver, args.tau)
-    trace, cfg, problem, t_dist = _problem(args)
-    kp, kq = _grid(problem, args.k_pick, args.k_place)
-    if exact:
-        from vggc_cp.pipeline import greedy_then_exact
+    with cluster_from_args(args) as cluster:
+        trace, cfg, problem, t_dist = _problem(args, cluster)
+        kp, kq = _grid(problem, args.k_pick, args.k_place)
+        if exact:
+            from vggc_cp.pipeline import greedy_then_exact
 
-        solver = cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs)
-        sweeps = greedy_then_exact(problem, kp, kq, solver, jobs=args.jobs, select=args.select,
-                                   optimize=args.optimize, progress=not args.quiet)
-        greedy, sweep = sweeps.greedy, sweeps.exact
-        if args.solver == "both" and greedy.best is not None:
-            g = greedy.best
-            print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "
-                  f"{g.n_nodes} nodes, J {g.J:.4f} ({greedy.seconds:.1f} s)")
-    else:
-        sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
-                          progress=not args.quiet)
+            solver = cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs)
+            sweeps = greedy_then_exact(problem, kp, kq, solver, jobs=args.jobs,
+                                       select=args.select, optimize=args.optimize,
+                                       progress=not args.quiet, executor=cluster)
+            greedy, sweep = sweeps.greedy, sweeps.exact
+        else:
+            sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
+                              progress=not args.quiet, executor=cluster)
+    if exact and args.solver == "both" and greedy.best is not None:
+        g = greedy.best
+        print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "
+              f"{g.n_nodes} nodes, J {g.J:.4f} ({greedy.seconds:.1f} s)")
     n_found = sum(r.found for r in sweep.results)
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
@@ -258,14 +264,15 @@ def cmd_solve(args) -> int:
     return 0
 
 
-def _problem(args):
-    """Load the trace and compute (or reuse) its distances: ``(trace, cfg, problem, seconds)``."""
+def _problem(args, executor=None):
+    """Load the trace and compute (or reuse) its distances (row blocks on ``executor``):
+    ``(trace, cfg, problem, seconds)``."""
     from vggc_cp.pipeline import visual_problem
     from vggc_cp.trace import load_trace
 
     trace = load_trace(args.trace)
     cfg = config_from_args(args)
-    vp = visual_problem(trace, cfg, progress=not args.quiet)
+    vp = visual_problem(trace, cfg, progress=not args.quiet, executor=executor)
     return trace, cfg, vp.problem, vp.seconds
 
 

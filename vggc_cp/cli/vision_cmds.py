@@ -10,7 +10,7 @@ from vggc_cp.errors import VggcError
 
 
 def register(sub) -> None:
-    from vggc_cp.cli.options import add_distance_arguments
+    from vggc_cp.cli.options import add_backend_arguments, add_distance_arguments
     from vggc_cp.vision import ATTENTION_BACKENDS
 
     p = sub.add_parser("distances", help="compute (or load) the within-role visual distances of "
@@ -18,6 +18,7 @@ def register(sub) -> None:
     p.add_argument("trace", help="trace .npz")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_distance_arguments(p)
+    add_backend_arguments(p, "the Sinkhorn row blocks of --distance-rows")
     p.set_defaults(func=cmd_distances)
 
     s = sub.add_parser("show-attention", help="draw attention maps over their images")
@@ -59,13 +60,14 @@ def register_bench(bench_sub) -> None:
 
 
 def cmd_distances(args) -> int:
-    from vggc_cp.cli.options import config_from_args
+    from vggc_cp.cli.options import cluster_from_args, config_from_args
     from vggc_cp.trace import load_trace
     from vggc_cp.vision import compute_distances_full
 
     cfg = config_from_args(args)
     trace = load_trace(args.trace)
-    res = compute_distances_full(trace, cfg, progress=not args.quiet)
+    with cluster_from_args(args) as cluster:
+        res = compute_distances_full(trace, cfg, progress=not args.quiet, executor=cluster)
     where = str(res.path) if res.path is not None else "(not cached: --no-cache)"
     print(f"trace          {args.trace}")
     print(f"attention      {cfg.backend} on a {cfg.grid}x{cfg.grid} grid, eps {cfg.eps:g}")

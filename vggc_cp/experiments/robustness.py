@@ -141,7 +141,7 @@ class RobustnessConfig:
     novel: int = 150
     i2p_queries: int = 150
     force: bool = False
-    backend: str = "loky"
+    backend: str = "local"
     scheduler: str | None = None
 
     def __post_init__(self) -> None:

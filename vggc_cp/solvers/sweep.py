@@ -31,16 +31,16 @@ it room well beyond the always-feasible corner.
 from __future__ import annotations
 
 import math
-import multiprocessing
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vggc_cp.errors import VggcError
+from vggc_cp.parallel import Executor, ProcessExecutor
 from vggc_cp.solvers.base import Problem, Solver, SolveResult
 from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     GRID,
@@ -200,17 +200,13 @@ class Sweep:
         return kp, kq, mat
 
 
-def _solve_cell(solver: Solver, problem: Problem, k_pick: int, k_place: int) -> SolveResult:
-    return solver.solve(problem, k_pick, k_place)
-
-
-def _context():
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+def _solve_cell(solver: Solver, problem: Problem, cell: tuple[int, int]) -> SolveResult:
+    return solver.solve(problem, cell[0], cell[1])
 
 
 def run_sweep(problem: Problem, solver: Solver, k_pick: Sequence[int], k_place: Sequence[int],
-              *, jobs: int = 1, select: str = "fewest", progress: bool = False) -> Sweep:
+              *, jobs: int = 1, select: str = "fewest", progress: bool = False,
+              executor: Executor | None = None) -> Sweep:
     """Solve every cell of ``k_pick x k_place`` and select one.
 
     Parameters
@@ -221,13 +217,16 @@ def run_sweep(problem: Problem, solver: Solver, k_pick: Sequence[int], k_place: 
     k_pick, k_place : sequences of int
         Grid values.
     jobs : int
-        Worker processes; 1 solves inline. Workers are forked where the platform can (no
-        ``if __name__ == "__main__"`` guard needed in scripts or notebooks; workers only run
-        numpy), else spawned.
+        Worker processes when no ``executor`` is given; 1 solves inline. Workers are forked
+        where the platform can (no ``if __name__ == "__main__"`` guard needed in scripts or
+        notebooks; workers only run numpy), else spawned.
     select : str
         A name in :data:`SELECTIONS`.
     progress : bool
         Show a tqdm bar on stderr.
+    executor : vggc_cp.parallel.Executor, optional
+        Where the cells run (e.g. a dask cluster, :func:`vggc_cp.parallel.open_executor`);
+        the results, their order and the selection are the same on every executor.
     """
     rule = get_selection(select)
     cells = [(int(a), int(b)) for a in k_pick for b in k_place]
@@ -235,30 +234,19 @@ def run_sweep(problem: Problem, solver: Solver, k_pick: Sequence[int], k_place: 
         raise VggcError("the (k_pick, k_place) grid is empty")
     if jobs < 1:
         raise VggcError(f"--jobs must be at least 1, got {jobs}")
+    if executor is None:
+        executor = Executor() if jobs == 1 else ProcessExecutor(jobs)
     t0 = time.perf_counter()
-    results: list[SolveResult | None] = [None] * len(cells)
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(cells), desc=f"{solver.name} sweep", unit="cell", leave=False)
     try:
-        if jobs == 1:
-            for i, (a, b) in enumerate(cells):
-                results[i] = _solve_cell(solver, problem, a, b)
-                if bar is not None:
-                    bar.update(1)
-        else:
-            with ProcessPoolExecutor(max_workers=min(jobs, len(cells)),
-                                     mp_context=_context()) as pool:
-                futures = {pool.submit(_solve_cell, solver, problem, a, b): i
-                           for i, (a, b) in enumerate(cells)}
-                for fut in as_completed(futures):
-                    results[futures[fut]] = fut.result()
-                    if bar is not None:
-                        bar.update(1)
+        results = executor.map(partial(_solve_cell, solver, problem), cells,
+                               None if bar is None else lambda i, r: bar.update(1))
     finally:
         if bar is not None:
             bar.close()
-    done = tuple(r for r in results if r is not None)
+    done = tuple(results)
     selected = rule(done, problem)
     return Sweep(done, selected, select, solver.name, time.perf_counter() - t0, jobs)

@@ -49,6 +49,7 @@ import numpy as np
 
 from vggc_cp.atomic import atomic_path
 from vggc_cp.errors import VggcError, lookup
+from vggc_cp.parallel import Executor
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.attention import (
     ATTENTION_BACKENDS,
@@ -78,7 +79,7 @@ class DistanceConfig:
     """Every setting of the distance stage.
 
     Fields that change the distances form the cache key; ``device``, ``threads``, ``block``,
-    ``cache_dir`` and ``use_cache`` only change speed or storage.
+    ``rows``, ``cache_dir`` and ``use_cache`` only change speed or storage.
 
     Attributes
     ----------
@@ -108,6 +109,11 @@ class DistanceConfig:
         colours (module docstring); ``off``: the paper's distance only.
     colour_min_share : float
         Share of the chromatic foreground mass that makes a hue bin a colour channel.
+    rows : int or None
+        Split each role's pairs into blocks of ``rows`` rows, one task each (run on the
+        executor given to :func:`compute_distances_full`, e.g. a dask cluster); None: one
+        block per role. The same ``rows`` gives the same numbers on every backend; other
+        block sizes differ by float32 rounding only (about 1e-7), so it is not in the key.
     """
 
     backend: str = "saliency"
@@ -126,6 +132,7 @@ class DistanceConfig:
     device: str = _exec("torch")
     threads: int | None = _exec(2)
     block: int = _exec(2048)
+    rows: int | None = _exec(None)
     cache_dir: str | None = _exec(None)
     use_cache: bool = _exec(True)
 
@@ -150,6 +157,8 @@ class DistanceConfig:
         if self.dtype not in ("float32", "float64"):
             raise VggcError(f"--sinkhorn-dtype must be float32 or float64, got {self.dtype!r}")
         lookup({d: d for d in DEVICES}, self.device, "device")
+        if self.rows is not None and self.rows < 1:
+            raise VggcError(f"--distance-rows must be at least 1, got {self.rows}")
 
     def attention_params(self) -> AttentionParams:
         return AttentionParams(grid=self.grid, floor=self.floor, noise_k=self.noise_k,
@@ -243,14 +252,18 @@ def role_maps(trace: Trace, cfg: DistanceConfig,
 
 
 def distance_matrices(maps: np.ndarray, roles: np.ndarray, cfg: DistanceConfig,
-                      on_done: Callable[[int], None] | None = None) -> tuple[np.ndarray,
-                                                                             np.ndarray, dict]:
+                      on_done: Callable[[int], None] | None = None,
+                      executor: Executor | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
     """Within-role Sinkhorn divergences of given maps.
 
     Parameters
     ----------
     maps : ndarray, shape (N, g*g)
     roles : ndarray of int, shape (N,)
+    on_done : callable, optional
+        Called with the number of OT problems just finished.
+    executor : vggc_cp.parallel.Executor, optional
+        Where the row blocks of ``cfg.rows`` run (default: here).
 
     Returns
     -------
@@ -270,7 +283,7 @@ def distance_matrices(maps: np.ndarray, roles: np.ndarray, cfg: DistanceConfig,
         S, st = sinkhorn_divergence_matrix(
             h, M, cfg.eps, tol=cfg.tol, max_iter=cfg.max_iter, omega=cfg.omega,
             dtype=cfg.dtype, device=cfg.device, block=cfg.block, threads=cfg.threads,
-            on_done=on_done)
+            on_done=on_done, rows=cfg.rows, executor=executor)
         out.append(np.maximum(S, 0.0))
         stats[name] = asdict(st)
     return out[0], out[1], stats
@@ -286,9 +299,12 @@ def n_problems(roles: np.ndarray) -> int:
 
 
 def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
-                           cache_dir: str | Path | None = None, progress: bool = True
-                           ) -> DistanceResult:
-    """:func:`compute_distances` with provenance: cache path, hit or miss, statistics."""
+                           cache_dir: str | Path | None = None, progress: bool = True,
+                           executor: Executor | None = None) -> DistanceResult:
+    """:func:`compute_distances` with provenance: cache path, hit or miss, statistics.
+
+    ``executor`` (:func:`vggc_cp.parallel.open_executor`) runs the Sinkhorn row blocks of
+    ``cfg.rows``; attention maps and the cache stay in this process."""
     from vggc_cp.safeio import cache_writable, check_grid
 
     cfg = cfg or DistanceConfig()
@@ -332,10 +348,10 @@ def compute_distances_full(trace: Trace, cfg: DistanceConfig | None = None,
     dp = dq = 0.0
     if main:
         dp, dq, stats = distance_matrices(maps, roles, cfg,
-                                          bar.update if bar is not None else None)
+                                          bar.update if bar is not None else None, executor)
     for c, hue_bin in enumerate(kept):
         cp, cq, cstats = distance_matrices(channels[:, c], roles, cfg,
-                                           bar.update if bar is not None else None)
+                                           bar.update if bar is not None else None, executor)
         dp, dq = dp + cp, dq + cq
         stats[f"colour_{hue_bin}"] = cstats
     if bar is not None:

@@ -63,9 +63,11 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
+from vggc_cp.parallel import Executor
 from vggc_cp.vision.backends import DEVICES, array_ops
 
 #: Largest ``max(M) / eps`` for which the stabilised scaling iteration is used, per dtype.
@@ -435,8 +437,49 @@ def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.nd
     return costs, stats
 
 
-def sinkhorn_divergence_matrix(hists: np.ndarray, M: np.ndarray, eps: float, **kwargs
-                               ) -> tuple[np.ndarray, SinkhornStats]:
+def row_blocks(m: int, rows: int | None = None) -> list[tuple[int, int]]:
+    """Row spans ``[(a, b), ...]`` that split ``m`` histograms into blocks of ``rows`` rows
+    (one block when ``rows`` is None or at least ``m``)."""
+    step = max(1, rows or m)
+    return [(a, min(a + step, m)) for a in range(0, max(m, 1), step)]
+
+
+def block_problems(m: int, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(src, dst)`` of the row block ``[a, b)`` of an ``m x m`` divergence matrix: the self
+    terms of rows ``a..b-1``, then the pairs ``(i, j > i)`` of those rows, row-major (the block
+    ``(0, m)`` is every problem of :func:`sinkhorn_divergence_matrix`, in its order)."""
+    rows = np.arange(a, b)
+    iu = np.repeat(rows, m - 1 - rows)
+    ju = (np.concatenate([np.arange(i + 1, m) for i in rows]) if len(rows)
+          else np.zeros(0, dtype=np.int64))
+    return np.concatenate([rows, iu]), np.concatenate([rows, ju])
+
+
+def _block_costs(hists: np.ndarray, M: np.ndarray, eps: float, kwargs: dict,
+                 span: tuple[int, int]) -> tuple[np.ndarray, SinkhornStats]:
+    src, dst = block_problems(len(hists), *span)
+    return sinkhorn_costs(hists, src, dst, M, eps, **kwargs)
+
+
+def merge_stats(parts: list[SinkhornStats]) -> SinkhornStats:
+    """One :class:`SinkhornStats` of several solves (the first when there is one)."""
+    if len(parts) == 1:
+        return parts[0]
+    n = sum(p.problems for p in parts)
+    modes = sorted({p.mode for p in parts})
+    return SinkhornStats(
+        problems=n,
+        iterations_mean=(sum(p.iterations_mean * p.problems for p in parts) / n) if n else 0.0,
+        iterations_max=max(p.iterations_max for p in parts),
+        unconverged=sum(p.unconverged for p in parts),
+        max_marginal_error=max(p.max_marginal_error for p in parts),
+        mode="+".join(modes), device=parts[0].device,
+        seconds=sum(p.seconds for p in parts))
+
+
+def sinkhorn_divergence_matrix(hists: np.ndarray, M: np.ndarray, eps: float, *,
+                               rows: int | None = None, executor: Executor | None = None,
+                               **kwargs) -> tuple[np.ndarray, SinkhornStats]:
     """All pairwise debiased Sinkhorn divergences of a set of histograms.
 
     ``S[i, j] = OT(h_i, h_j) - OT(h_i, h_i)/2 - OT(h_j, h_j)/2`` for ``i < j`` (one problem per
@@ -447,8 +490,15 @@ def sinkhorn_divergence_matrix(hists: np.ndarray, M: np.ndarray, eps: float, **k
     hists : ndarray, shape (m, n)
     M : ndarray, shape (n, n)
     eps : float
+    rows : int, optional
+        Split the problems into row blocks of ``rows`` rows (:func:`row_blocks`), one task
+        each; None: one block. The numbers depend on the blocks (float32 products of other
+        widths), never on where they run.
+    executor : vggc_cp.parallel.Executor, optional
+        Where the blocks run (default: here, in order).
     **kwargs
-        Passed to :func:`sinkhorn_costs`.
+        Passed to :func:`sinkhorn_costs` (``on_done`` is called here, per block when the
+        blocks run elsewhere).
 
     Returns
     -------
@@ -456,15 +506,23 @@ def sinkhorn_divergence_matrix(hists: np.ndarray, M: np.ndarray, eps: float, **k
     stats : SinkhornStats
     """
     m = len(hists)
+    spans = row_blocks(m, rows)
+    executor = executor or Executor()
+    on_done = kwargs.pop("on_done", None)
+    report = None
+    if executor.inline:
+        kwargs["on_done"] = on_done
+    elif on_done is not None:
+        def report(i, out):
+            on_done(out[1].problems)
+    outs = executor.map(partial(_block_costs, hists, M, eps, kwargs), spans, report)
+    self_cost = np.concatenate([c[:b - a] for (a, b), (c, _) in zip(spans, outs)])
+    pair_cost = np.concatenate([c[b - a:] for (a, b), (c, _) in zip(spans, outs)])
     iu, ju = np.triu_indices(m, k=1)
-    src = np.concatenate([np.arange(m), iu])
-    dst = np.concatenate([np.arange(m), ju])
-    costs, stats = sinkhorn_costs(hists, src, dst, M, eps, **kwargs)
-    self_cost = costs[:m]
     S = np.zeros((m, m), dtype=np.float64)
-    S[iu, ju] = costs[m:] - 0.5 * self_cost[iu] - 0.5 * self_cost[ju]
+    S[iu, ju] = pair_cost - 0.5 * self_cost[iu] - 0.5 * self_cost[ju]
     S[ju, iu] = S[iu, ju]
-    return S, stats
+    return S, merge_stats([st for _, st in outs])
 
 
 def sinkhorn_divergence_pairs(hists_a: np.ndarray, hists_b: np.ndarray, M: np.ndarray,
@@ -480,4 +538,5 @@ def sinkhorn_divergence_pairs(hists_a: np.ndarray, hists_b: np.ndarray, M: np.nd
 
 
 __all__ = ["DEVICES", "SCALING_LIMITS", "SinkhornStats", "cost_matrix", "patch_centres",
-           "sinkhorn_costs", "sinkhorn_divergence_matrix", "sinkhorn_divergence_pairs"]
+           "block_problems", "merge_stats", "row_blocks", "sinkhorn_costs",
+           "sinkhorn_divergence_matrix", "sinkhorn_divergence_pairs"]

@@ -8,10 +8,12 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from vggc_cp.errors import VggcError
+from vggc_cp.parallel import Executor
 from vggc_cp.solvers.base import FEASIBLE, INFEASIBLE, UNKNOWN, Problem, SolveResult
 from vggc_cp.solvers.brute import split_colours, violations
 from vggc_cp.solvers.cpsat.solve import CpSatSolver
@@ -22,7 +24,8 @@ OPTIMIZE = ("minimal", "all")
 
 def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
                 solver: CpSatSolver, greedy: Sequence[SolveResult] = (), *,
-                optimize: str = "minimal", select: str = "fewest", progress: bool = False):
+                optimize: str = "minimal", select: str = "fewest", progress: bool = False,
+                executor: Executor | None = None):
     """Decide every cell of a grid with CP-SAT, then minimize J where it matters.
 
     Feasibility is monotone: a colouring of ``(a, b)`` is a colouring of every
@@ -52,6 +55,9 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
     optimize : {'minimal', 'all'}
     select : str
         A ``"grid"`` rule of :mod:`vggc_cp.solvers.selection`.
+    executor : vggc_cp.parallel.Executor, optional
+        Where the J cells of one ``k_pick + k_place`` run (default: here, in order); the
+        feasibility frontier is a walk and runs here. Same results on every executor.
 
     Returns
     -------
@@ -62,6 +68,7 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
     if optimize not in OPTIMIZE:
         raise VggcError(f"unknown optimize mode {optimize!r}; known: {', '.join(OPTIMIZE)}")
     rule = get_selection(select)
+    executor = executor or Executor()
     kp, kq = sorted({int(a) for a in k_pick}), sorted({int(b) for b in k_place})
     if not kp or not kq:
         raise VggcError("the (k_pick, k_place) grid is empty")
@@ -96,9 +103,13 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
     def infeasible_by(cell):
         return next((c for c in proved if c[0] >= cell[0] and c[1] >= cell[1]), None)
 
+    def hints_for(cell):
+        return [(f"{src}@{c[0]},{c[1]}", lab) for src, lab, _, c in below(cell)]
+
     def run(s, cell):
-        hints = [(f"{src}@{c[0]},{c[1]}", lab) for src, lab, _, c in below(cell)]
-        res = s.solve_hinted(problem, cell[0], cell[1], hints)
+        return record(cell, s.solve_hinted(problem, cell[0], cell[1], hints_for(cell)))
+
+    def record(cell, res):
         spent[cell] = spent.get(cell, 0.0) + res.seconds
         solved[cell] = res
         if res.status == INFEASIBLE:
@@ -152,10 +163,15 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
         if bar is not None:
             bar.reset(total=len(todo))
             bar.set_description("cpsat J")
-        for cell in todo:
-            run(solver, cell)
-            if bar is not None:
-                bar.update(1)
+        # cells of one k_pick + k_place never lie below each other: each wave's cells are
+        # independent (the same hints in any order), so a wave runs on the executor
+        task = partial(_solve_hinted, solver, problem)
+        for total in sorted({sum(c) for c in todo}):
+            wave = [c for c in todo if sum(c) == total]
+            results = executor.map(task, [(c, hints_for(c)) for c in wave],
+                                   None if bar is None else lambda i, r: bar.update(1))
+            for cell, res in zip(wave, results):
+                record(cell, res)
     finally:
         if bar is not None:
             bar.close()
@@ -191,6 +207,11 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
                                        spent.get(cell, 0.0), None, stats))
     selected = rule(results, problem)
     return Sweep(tuple(results), selected, select, solver.name, time.perf_counter() - t_start, 1)
+
+
+def _solve_hinted(solver: CpSatSolver, problem: Problem, item: tuple) -> SolveResult:
+    (k_pick, k_place), hints = item
+    return solver.solve_hinted(problem, k_pick, k_place, hints)
 
 
 def compare_records(greedy, exact) -> list[dict]:
