@@ -9,6 +9,7 @@ from dataclasses import replace
 import pandas as pd
 import pytest
 
+from vggc_cp import plots
 from vggc_cp.cli import main
 from vggc_cp.experiments import robustness as rob
 from vggc_cp.trace import load_trace
@@ -115,6 +116,14 @@ def test_calibration_counts_and_the_silent_failure():
     assert "1 missed & quiet (silent failure)" in text
     assert "- b clean seed 0: nodes 4 / 10 outside" in text
     assert "no warning (silent failure)" in text and "warned: plateau" in text
+
+
+def test_plot_exec_draws_every_look_and_skips_unmeasured_runs(tmp_path):
+    rows = [good(), good(look="randomized", suspect=True), good(benchmark="c", exec=None),
+            good(benchmark="c", exec=math.nan, look="randomized")]
+    path = tmp_path / "exec.png"
+    plots.plot_exec(rows, path, title="t")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("argv, phrase", [
