@@ -65,7 +65,7 @@ FAST_LSR = LsrConfig(image_size=8, latent_dim=6, steps=150, batch=16, d_m=(6.0,)
 
 @pytest.mark.parametrize("name, options", [
     ("pca-hdbscan", {}),
-    ("lsr", {"config": FAST_LSR}),
+    pytest.param("lsr", {"config": FAST_LSR}, marks=pytest.mark.slow),  # trains a VAE
 ])
 def test_baseline_recovers_states_and_evaluates(tmp_path, capsys, name, options):
     trace = toy_trace()
