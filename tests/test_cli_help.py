@@ -48,3 +48,14 @@ def test_help_shows_every_default_once(name, parser):
     assert not missing, f"{name}: defaults not shown: {missing}"
     assert not doubled, f"{name}: defaults shown twice: {doubled}"
     parser.format_help()  # every help string formats
+
+
+def test_options_whose_none_stands_for_a_computed_value_say_which():
+    """``--tau`` None is a per-role median, not "no temperature": every command says so."""
+    seen = 0
+    for name, parser in PARSERS:
+        for action in parser._actions:
+            if "--tau" in action.option_strings:
+                seen += 1
+                assert "default: per role, the median" in _shown(parser, action), name
+    assert seen >= 2

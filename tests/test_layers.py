@@ -23,11 +23,6 @@ FLOORS = (
     ("vggc_cp.plots", "vggc_cp.notebooks"),
     ("vggc_cp.cli", "vggc_cp.__main__"),
 )
-#: Upward imports known and owned elsewhere: (importer, imported) -> why it stays for now.
-PENDING = {
-    ("vggc_cp.experiments.robustness", "vggc_cp.plots"):
-        "plot_exec draws with plots' helpers; robustness.py is being edited on another branch",
-}
 
 
 def module_name(path: Path) -> str:
@@ -72,14 +67,9 @@ def test_every_module_is_on_a_floor():
 
 def test_no_module_imports_from_a_higher_floor():
     upward = sorted((m, i) for m, imps in all_imports().items() for i in imps
-                    if floor_of(i) > floor_of(m) and (m, i) not in PENDING)
+                    if floor_of(i) > floor_of(m))
     assert upward == [], "imports from a higher floor:\n" + "\n".join(
         f"  {m} -> {i}" for m, i in upward)
-
-
-def test_pending_exceptions_are_still_needed():
-    found = {(m, i) for m, imps in all_imports().items() for i in imps}
-    assert set(PENDING) <= found, f"no longer imported, drop from PENDING: {set(PENDING) - found}"
 
 
 def test_cli_commands_never_import_each_other():

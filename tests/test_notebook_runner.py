@@ -56,3 +56,11 @@ def test_default_output_names():
 
     assert default_output("notebooks/a.ipynb").as_posix() == "notebooks/a.executed.ipynb"
     assert default_output("a.executed.ipynb").as_posix() == "a.executed.ipynb"
+
+
+def test_a_folder_or_a_missing_notebook_is_named_as_such(tmp_path, capsys):
+    assert main(["notebook", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"vggc-cp: error: {tmp_path}: the notebook is a directory, not a file")
+    assert main(["notebook", str(tmp_path / "nope.ipynb")]) == 2
+    assert "nope.ipynb: no such file" in capsys.readouterr().err

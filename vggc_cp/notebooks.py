@@ -14,6 +14,7 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError
+from vggc_cp.safeio import check_input
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,7 @@ def run_notebook(path: str | Path, parameters: dict | None = None,
     except ImportError as exc:
         raise _missing(exc.name or "nbclient") from None
     path = Path(path)
-    if not path.is_file():
-        raise VggcError(f"{path}: no such notebook")
+    check_input(path, "notebook")
     nb = nbformat.read(path, as_version=4)
     index = next((i for i, c in enumerate(nb.cells)
                   if "parameters" in c.get("metadata", {}).get("tags", [])), None)

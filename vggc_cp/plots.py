@@ -369,3 +369,42 @@ def plot_scalability(transitions: list[int], curves: dict, seconds: dict, path: 
     if title:
         fig.suptitle(title)
     _save(fig, path)
+
+
+def _is_number(x) -> bool:
+    return x is not None and not (isinstance(x, float) and np.isnan(x))
+
+
+def plot_exec(rows: list[dict], path: str | Path, *, title: str | None = None) -> None:
+    """Exec of every run, grouped by benchmark, one colour per look; warned runs drawn as
+    crosses, quiet ones as dots; the dashed line is :data:`vggc_cp.experiments.robustness.MIN_EXEC`."""
+    from vggc_cp.experiments.robustness import MIN_EXEC
+
+    plt = _pyplot()
+    benches = list(dict.fromkeys(r["benchmark"] for r in rows))
+    looks = list(dict.fromkeys(r["look"] for r in rows))
+    fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(benches), 3.6), constrained_layout=True)
+    width = 0.7 / max(len(looks), 1)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for j, look in enumerate(looks):
+        for warned, marker in ((False, "o"), (True, "X")):
+            pts = [(benches.index(r["benchmark"]) + (j - (len(looks) - 1) / 2) * width,
+                    100 * float(r["exec"]))
+                   for r in rows if r["look"] == look and bool(r.get("suspect")) == warned
+                   and _is_number(r.get("exec"))]
+            if not pts:
+                continue
+            x, y = np.array(pts).T
+            x = x + np.linspace(-0.25, 0.25, len(x)) * width
+            ax.scatter(x, y, marker=marker, s=46 if warned else 26,
+                       color=colours[j % len(colours)], edgecolors="black" if warned else "none",
+                       label=f"{look}{' (warned)' if warned else ''}", zorder=3)
+    ax.axhline(100 * MIN_EXEC, color="grey", ls="--", lw=1)
+    ax.set_xticks(np.arange(len(benches)), benches, rotation=20, fontsize=8)
+    ax.set_xlim(-0.6, len(benches) - 0.4)
+    ax.set_ylabel("Exec (%)")
+    ax.set_ylim(-3, 103)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title(title or "default solve: Exec per run", fontsize=10)
+    _save(fig, path)

@@ -65,7 +65,7 @@ FAST_LSR = LsrConfig(image_size=8, latent_dim=6, steps=150, batch=16, d_m=(6.0,)
 
 @pytest.mark.parametrize("name, options", [
     ("pca-hdbscan", {}),
-    ("lsr", {"config": FAST_LSR}),
+    pytest.param("lsr", {"config": FAST_LSR}, marks=pytest.mark.slow),  # trains a VAE
 ])
 def test_baseline_recovers_states_and_evaluates(tmp_path, capsys, name, options):
     trace = toy_trace()
@@ -171,3 +171,20 @@ def test_baseline_cli(tmp_path, capsys):
     assert main(["baseline", "pca-hdbscan", str(tmp_path / "t.npz"), "-o", str(out),
                  "--param", "bogus=1"]) == 2
     assert "bogus" in capsys.readouterr().err
+
+
+def test_baseline_progress_bar_has_its_total_and_quiet_hides_it(tmp_path, capsys):
+    from dataclasses import replace
+
+    trace = toy_trace()
+    get_baseline("lsr", config=replace(FAST_LSR, steps=5, d_m=(4.0, 6.0))).fit(trace,
+                                                                              progress=True)
+    assert "lsr:   0%|          | 0/10 [" in capsys.readouterr().err  # steps x d_m
+    save_trace(trace, tmp_path / "t.npz")
+    argv = ["baseline", "pca-hdbscan", str(tmp_path / "t.npz"), "-o", str(tmp_path / "s.json"),
+            "--param", "min_cluster_size=3,4,5", "--param", "n_components=8", "--param",
+            "min_samples=1,none"]
+    assert main(argv) == 0
+    assert "pca-hdbscan:   0%|          | 0/6 [" in capsys.readouterr().err
+    assert main(argv + ["--quiet"]) == 0
+    assert capsys.readouterr().err == ""

@@ -9,6 +9,7 @@ from dataclasses import replace
 import pandas as pd
 import pytest
 
+from vggc_cp import plots
 from vggc_cp.cli import main
 from vggc_cp.experiments import robustness as rob
 from vggc_cp.trace import load_trace
@@ -19,10 +20,11 @@ Q = 60
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    """fruit-2x3, |D| 50, clean, seeds 0 and 1 (seed 1 held out), two workers."""
+    """fruit-2x3, |D| 50, clean, seeds 0 and 1 (seed 1 held out), one worker (two workers:
+    :func:`test_two_workers_give_the_same_rows`)."""
     out = tmp_path_factory.mktemp("robustness")
     cfg = rob.RobustnessConfig(out, ("fruit-2x3",), (0, 1), ("clean",), transitions=D,
-                               n_queries=Q, jobs=2, heldout_seeds=(1,))
+                               n_queries=Q, jobs=1, heldout_seeds=(1,))
     run = rob.run_robustness(cfg, progress=False)
     return cfg, run
 
@@ -48,6 +50,20 @@ def test_rows_have_the_fields_and_the_truth(study):
     assert trace.n_transitions == D and trace.meta.get("look", "clean") == "clean"
     assert (cfg.out / "cells" / "fruit-2x3-clean-s1.json").is_file()
     assert json.loads((cfg.out / "solutions" / "fruit-2x3-clean-s0.json").read_text())["labels"]
+
+
+@pytest.mark.slow
+def test_two_workers_give_the_same_rows(study, tmp_path):
+    """The study in two worker processes (their start-up costs seconds on 2 cores)."""
+    cfg, run = study
+    two = rob.run_robustness(replace(cfg, out=tmp_path, jobs=2), progress=False)
+    assert two.computed == len(run.rows)
+
+    def untimed(rows):
+        return sorted(({k: v for k, v in r.items() if not k.startswith("seconds")}
+                       for r in rows), key=lambda r: r["seed"])
+
+    assert untimed(two.rows) == untimed(run.rows)
 
 
 def test_tables_have_both_splits(study):
@@ -115,6 +131,14 @@ def test_calibration_counts_and_the_silent_failure():
     assert "1 missed & quiet (silent failure)" in text
     assert "- b clean seed 0: nodes 4 / 10 outside" in text
     assert "no warning (silent failure)" in text and "warned: plateau" in text
+
+
+def test_plot_exec_draws_every_look_and_skips_unmeasured_runs(tmp_path):
+    rows = [good(), good(look="randomized", suspect=True), good(benchmark="c", exec=None),
+            good(benchmark="c", exec=math.nan, look="randomized")]
+    path = tmp_path / "exec.png"
+    plots.plot_exec(rows, path, title="t")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("argv, phrase", [

@@ -409,3 +409,68 @@ def test_evaluate_reading_paper_takes_the_localizer_as_f(setup, capsys):
     # --model alone is still refused outside the paper reading (I2P needs --novel)
     assert main(args + ["--model", str(root / "model.pt")]) == 2
     assert "--novel" in capsys.readouterr().err
+
+
+class _Counter:
+    """Stands in for a tqdm bar: counts the epochs reported."""
+
+    n = 0
+
+    def update(self, k: int) -> None:
+        self.n += k
+
+
+@pytest.fixture
+def scripted_training(monkeypatch):
+    """Training that only reports its epochs, and a validation accuracy by learning rate."""
+    from vggc_cp.localize import train
+
+    accuracy = {}
+    fitted = []
+
+    def fake_fit(net, x, y, lr, epochs, config, seed, on_epoch=None):
+        net.lr = lr
+        fitted.append((lr, epochs))
+        for epoch in range(1, epochs + 1):
+            if on_epoch is not None and on_epoch(epoch):
+                break
+
+    monkeypatch.setattr(train, "_fit", fake_fit)
+    monkeypatch.setattr(train, "_accuracy", lambda net, x, y: accuracy.get(net.lr, 0.5))
+    return accuracy, fitted
+
+
+def test_cross_validation_stops_once_a_setting_is_perfect(setup, scripted_training):
+    from vggc_cp.localize.model import to_unit_tensor
+    from vggc_cp.localize.train import cross_validate
+
+    accuracy, fitted = scripted_training
+    x = to_unit_tensor(setup["trace"].observations[:12], 16)
+    y = torch.arange(12) % 3
+    config = quick_config(input_size=16, learning_rates=(1e-2, 3e-3, 1e-3), epoch_grid=(6, 12))
+    accuracy[3e-3] = 1.0  # the second rate validates perfectly on every fold
+    bar = _Counter()
+    cv = cross_validate(x, y, 3, config, bar)
+    assert [(lr, e, acc) for lr, e, acc in cv] == [(1e-2, 6, 0.5), (1e-2, 12, 0.5),
+                                                   (3e-3, 6, 1.0), (3e-3, 12, 1.0)]
+    assert {lr for lr, _ in fitted} == {1e-2, 3e-3}  # 1e-3 never trained
+    assert bar.n == 2 * 3 * 12  # the bar ends at its total: folds x rates x largest epochs
+    # no setting perfect: every rate is tried, and the bar ends at the same total
+    accuracy.clear()
+    bar = _Counter()
+    assert len(cross_validate(x, y, 3, config, bar)) == 6 and bar.n == 2 * 3 * 12
+
+
+def test_train_localizer_cli_says_when_cross_validation_stopped_early(setup, scripted_training,
+                                                                      tmp_path, capsys):
+    accuracy, _ = scripted_training
+    accuracy[3e-3] = 1.0
+    root = setup["root"]
+    rc = main(["train-localizer", str(root / "trace.npz"), str(root / "sol.json"), "-o",
+               str(tmp_path / "m.pt"), "--input-size", "16", "--lr", "3e-3,1e-7", "--epochs",
+               "6,12", "--folds", "2", "--threads", "1"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "stopped early" in out and "not tried: lr 1e-07" in out
+    assert "chosen         lr 0.003, 6 epochs" in out
+    meta = json.loads(torch.load(tmp_path / "m.pt", weights_only=True)["meta"])
+    assert meta["training"]["cv_untried"] == [1e-7]

@@ -60,9 +60,12 @@ def test_walk_is_valid_and_alternates(name):
 
 @pytest.mark.parametrize("name", benchmark_names())
 def test_small_generated_trace_validates(name):
-    g = generate(name, 12, seed=1, size=32, novel=3)
+    totals = []
+    g = generate(name, 12, seed=1, size=32, novel=3, on_frame=totals.append)
     tr = g.trace
     validate(tr)
+    # one call per frame, each with the same total: the episodes' extra observations included
+    assert totals == [tr.n_obs + 3] * (tr.n_obs + 3) and tr.n_obs > 13
     assert tr.n_transitions == 12
     assert tr.observations.shape[1:] == (32, 32, 3)
     assert tr.meta["benchmark"] == name and tr.meta["seed"] == 1

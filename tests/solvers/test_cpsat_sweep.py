@@ -78,6 +78,14 @@ def test_feasibility_only_sweep_has_no_bounds():
         assert r.found == enumerate_cell(p, r.k_pick, r.k_place).feasible
 
 
+def test_progress_bars_have_their_totals_from_the_start(capsys):
+    p = _problem()
+    exact_sweep(p, range(1, 4), range(1, 5), CpSatSolver(params=FAST), (), progress=True)
+    err = capsys.readouterr().err
+    assert "cpsat frontier:   0%|          | 0/3 [" in err  # one step per k_pick row
+    assert "cpsat J:   0%|          | 0/1 [" in err  # the cells of the fewest nodes
+
+
 def test_compare_plot(tmp_path):
     from vggc_cp.plots import plot_compare_grids
 

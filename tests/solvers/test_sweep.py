@@ -160,3 +160,29 @@ def test_action_counts():
     trace = make_trace([["L", "pick_L", "H", "place_R", "R"]], TOY_NAMES)
     problem = Problem.from_trace(trace, np.zeros((2, 2)), np.zeros((1, 1)))
     assert action_counts(problem) == (1, 1)
+
+
+def _fabricated_sweep(kp, kq) -> Sweep:
+    """A grid whose cells have a colouring (J = k_pick + k_place / 100) when k_place >= 3."""
+    results = tuple(SolveResult(np.zeros(1, dtype=np.int64) if b >= 3 else None, a, b,
+                                a + b / 100 if b >= 3 else float("nan"),
+                                FEASIBLE if b >= 3 else UNKNOWN, "greedy", 0.0, None, {})
+                    for a in kp for b in kq)
+    return Sweep(results, 1, "fewest", "greedy", 0.0, 1)
+
+
+def test_pivot_text_fits_120_characters_and_keeps_every_cell():
+    small = _fabricated_sweep(range(2, 5), range(2, 6))
+    assert small.pivot_text() == small.pivot().to_markdown(stralign="right",
+                                                           disable_numparse=True)
+    big = _fabricated_sweep(range(2, 21), range(2, 21))
+    text = big.pivot_text()
+    assert max(map(len, text.splitlines())) <= 120
+    assert max(map(len, big.pivot().to_markdown().splitlines())) > 120
+    blocks = text.split("\n\n")
+    assert len(blocks) == 2
+    headers = [b.splitlines()[0].split("|")[2:-1] for b in blocks]
+    assert [int(h) for hs in headers for h in hs] == list(range(2, 21))  # each column once
+    for block in blocks:  # every block has every k_pick row
+        assert [int(line.split("|")[1]) for line in block.splitlines()[2:]] == list(range(2, 21))
+    assert "2.030*" in blocks[0] and "20.200" in blocks[1]

@@ -44,7 +44,8 @@ def random_pairs(m, k, rng):
     (8, 0.1, 50, "float32", "auto", 0.05, "scaling-float32"),
     (8, 0.05, 50, "float32", "auto", 0.05, "scaling-float32"),
     (8, 0.05, 40, "float64", "auto", 0.05, "scaling-float64"),
-    (16, 0.05, 20, "float32", "auto", 0.05, "scaling-float32"),
+    pytest.param(16, 0.05, 20, "float32", "auto", 0.05, "scaling-float32",
+                 marks=pytest.mark.slow),  # a 256-patch grid: seconds on 2 cores
     pytest.param(8, 0.05, 15, "float32", "log", 0.05, "log-float64", marks=pytest.mark.slow),
     pytest.param(4, 0.002, 10, "float32", "auto", 0.2, "log-float64", marks=pytest.mark.slow),
 ])

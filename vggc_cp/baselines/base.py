@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import abc
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -232,8 +233,14 @@ class Baseline(abc.ABC):
     name: str = "baseline"
     config_class: type = type(None)
 
-    def fit(self, trace: Trace) -> SolveResult:
+    def fit(self, trace: Trace, *, progress: bool = False) -> SolveResult:
         """Sweep the hyperparameters on ``trace`` and return the selected graph.
+
+        Parameters
+        ----------
+        trace : Trace
+        progress : bool
+            Show a tqdm bar on stderr over the sweep's work (:meth:`_work`).
 
         Returns
         -------
@@ -244,8 +251,13 @@ class Baseline(abc.ABC):
             hyperparameters), ``violations`` (:class:`GraphStats` of the selection),
             ``grid`` (one row per sweep point) and ``selection`` (the rule).
         """
+        from tqdm.auto import tqdm
+
         t0 = time.perf_counter()
-        candidates = self._sweep(trace.without_states())
+        total, unit = self._work()
+        with tqdm(total=total, desc=self.name, unit=unit, disable=not progress,
+                  leave=False) as bar:
+            candidates = self._sweep(trace.without_states(), bar.update)
         best = select(candidates)
         seconds = time.perf_counter() - t0
         stats = {
@@ -259,8 +271,13 @@ class Baseline(abc.ABC):
                            FEASIBLE, self.name, seconds, None, stats)
 
     @abc.abstractmethod
-    def _sweep(self, trace: Trace) -> list[Candidate]:
-        """Every sweep point, in grid order (at least one)."""
+    def _work(self) -> tuple[int, str]:
+        """The sweep's work in all, and its unit (a progress bar's total and unit)."""
+
+    @abc.abstractmethod
+    def _sweep(self, trace: Trace, advance: Callable[[int], object]) -> list[Candidate]:
+        """Every sweep point, in grid order (at least one); ``advance(n)`` reports ``n`` units
+        of :meth:`_work` done."""
 
 
 def baseline_solution(trace: Trace, result: SolveResult) -> dict:

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import product
 
@@ -247,8 +248,12 @@ def action_pairs(trace: Trace, two_step: bool) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([src, t]), np.concatenate([dst, t + 2])
 
 
-def train_lsr(trace: Trace, cfg: LsrConfig, gamma: float, d_m: float) -> TrainedLsr:
-    """Train the VAE with the action term on ``trace`` (module doc); deterministic on CPU."""
+def train_lsr(trace: Trace, cfg: LsrConfig, gamma: float, d_m: float,
+              on_step: Callable[[int], object] | None = None) -> TrainedLsr:
+    """Train the VAE with the action term on ``trace`` (module doc); deterministic on CPU.
+
+    ``on_step(1)`` is called after every optimizer step (progress bars).
+    """
     import torch
 
     t0 = time.perf_counter()
@@ -283,6 +288,8 @@ def train_lsr(trace: Trace, cfg: LsrConfig, gamma: float, d_m: float) -> Trained
             loss.backward()
             opt.step()
             loss_value = float(loss.detach())
+            if on_step is not None:
+                on_step(1)
         model.eval()
         with torch.no_grad():
             mus, dists = [], []
@@ -371,12 +378,16 @@ class LatentSpaceRoadmap(Baseline):
     def __init__(self, config: LsrConfig | None = None, **options) -> None:
         self.config = config or LsrConfig(**options)
 
-    def _sweep(self, trace: Trace) -> list[Candidate]:
+    def _work(self) -> tuple[int, str]:
+        cfg = self.config
+        return len(cfg.gamma) * len(cfg.d_m) * cfg.steps, "step"
+
+    def _sweep(self, trace: Trace, advance: Callable[[int], object]) -> list[Candidate]:
         cfg = self.config
         roles = trace.roles()
         out: list[Candidate] = []
         for gamma, d_m in product(cfg.gamma, cfg.d_m):
-            trained = train_lsr(trace, cfg, float(gamma), float(d_m))
+            trained = train_lsr(trace, cfg, float(gamma), float(d_m), advance)
             z = trained.mu
             epsilon = float(trained.no_action.mean() + trained.no_action.std())
             base = {"gamma": float(gamma), "d_m": float(d_m), "latent_dim": cfg.latent_dim,

@@ -20,6 +20,7 @@ The grid ``n_components x min_cluster_size x min_samples`` is swept and the grap
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import product
 
@@ -145,7 +146,11 @@ class PcaHdbscanRoadmap(Baseline):
     def __init__(self, config: PcaHdbscanConfig | None = None, **options) -> None:
         self.config = config or PcaHdbscanConfig(**options)
 
-    def _sweep(self, trace: Trace) -> list[Candidate]:
+    def _work(self) -> tuple[int, str]:
+        cfg = self.config
+        return len(cfg.n_components) * len(cfg.min_cluster_size) * len(cfg.min_samples), "point"
+
+    def _sweep(self, trace: Trace, advance: Callable[[int], object]) -> list[Candidate]:
         cfg = self.config
         t0 = time.perf_counter()
         full = pca_features(trace.observations, max(cfg.n_components), cfg.seed)
@@ -167,4 +172,5 @@ class PcaHdbscanRoadmap(Baseline):
             params = {"n_components": int(feats.shape[1]), "min_cluster_size": int(mcs),
                       "min_samples": None if ms is None else int(ms), "noise": cfg.noise}
             out.append(Candidate(params, labels, stats, J, seconds))
+            advance(1)
         return out

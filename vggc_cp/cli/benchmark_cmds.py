@@ -19,6 +19,7 @@ def register(sub) -> None:
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUES",
                    help="option of the baseline's config (comma-separated values for a sweep "
                         "grid), e.g. min_cluster_size=3,5 or d_m=4,12; repeatable")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_baseline)
     register_benchmark(sub)
 
@@ -27,7 +28,8 @@ def cmd_baseline(args) -> int:
     cls = lookup(BASELINES, args.name, "baseline")
     options = parse_params(cls.config_class, args.param)
     trace = load_trace(args.trace)
-    result = get_baseline(args.name, config=cls.config_class(**options)).fit(trace)
+    result = get_baseline(args.name, config=cls.config_class(**options)).fit(
+        trace, progress=not args.quiet)
     write_solution(args.output, baseline_solution(trace, result))
     v = result.stats["violations"]
     print(f"{result.solver}: {v['nodes']} nodes ({v['pick_nodes']} pick, {v['place_nodes']} "

@@ -23,7 +23,9 @@ def register(sub) -> None:
                    help="k_pick values, inclusive (default: derived from the actions)")
     p.add_argument("--k-place", default=None, metavar="A:B",
                    help="k_place values, inclusive (default: derived from the actions)")
-    p.add_argument("--tau", type=float, default=None, help="greedy K_vis temperature")
+    p.add_argument("--tau", type=float, default=None,
+                   help="greedy K_vis temperature (default: per role, the median within-role "
+                        "distance)")
     p.add_argument("--jobs", type=int, default=1, help="greedy sweep worker processes")
     p.add_argument("--csv", default=None, metavar="CSV", help="write the per-cell table")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw the two grids side by side")

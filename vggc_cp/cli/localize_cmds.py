@@ -99,6 +99,9 @@ def cmd_train(args) -> int:
     if not args.quiet:
         for lr, epochs, acc in report.cv:
             print(f"cv  lr {lr:<8g} epochs {epochs:<4d} validation accuracy {100 * acc:6.2f} %")
+        if report.untried:
+            print(f"cv  stopped early: a setting validated 100 % on every fold; not tried: lr "
+                  f"{', '.join(f'{lr:g}' for lr in report.untried)}")
     print(f"localizer      {args.output} ({config.backbone}, {report.n_classes} nodes, "
           f"{report.n_images} images)")
     print(f"chosen         lr {report.learning_rate:g}, {report.epochs} epochs "

@@ -82,16 +82,20 @@ def cmd_generate(args) -> int:
     d = spec.default_transitions if args.transitions is None else args.transitions
     if args.novel < 0:
         raise VggcError(f"--novel must be at least 0, got {args.novel}")
-    bar = None
-    if not args.quiet:
-        from tqdm import tqdm
+    bars = []
 
-        bar = tqdm(total=d + 1 + args.novel, unit="frame", desc=args.bench, leave=False)
+    def on_frame(total: int) -> None:
+        if not bars:
+            from tqdm import tqdm
+
+            bars.append(tqdm(total=total, unit="frame", desc=args.bench, leave=False))
+        bars[0].update(1)
+
     try:
         generated = generate(args.bench, d, args.seed, args.size, args.novel,
-                             on_frame=bar.update if bar is not None else None, look=args.look)
+                             on_frame=None if args.quiet else on_frame, look=args.look)
     finally:
-        if bar is not None:
+        for bar in bars:
             bar.close()
     written = _write(generated, args.output, args.novel)
     if not args.quiet:

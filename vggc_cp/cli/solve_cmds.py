@@ -235,7 +235,7 @@ def cmd_solve(args) -> int:
         print(table.to_markdown(index=False, floatfmt=".4f"))
     elif not args.quiet and args.table == "pivot":
         print("J per cell (- no colouring, * selected):")
-        print(sweep.pivot().to_markdown(stralign="right", disable_numparse=True))
+        print(sweep.pivot_text())
     if args.plot:
         from vggc_cp.plots import plot_sweep_grid
 

@@ -89,11 +89,14 @@ class TrainReport:
     learning_rate, epochs : float, int
         The cross-validated choice used for the final fit.
     cv : tuple of (lr, epochs, mean validation accuracy)
-        The whole grid (empty when too few images for cross-validation).
+        The settings cross-validated (empty when too few images for cross-validation).
     train_accuracy : float
         Accuracy of the final network on the (unaugmented) training images.
     n_images, n_classes : int
     seconds : float
+    untried : tuple of float
+        Learning rates of the grid that cross-validation did not try because an earlier
+        setting validated perfectly on every fold (empty when it tried them all).
     """
 
     learning_rate: float
@@ -103,11 +106,13 @@ class TrainReport:
     n_images: int
     n_classes: int
     seconds: float
+    untried: tuple[float, ...] = ()
 
     def as_dict(self) -> dict:
         return {"learning_rate": self.learning_rate, "epochs": self.epochs,
                 "cv": [list(row) for row in self.cv], "train_accuracy": self.train_accuracy,
-                "n_images": self.n_images, "n_classes": self.n_classes, "seconds": self.seconds}
+                "n_images": self.n_images, "n_classes": self.n_classes, "seconds": self.seconds,
+                "cv_untried": list(self.untried)}
 
 
 def _new_net(config: TrainConfig, n_classes: int, seed: int) -> LocalizerNet:
@@ -166,11 +171,13 @@ def _accuracy(net: LocalizerNet, x: torch.Tensor, y: torch.Tensor) -> float:
 
 def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: TrainConfig,
                    progress=None) -> tuple[tuple[float, int, float], ...]:
-    """Mean k-fold validation accuracy of every (learning rate, epochs) of the grid.
+    """Mean k-fold validation accuracy of (learning rate, epochs) settings of the grid.
 
-    Early stopping: a run stops at a grid point where it validates perfectly or no better
-    than at the previous grid point; its later grid points keep that score (so the choice,
-    which prefers fewer epochs on ties, picks the earlier point).
+    Learning rates are tried in the order given, each on every fold. Early stopping: a run
+    stops at a grid point where it validates perfectly or no better than at the previous grid
+    point; its later grid points keep that score (so the choice, which prefers fewer epochs on
+    ties, picks the earlier point). Once a learning rate has a setting that validates
+    perfectly on every fold, the later learning rates are not tried: none could score higher.
 
     Parameters
     ----------
@@ -179,18 +186,26 @@ def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: Tra
     y : Tensor, int64, shape (N,)
         Class indices.
     progress : tqdm or None
-        Advanced by one per trained epoch.
+        Advanced by one per trained epoch (and by the epochs an early stop skips).
+
+    Returns
+    -------
+    tuple of (lr, epochs, mean validation accuracy)
+        The settings tried, learning rate by learning rate; fewer than the whole grid when
+        cross-validation stopped early.
     """
     n = x.shape[0]
     folds = np.array_split(np.random.default_rng(config.seed).permutation(n), config.folds)
     grid = sorted(set(config.epoch_grid))
-    scores = {(lr, e): [] for lr in config.learning_rates for e in grid}
-    for f, val in enumerate(folds):
-        mask = np.ones(n, dtype=bool)
-        mask[val] = False
-        tr = torch.from_numpy(np.flatnonzero(mask))
-        va = torch.from_numpy(np.sort(val))
-        for j, lr in enumerate(config.learning_rates):
+    scores: dict[tuple[float, int], list[float]] = {}
+    for j, lr in enumerate(config.learning_rates):
+        for e in grid:
+            scores.setdefault((lr, e), [])
+        for f, val in enumerate(folds):
+            mask = np.ones(n, dtype=bool)
+            mask[val] = False
+            tr = torch.from_numpy(np.flatnonzero(mask))
+            va = torch.from_numpy(np.sort(val))
             net = _new_net(config, n_classes, _child_seed(config.seed, 1, f, j))
 
             def on_epoch(epoch, net=net, lr=lr, va=va) -> bool:
@@ -214,6 +229,10 @@ def cross_validate(x: torch.Tensor, y: torch.Tensor, n_classes: int, config: Tra
 
             _fit(net, x[tr], y[tr], lr, grid[-1], config, _child_seed(config.seed, 2, f, j),
                  on_epoch)
+        if any(min(scores[(lr, e)]) >= 1.0 for e in grid):
+            if progress is not None:
+                progress.update((len(config.learning_rates) - j - 1) * len(folds) * grid[-1])
+            break
     return tuple((lr, e, float(np.mean(s))) for (lr, e), s in scores.items())
 
 
@@ -257,10 +276,8 @@ def train_on_images(images: np.ndarray, classes: np.ndarray, n_classes: int,
         else:
             cv = ()
             lr, epochs = config.learning_rates[0], grid_max
-        cv_epochs = bar.n
-        bar.total = cv_epochs + epochs
+        bar.update(grid_max - epochs)  # the final fit trains `epochs` of the grid_max counted
         bar.set_postfix_str(f"final fit lr={lr:g} epochs={epochs}")
-        bar.refresh()
         net = probe
 
         def tick(_epoch: int) -> bool:
@@ -269,8 +286,10 @@ def train_on_images(images: np.ndarray, classes: np.ndarray, n_classes: int,
 
         _fit(net, x, y, lr, epochs, config, _child_seed(config.seed, 3), tick)
     net.eval()
+    tried = {row[0] for row in cv}
+    untried = tuple(r for r in config.learning_rates if cv and r not in tried)
     report = TrainReport(lr, epochs, cv, _accuracy(net, x, y), n, n_classes,
-                         time.perf_counter() - t0)
+                         time.perf_counter() - t0, untried)
     return net, report
 
 

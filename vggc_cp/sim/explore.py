@@ -139,7 +139,7 @@ def novel_order(states: tuple[str, ...], k: int, rng: np.random.Generator) -> li
 
 
 def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: int = 64,
-             novel: int = 0, on_frame: Callable[[], None] | None = None,
+             novel: int = 0, on_frame: Callable[[int], None] | None = None,
              look: str = CLEAN) -> Generated:
     """Explore benchmark ``name`` and render the trace (and ``novel`` fresh renders).
 
@@ -156,7 +156,9 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     novel : int
         Number of novel renders ``K``.
     on_frame : callable, optional
-        Called once after every rendered frame (progress bars).
+        Called once after every rendered frame with the number of frames in all (the trace's
+        observations, one more per episode than transitions, plus the novel renders), which
+        is known once the walk is drawn: a progress bar's total.
     look : str
         ``"clean"`` (the renderer the defaults were tuned on) or ``"randomized"`` (table,
         camera, light and objects drawn per trace, gain, tint and noise per frame; see
@@ -184,7 +186,12 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     the_look = make_look(look, bench, look_rng)
     jitter = the_look.placement_jitter
     walk = random_walk(bench, d, walk_rng)
-    tick = on_frame or (lambda: None)
+    n_frames = len(walk.states) + novel
+
+    def tick() -> None:
+        if on_frame is not None:
+            on_frame(n_frames)
+
     from vggc_cp.sim.render import Scene
 
     frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)

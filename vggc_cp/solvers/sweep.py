@@ -190,6 +190,25 @@ class Sweep:
         df = pd.DataFrame(cells, index=pd.Index(kp, name="k_pick \\ k_place"), columns=kq)
         return df
 
+    def pivot_text(self, width: int = 120, digits: int = 3) -> str:
+        """:meth:`pivot` as markdown no wider than ``width`` characters: the ``k_place``
+        columns are cut into consecutive blocks, each printed with the ``k_pick`` column and
+        separated by a blank line (one block when the whole grid fits)."""
+        df = self.pivot(digits)
+        blocks: list[str] = []
+        start = 0
+        while start < df.shape[1]:
+            stop = start + 1
+            text = _markdown(df.iloc[:, start:stop])
+            while stop < df.shape[1]:
+                wider = _markdown(df.iloc[:, start:stop + 1])
+                if max(map(len, wider.splitlines())) > width:
+                    break
+                stop, text = stop + 1, wider
+            blocks.append(text)
+            start = stop
+        return "\n\n".join(blocks)
+
     def j_matrix(self) -> tuple[list[int], list[int], np.ndarray]:
         """``(k_pick values, k_place values, J)`` with J of shape (len(kp), len(kq)), NaN blank."""
         kp, kq = self.k_pick_values, self.k_place_values
@@ -198,6 +217,10 @@ class Sweep:
             if r.found:
                 mat[kp.index(r.k_pick), kq.index(r.k_place)] = r.J
         return kp, kq, mat
+
+
+def _markdown(df) -> str:
+    return df.to_markdown(stralign="right", disable_numparse=True)
 
 
 def _solve_cell(solver: Solver, problem: Problem, cell: tuple[int, int]) -> SolveResult:

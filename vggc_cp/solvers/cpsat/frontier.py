@@ -118,10 +118,18 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
             add_witness(cell, "cpsat", res.labels)
         return res
 
-    bar = None
-    if progress:
+    def new_bar(desc: str, total: int, unit: str):
+        if not progress:
+            return None
         from tqdm import tqdm
-        bar = tqdm(desc="cpsat frontier", unit="cell", leave=False)
+        return tqdm(total=total, desc=desc, unit=unit, leave=False)
+
+    def solved_once():
+        if bar is not None:
+            bar.set_postfix_str(f"{len(solved)} cells solved", refresh=False)
+
+    # the frontier's solves per row are not known in advance: the bar counts rows
+    bar = new_bar("cpsat frontier", len(kp), "row")
     try:
         for a in reversed(kp):
             undecided_at = None
@@ -132,27 +140,26 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
                 if below(cell):
                     break
                 res = run(feas_solver, cell)
-                if bar is not None:
-                    bar.update(1)
+                solved_once()
                 if res.found:
                     break
                 if res.status != INFEASIBLE:
                     undecided_at = j
                     break
-            if undecided_at is None:
-                continue
-            # past an undecided cell, bisect for the row's lowest feasible cell
-            lo = undecided_at
-            hi = next((j for j in range(lo + 1, len(kq)) if below((a, kq[j]))), len(kq))
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                res = run(feas_solver, (a, kq[mid]))
-                if bar is not None:
-                    bar.update(1)
-                if res.found:
-                    hi = mid
-                else:
-                    lo = mid
+            if undecided_at is not None:
+                # past an undecided cell, bisect for the row's lowest feasible cell
+                lo = undecided_at
+                hi = next((j for j in range(lo + 1, len(kq)) if below((a, kq[j]))), len(kq))
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    res = run(feas_solver, (a, kq[mid]))
+                    solved_once()
+                    if res.found:
+                        hi = mid
+                    else:
+                        lo = mid
+            if bar is not None:
+                bar.update(1)
         todo = []
         if opts.objective == "J":
             feasible = [(a, b) for a in kp for b in kq if below((a, b))]
@@ -161,8 +168,8 @@ def exact_sweep(problem: Problem, k_pick: Sequence[int], k_place: Sequence[int],
                 todo = sorted((c for c in feasible if optimize == "all" or sum(c) == low),
                               key=lambda c: (c[0] + c[1], c))
         if bar is not None:
-            bar.reset(total=len(todo))
-            bar.set_description("cpsat J")
+            bar.close()
+        bar = new_bar("cpsat J", len(todo), "cell") if todo else None
         # cells of one k_pick + k_place never lie below each other: each wave's cells are
         # independent (the same hints in any order), so a wave runs on the executor
         task = partial(_solve_hinted, solver, problem)
