@@ -45,23 +45,30 @@ def test_auto_keeps_the_footprints_when_they_are_not_suspect(shipped):
     assert learned.chosen.evidence == "footprints" and len(learned.candidates) == 1
 
 
-def test_choose_takes_the_least_description_length_and_disagreement_warns(shipped):
+def test_choose_keeps_the_first_evidence_unless_only_a_later_one_passes_its_checks(shipped):
     from dataclasses import replace
 
     from vggc_cp.pipeline import _with_disagreement, run_candidate
 
     options = LearnOptions()
     fp = run_candidate(shipped.without_states(), "footprints", options)
-    worse = replace(fp, description_lengths=tuple(d + 5 for d in fp.description_lengths))
-    assert choose([worse, fp]) is fp and choose([fp, worse]) is fp
-    # another evidence, not suspect, with another node count: the chosen one is flagged
+    assert not fp.confidence.suspect
+    suspect = replace(fp, evidence="footprints", confidence=replace(
+        fp.confidence, suspect=True, reasons=("made up",)))
+    later = replace(fp, evidence="keypoints")
+    assert choose([fp, later]) is fp                      # the first passes: kept
+    assert choose([suspect, later]) is later              # only the later one passes
+    worse = replace(later, confidence=suspect.confidence)
+    assert choose([suspect, worse]) is suspect            # none passes: the first
+    # another evidence with another node count flags the chosen one, suspect or not
     other_labels = np.arange(shipped.n_obs)
     other_path = replace(fp.path, results=tuple(replace(r, labels=other_labels)
                                                 for r in fp.path.results))
-    other = replace(fp, evidence="keypoints", path=other_path)
-    flagged = _with_disagreement(fp, [fp, other])
-    assert flagged.confidence.suspect and "disagree" in flagged.confidence.reasons[-1]
-    assert _with_disagreement(fp, [fp, worse]) is fp
+    for other in (replace(fp, evidence="keypoints", path=other_path),
+                  replace(worse, path=other_path)):
+        flagged = _with_disagreement(fp, [fp, other])
+        assert flagged.confidence.suspect and "disagree" in flagged.confidence.reasons[-1]
+    assert _with_disagreement(fp, [fp, later]) is fp      # same size: no reason added
 
 
 def test_threshold_grid_and_errors(shipped):

@@ -5,16 +5,14 @@
 * **Evidence.** ``footprints`` (:mod:`vggc_cp.vision.footprints`, no weights, the trace's
   actions localize where states differ) first. With ``evidence="auto"``, when the footprint
   graph is suspect (below), the ``keypoints`` attention distances (Sinkhorn divergences,
-  :mod:`vggc_cp.vision.distances`) are tried too, and the candidate whose graph predicts
-  held-out episodes best is kept (:func:`choose`); when another evidence that is not
-  suspect gives a graph of another size, the chosen graph is flagged too (the evidences
-  disagree).
+  :mod:`vggc_cp.vision.distances`) are tried too and kept only if their graph is not
+  suspect (:func:`choose`); when another evidence gives a graph of another size, the chosen
+  graph is flagged (the evidences disagree).
 * **Threshold.** Congruence-closure merging (:mod:`vggc_cp.solvers.merge`) over a geometric
   grid of thresholds from the noise scale (the median nearest-neighbour distance, at least a
   hundredth of the top) up to a high quantile of all distances.
 * **Selection.** Least description length (:mod:`vggc_cp.solvers.mdl`) along one evidence's
-  path: no threshold rule fitted to a benchmark. Across evidences, whose distances differ,
-  held-out prediction (cross-validation over episodes).
+  path: no threshold rule fitted to a benchmark.
 * **Confidence.** Margin, plateau and held-out prediction
   (:mod:`vggc_cp.solvers.confidence`); the graph is flagged *suspect* with reasons.
 
@@ -250,23 +248,19 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
-    """The candidate whose graph predicts the held-out episodes best: the share of held-out
-    transitions it predicts less the share it contradicts (cross-validation, the criterion
-    that compares graphs from different distances on the same footing). Description length
-    breaks ties and decides alone when a candidate has no held-out figures. Whether a
-    candidate is suspect does not enter the choice; it enters the warning."""
-    if all(c.confidence.heldout is not None for c in candidates):
-        return min(candidates, key=lambda c: (-round(c.confidence.heldout.predicted
-                                                     - c.confidence.heldout.contradicted, 9),
-                                              c.description_length))
-    return min(candidates, key=lambda c: c.description_length)
+    """The first candidate (in the order tried: footprints first) whose graph passes its own
+    checks; when none does, the first. Graphs from different distances are not compared by
+    a score of their own making (description length and held-out prediction both favour
+    graphs that merge states alike in what the robot did); a later evidence is taken only
+    where the first one fails its checks and it passes them, and any two evidences that
+    disagree on the graph's size flag it (:func:`_with_disagreement`)."""
+    return next((c for c in candidates if not c.confidence.suspect), candidates[0])
 
 
 def _with_disagreement(chosen: Candidate, candidates: list[Candidate]) -> Candidate:
-    """``chosen`` with one more warning reason when another evidence that is not suspect
-    gives a graph of another size: two readings of the images disagree."""
-    others = [c for c in candidates if c is not chosen and not c.confidence.suspect
-              and c.best.n_nodes != chosen.best.n_nodes]
+    """``chosen`` with one more warning reason when another evidence gives a graph of another
+    size: two readings of the images disagree."""
+    others = [c for c in candidates if c is not chosen and c.best.n_nodes != chosen.best.n_nodes]
     if not others:
         return chosen
     other = others[0]

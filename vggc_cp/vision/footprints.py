@@ -12,7 +12,8 @@ per-pixel median over all actions, gives the area ``a`` acts on, its footprint `
 *every* transition (pixels whose median change over the actions exceeds ``gripper`` times
 their largest one), and what it holds varies only while holding (pixels whose spread over the
 place-role observations exceeds ``held`` times their spread over the hand-empty pick-role
-observations, plus the typical such spread). The faint floor that sensor noise leaves
+observations, plus the typical such spread), with a fringe of ``fringe`` of the image size.
+The faint floor that sensor noise leaves
 everywhere (``support`` of the peak) goes too, and an action keeps only its heaviest connected
 component: it acts in one place.
 
@@ -80,6 +81,9 @@ class FootprintParams:
     held : float
         Pixels whose spread while holding exceeds this multiple of their spread with the hand
         empty (plus the median such spread) are the gripper's (what it holds varies).
+    fringe : float
+        The gripper's area grows by this share of the image size (at least one pixel when
+        positive; 0: none): what it holds has soft edges that vary with the object.
     support : float
         Share of a footprint's peak subtracted from it (sensor noise leaves a faint floor of
         changes over the whole image).
@@ -95,6 +99,7 @@ class FootprintParams:
 
     gripper: float = 0.5
     held: float = 2.0
+    fringe: float = 1 / 64
     support: float = 0.2
     saturation: float = 0.5
     site_overlap: float = 0.2
@@ -102,7 +107,7 @@ class FootprintParams:
     nuisance_quantile: float = 0.9
 
     def __post_init__(self) -> None:
-        for name in ("gripper", "support", "site_overlap"):
+        for name in ("gripper", "support", "site_overlap", "fringe"):
             v = getattr(self, name)
             if not 0 <= v < 1:
                 raise VggcError(f"footprint {name} must lie in [0, 1), got {v}")
@@ -198,6 +203,10 @@ def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.nd
         holding = x[roles == PLACE].std(axis=0).sum(axis=-1)
         empty = x[roles == PICK].std(axis=0).sum(axis=-1)
         gripper |= holding > params.held * empty + np.median(empty)
+    fringe = max(1, int(round(params.fringe * max(h, w)))) if params.fringe > 0 else 0
+    if fringe > 0:
+        # what the gripper holds has soft, varying edges: its fringe goes with it
+        gripper = ndimage.binary_dilation(gripper, iterations=fringe)
     maps = np.maximum(maps - shared, 0.0)
     maps[:, gripper] = 0.0
     maps[~taken] = 0.0
