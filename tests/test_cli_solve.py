@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from conftest import TOY_NAMES, make_trace
 
 from vggc_cp.cli import main
 from vggc_cp.solution import read_solution, verify_solution
-from vggc_cp.trace import save_trace
+from vggc_cp.trace import load_trace, save_trace
 
 
 @pytest.fixture(scope="module")
@@ -30,6 +31,7 @@ def toy_path(tmp_path, monkeypatch, cache_root):
     return path, trace
 
 
+SHIPPED = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
 FAST = ("--sinkhorn-device", "numpy")  # no torch start-up for a ten-image trace
 
 
@@ -155,21 +157,34 @@ def test_bench_sweep_runs_on_a_short_trace(tmp_path, monkeypatch, capsys):
     assert "cached" in capsys.readouterr().err
 
 
-def test_default_solver_is_merge_and_recovers_the_toy(toy_path, tmp_path, capsys):
-    path, trace = toy_path
+def test_default_solver_is_merge_and_recovers_the_shipped_graph(tmp_path, capsys):
     out = tmp_path / "default.json"
-    assert main(["solve", str(path), "-o", str(out), "--quiet", "--exact", *FAST]) == 0
+    assert main(["solve", str(SHIPPED), "-o", str(out), "--quiet", "--exact", *FAST]) == 0
     text = capsys.readouterr().out
     assert "(mdl)" in text and "merge is node-minimal; proved" in text
-    assert "confidence" in text
+    assert "confidence" in text and "no warning" in text
     sol = read_solution(out)
+    trace = load_trace(SHIPPED)
     verify_solution(sol, trace, str(out))
     assert sol.solver == "merge" and sol.extra["select"] == "mdl"
-    assert sol.extra["evidence"] in ("footprints", "keypoints", "saliency")
+    assert sol.extra["evidence"] == "footprints"
     assert set(sol.extra["confidence"]) >= {"margin", "plateau", "heldout", "suspect", "reasons"}
-    assert sol.extra["exact"]["minimal_nodes"] == 3 and sol.extra["exact"]["proved"]
+    assert sol.extra["exact"]["minimal_nodes"] == 6 and sol.extra["exact"]["proved"]
     same = sol.labels[:, None] == sol.labels[None, :]
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
+
+
+def test_footprints_refuse_images_that_change_everywhere(toy_path, tmp_path, capsys):
+    """The toy's images are noise per state: no action changes one place of its own. Asked
+    for footprints, solve says so (exit 2); by default the next evidence is tried and the
+    skipped one is reported."""
+    path, _ = toy_path
+    rc = main(["solve", str(path), "-o", str(tmp_path / "f.json"), "--quiet",
+               "--evidence", "footprints"])
+    assert rc == 2 and "in one place" in capsys.readouterr().err
+    assert main(["solve", str(path), "-o", str(tmp_path / "d.json"), "--quiet", *FAST]) == 0
+    sol = read_solution(tmp_path / "d.json")
+    assert sol.extra["evidence"] != "footprints" and sol.extra["confidence"]["suspect"]
 
 
 def test_paper_attention_and_cascade_rule_stay_available(toy_path, tmp_path, capsys):

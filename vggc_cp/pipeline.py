@@ -233,15 +233,22 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
     if trace.n_transitions == 0:
         raise VggcError("the trace has no transition: nothing to learn")
     t0 = time.perf_counter()
-    first = FOOTPRINTS if options.evidence == AUTO else options.evidence
-    candidates = [run_candidate(trace, first, options, progress)]
-    skipped = []
-    if options.evidence == AUTO and candidates[0].confidence.suspect:
-        for backend in AUTO_FALLBACK:
+    if options.evidence != AUTO:
+        candidates = [run_candidate(trace, options.evidence, options, progress)]
+        skipped = []
+    else:
+        candidates, skipped = [], []
+        for evidence in (FOOTPRINTS, *AUTO_FALLBACK):
             try:
-                candidates.append(run_candidate(trace, backend, options, progress))
-            except VggcError as exc:  # e.g. images smaller than the attention grid
-                skipped.append(f"{backend}: {exc}")
+                candidates.append(run_candidate(trace, evidence, options, progress))
+            except VggcError as exc:  # no localized change; images smaller than a grid
+                skipped.append(f"{evidence}: {exc}")
+                continue
+            if not candidates[-1].confidence.suspect:
+                break
+        if not candidates:
+            raise VggcError("no visual evidence applies to this trace (" + "; ".join(skipped)
+                            + ")")
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped))

@@ -415,7 +415,7 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
     Raises
     ------
     VggcError
-        When the trace has no transition.
+        When the trace has no transition, or no action changes the images in one place.
     """
     params = params or FootprintParams()
     src, act, dst = trace.transitions()
@@ -424,6 +424,9 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
     x = normalise_frames(trace.observations)
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
+    if not maps.any():
+        raise VggcError("no action changes the images in one place of its own (every pixel "
+                        "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
     empty_of, occupied_of = {}, {}
