@@ -56,11 +56,14 @@ def description_length(problem: Problem, labels: np.ndarray) -> float:
 
 @register_selection("mdl", PATH)
 def select_mdl(results: Sequence[SolveResult], problem: Problem | None = None) -> int | None:
-    """The result of least description length (:func:`description_length`); the first of
-    equal ones (the lowest threshold that gives that graph)."""
+    """The result of least description length (:func:`description_length`). Of graphs whose
+    code lengths are equal (to 1e-9 nats), the one with fewer nodes: observations from which
+    the trace takes no action (an episode's last) cost nothing wherever they go, and an equal
+    code length does not pay for a node. Of equal graphs, the first (the lowest threshold)."""
     if not results:
         return None
     if problem is None:
         raise ValueError("the mdl rule needs the problem")
-    scores = [description_length(problem, r.labels) for r in results]
-    return int(np.argmin(scores))
+    keys = [(round(description_length(problem, r.labels), 9),
+             r.n_nodes if r.labels is not None else np.inf, i) for i, r in enumerate(results)]
+    return int(min(keys)[2])
