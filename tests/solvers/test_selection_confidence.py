@@ -81,6 +81,21 @@ def test_description_length_by_hand():
     assert description_length(problem, labels) == pytest.approx(-loglik + 0.5 * np.log(3) * 2)
 
 
+def test_equal_description_lengths_go_to_the_graph_with_fewer_nodes():
+    """An observation from which no action is taken (here the last place observation) costs
+    nothing wherever it goes: splitting it off leaves the code length equal, and the graph
+    with fewer nodes is taken, whichever comes first on the path."""
+    roles = np.array([0, 1, 0, 1])
+    problem = Problem(roles, np.array([0, 2]), np.array([0, 1]), np.array([1, 3]),
+                      ("pick_a", "place_a"), np.zeros((2, 2)), np.zeros((2, 2)))
+    together = result(np.array([0, 1, 2, 1]))
+    apart = result(np.array([0, 1, 2, 3]))
+    assert description_length(problem, together.labels) == pytest.approx(
+        description_length(problem, apart.labels))
+    assert select_mdl([apart, together], problem) == 1
+    assert select_mdl([together, apart], problem) == 0
+
+
 def test_plateau_length_counts_identical_partitions_in_a_row():
     a, b = np.array([0, 0, 1]), np.array([0, 1, 2])
     labs = [b, a, a.copy(), a.copy(), b, None]
