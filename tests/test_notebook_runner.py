@@ -19,6 +19,7 @@ def tiny_notebook(path):
     return path
 
 
+@pytest.mark.slow
 def test_parameters_are_injected_and_outputs_written(tmp_path):
     src = tiny_notebook(tmp_path / "nb.ipynb")
     out = tmp_path / "out.ipynb"

@@ -89,6 +89,7 @@ def test_merge_solver_refuses_a_cluster_backend(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 @needs_dask
 def test_distance_blocks_on_a_cluster_equal_local(cluster):
     trace = load_trace(DATA)

@@ -97,6 +97,7 @@ def test_baselines_never_read_states():
     assert np.array_equal(a.labels, b.labels)
 
 
+@pytest.mark.slow
 def test_lsr_is_deterministic():
     trace = toy_trace(n_episodes=4)
     cfg = LsrConfig(image_size=8, latent_dim=4, steps=20, batch=8, d_m=(4.0,),

@@ -28,6 +28,7 @@ def _run(*argv, cwd):
                           capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_subprocess_refusals_have_no_traceback(tmp_path):
     t = tmp_path / "t.npz"
     save_trace(toy_trace(), t)
@@ -80,6 +81,7 @@ def test_stale_temporary_files_are_swept(tmp_path, capsys):
     assert not stale.exists() and fresh.exists() and other.exists()
 
 
+@pytest.mark.slow
 def test_damaged_cache_entry_is_ignored_with_a_warning(tmp_path, capsys):
     from vggc_cp.vision.distances import DistanceConfig, cache_path
 

@@ -154,6 +154,7 @@ def test_user_params_override_defaults():
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(tiny_problems(), st.integers(1, 3), st.integers(1, 3), st.booleans(),
        st.sampled_from([None, 1, 2]), st.booleans(), st.sampled_from([0, 20_000]))
+@pytest.mark.slow
 def test_cpsat_agrees_with_brute_force(problem, k_pick, k_place, deterministic, max_actions,
                                        symmetry, enumerate_limit):
     cons = CellConstraints(deterministic, max_actions)
@@ -202,6 +203,7 @@ def test_enumeration_visits_each_valid_colouring_once(problem, k_pick, k_place, 
         assert not short.complete and short.count == 1
 
 
+@pytest.mark.slow
 def test_incomplete_enumeration_hands_over_to_the_model():
     """Over the limit, the model optimizes, hinted by the best enumerated colouring."""
     p = chain_problem(EPISODES * 2, NAMES, seed=1)

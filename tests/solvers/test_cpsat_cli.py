@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+import pytest
 
 from vggc_cp.cli import main
 from vggc_cp.trace import save_trace
@@ -20,6 +21,7 @@ def test_compare_rejects_bad_cpsat_params(tmp_path, toy_trace, capsys):
     assert main(["compare", str(path), "--max-actions", "0"]) == 2
 
 
+@pytest.mark.slow
 def test_compare_end_to_end(tmp_path, toy_trace, capsys):
     path = tmp_path / "t.npz"
     save_trace(toy_trace, path)
@@ -42,6 +44,7 @@ def test_compare_end_to_end(tmp_path, toy_trace, capsys):
     assert out_png.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_compare_on_a_restricted_range_proves_nothing(tmp_path, toy_trace, capsys):
     """No cell with fewer nodes was tried: the report must not claim minimality."""
     path = tmp_path / "t.npz"
@@ -81,6 +84,7 @@ def test_node_frontier_needs_every_smaller_cell_decided():
     assert node_frontier(undecided).verdict == "no"
 
 
+@pytest.mark.slow
 def test_solve_without_a_colouring_says_proved_or_undecided(tmp_path, toy_trace, capsys):
     path = tmp_path / "t.npz"
     save_trace(toy_trace, path)
@@ -97,6 +101,7 @@ def test_solve_without_a_colouring_says_proved_or_undecided(tmp_path, toy_trace,
     assert not (tmp_path / "s.json").exists()
 
 
+@pytest.mark.slow
 def test_solve_with_a_hint_from_a_larger_cell(tmp_path, toy_trace, capsys):
     path = tmp_path / "t.npz"
     save_trace(toy_trace, path)
