@@ -68,10 +68,10 @@ def register(sub) -> None:
                         "grid from the noise scale of nearest-neighbour distances to the 90th "
                         "percentile of all distances)")
     p.add_argument("--evidence", default="auto", metavar="NAME",
-                   help="merge solver: the visual evidence; auto (action footprints, and the "
-                        "keypoint attention distances when the footprint graph is "
-                        "suspect, the criterion choosing), footprints, or attention (the "
-                        "Sinkhorn distances of --attention)")
+                   help="merge solver: the visual evidence; auto (action footprints; when "
+                        "their graph is suspect or they do not apply, the keypoint attention "
+                        "distances, kept only if their graph passes its checks), footprints, "
+                        "or attention (the Sinkhorn distances of --attention)")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
