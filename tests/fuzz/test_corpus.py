@@ -357,18 +357,23 @@ def test_bad_checkpoint(world, capsys, tmp_path, cmd, name):
                    (path, *must))
 
 
+def _written(tmp, cases: dict, suffix: str) -> dict:
+    """Write every case's bytes to ``tmp/NAME + suffix``: name -> (path, what the error names)."""
+    out = {}
+    for name, (data, must) in cases.items():
+        p = tmp / f"{name}{suffix}"
+        p.write_bytes(data)
+        out[name] = (p, must)
+    return out
+
+
 def _images(tmp):
     cases = {"empty": (b"", ()), "random": (np.random.default_rng(2).bytes(200), ()),
              "1x1": (png(1), ("1x1",)), "3x3": (png(3), ("3x3",)),
              "header-40000": (png_header_only(40000, 40000), ("VGGC_CP_MAX_PIXELS",)),
              "header-0": (png_header_only(0, 0), ()),
              "truncated": (png(16)[:40], ()), "json": (b"{}", ())}
-    out = {}
-    for name, (data, must) in cases.items():
-        p = tmp / f"{name}.png"
-        p.write_bytes(data)
-        out[name] = (p, must)
-    return out
+    return _written(tmp, cases, ".png")
 
 
 @pytest.mark.parametrize("name", ["empty", "random", "1x1", "3x3", "header-40000", "header-0",
@@ -407,12 +412,7 @@ def _novels(world, tmp):
         "no-states": (zip_members({"observations.npy": npy(t.observations)}), ("states",)),
         "1x1": (members(observations=npy(t.observations[:, :1, :1])), ("1x1",)),
     }
-    out = {}
-    for name, (data, must) in cases.items():
-        p = tmp / f"{name}.novel.npz"
-        p.write_bytes(data)
-        out[name] = (p, must)
-    return out
+    return _written(tmp, cases, ".novel.npz")
 
 
 @pytest.mark.parametrize("name", ["empty", "truncated", "pickled", "float-obs", "huge",
