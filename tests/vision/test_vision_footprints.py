@@ -141,3 +141,16 @@ def test_two_classes_of_one_region_share_a_site_and_one_class_keeps_its_own():
     sites = site_maps(maps, ov, np.array([0, 1, 0]))
     assert sites[0][4, 4] > 0                    # widened by the other class's shape
     assert np.allclose(site_maps(maps, ov, np.array([0, 0, 0])), maps)   # one colour: own
+
+
+def test_a_class_of_one_example_joins_the_colour_it_looks_like():
+    """A pick taken once, at an episode's end, links to no place: its one example must join
+    the colour it resembles, not whichever class comes first."""
+    rng = np.random.default_rng(2)
+    red = np.array([0.8, 0.1]) + 0.02 * rng.standard_normal((40, 2))
+    yellow = np.array([0.5, 0.44]) + 0.01 * rng.standard_normal((40, 2))
+    lone_yellow = np.array([[0.51, 0.43]])
+    group = colour_classes([red, yellow, lone_yellow], bandwidth=0.02)
+    assert group[2] == group[1] != group[0]
+    group = colour_classes([lone_yellow, red, yellow], bandwidth=0.02)
+    assert group[0] == group[2] != group[1]

@@ -296,7 +296,8 @@ def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float =
     log-likelihood ratio exceeds ``distinct`` nats. Otherwise (an action the trace never
     linked to its class, or two classes of one colour) it joins the class it is least
     distinct from, the least distinct first, until every class is distinct. A class of one
-    example cannot show it and joins the nearest.
+    example cannot show it and joins the class under whose density its example is likeliest
+    (not whichever class comes first).
 
     Parameters
     ----------
@@ -316,15 +317,20 @@ def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float =
         pooled = {g: np.concatenate([points[k] for k in np.flatnonzero(group == g)])
                   for g in ids}
         worst = None
+        single = [g for g in ids if len(pooled[g]) == 1]
+        if single:  # it cannot show a colour of its own: it joins its likeliest class
+            g = single[0]
+            others = [h for h in ids if h != g]
+            lik = [float(kernel_loglik(pooled[g], pooled[h], bandwidth)[0]) for h in others]
+            group[group == g] = others[int(np.argmax(lik))]
+            continue
         for g in ids:
             own = pooled[g]
-            if len(own) == 1:
-                loo = np.full(1, -np.inf)
-            else:  # leave each example out of its own class's density
-                d2 = ((own[:, None] - own[None]) ** 2).sum(-1) / bandwidth ** 2
-                np.fill_diagonal(d2, np.inf)
-                m = (-0.5 * d2).max(axis=1)
-                loo = m + np.log(np.exp(-0.5 * d2 - m[:, None]).sum(axis=1) / (len(own) - 1))
+            # leave each example out of its own class's density
+            d2 = ((own[:, None] - own[None]) ** 2).sum(-1) / bandwidth ** 2
+            np.fill_diagonal(d2, np.inf)
+            m = (-0.5 * d2).max(axis=1)
+            loo = m + np.log(np.exp(-0.5 * d2 - m[:, None]).sum(axis=1) / (len(own) - 1))
             for h in ids:
                 if h == g:
                     continue
