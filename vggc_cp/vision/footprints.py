@@ -37,7 +37,11 @@ other colours' actions that overlap it, ``G_a = F_a + sum_b ov(a, b) F_b`` with
   scaled so that the median over the empty observations is 0 and ``saturation`` times the
   faintest typical object at the site (the median over the occupied observations of ``a`` and
   of every other colour's action whose footprint overlaps by ``site_overlap`` or more) is 1,
-  clipped to ``[0, 1]``: any object of any class, size or shape counts as present;
+  clipped to ``[0, 1]``: any object of any class, size or shape counts as present. A
+  *stacked* site (one that shares its pixels with another slot of its own colour: a block on
+  a block) is empty in several looks, and one mean describes none of them; its presence
+  compares ``o`` with its nearest empty and occupied looks instead, as the trace's actions
+  label them (:mod:`vggc_cp.vision.occupancy`);
 * its **colour** ``pi_a(o)``: the posterior of each colour given the chroma of the deviating
   pixels (weights ``G_a(p) |x_o(p) - e_a(p)|_1``) under a kernel density of that colour's
   examples (bandwidth ``bandwidth``), equal priors: a class of several looks (an apple and a
@@ -67,6 +71,7 @@ from scipy import ndimage
 
 from vggc_cp.errors import VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
+from vggc_cp.vision.occupancy import refine_presence
 
 
 @dataclass(frozen=True)
@@ -458,6 +463,9 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
     examples = [np.concatenate([chroma[occupied_of[a], a] for a in np.flatnonzero(colour == c)])
                 for c in range(n_col)]
     posterior = colour_posteriors(chroma, examples, params.bandwidth)
+    # a site that shares its pixels with another slot of its colour has many empty looks
+    presence, _ = refine_presence(x, trace.actions, trace.episodes(), sites, ov, colour, kinds,
+                                  counts, presence, params.site_overlap)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts)
 

@@ -1,0 +1,105 @@
+"""Presence of many looks: labels stated by the trace's actions, nearest looks, stacked sites."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.trace import PICK, PLACE, load_trace
+from vggc_cp.vision import occupancy as occ
+from vggc_cp.vision.footprints import action_footprints, normalise_frames, overlaps
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
+
+
+def test_the_actions_state_what_a_site_holds_between_them():
+    # actions: 0 pick red at s, 1 place red at s, 2 pick yellow at s, 3 acts elsewhere
+    kinds = np.array([PICK, PLACE, PICK, PLACE], dtype=np.int8)
+    colour = np.array([0, 0, 1, 0])
+    acting = np.array([0, 1, 2])
+    # episode 1: o0 -3-> o1 -0-> o2 -3-> o3 -1-> o4 ; episode 2: o5 -3-> o6 (nothing at s);
+    # episode 3: o7 -2-> o8 -2-> o9 (two picks in a row: a contradiction)
+    actions = np.array([3, 0, 3, 1, -1, 3, -1, 2, 2])
+    episodes = [(0, 4), (5, 6), (7, 9)]
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour)
+    assert lab.tolist() == [0, 0, occ.EMPTY, occ.EMPTY, 0,
+                            occ.UNLABELLED, occ.UNLABELLED,
+                            occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED]
+    assert occ.episode_of(episodes, 10).tolist() == [0] * 5 + [1] * 2 + [2] * 3
+
+
+def test_twins_actions_at_a_site_and_stacked_sites():
+    # 0 pick red at p, 1 place red at p, 2 place red at q (above p), 3 place yellow at p,
+    # 4 pick red at q
+    ov = np.array([[1.0, 0.9, 0.3, 0.6, 0.3],
+                   [0.9, 1.0, 0.3, 0.6, 0.3],
+                   [0.3, 0.3, 1.0, 0.0, 0.9],
+                   [0.6, 0.6, 0.0, 1.0, 0.0],
+                   [0.3, 0.3, 0.9, 0.0, 1.0]])
+    colour = np.array([0, 0, 0, 1, 0])
+    kinds = np.array([PICK, PLACE, PLACE, PLACE, PICK], dtype=np.int8)
+    twin = occ.twins(ov, colour, kinds)
+    assert twin.tolist() == [1, 0, 4, -1, 2]
+    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
+    assert occ.acting_at(3, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
+    assert occ.stacked(ov, colour, twin, 0.2).tolist() == [True, True, True, False, True]
+    # apart (overlap below site_overlap) nothing is stacked
+    assert not occ.stacked(ov, colour, twin, 0.5).any()
+
+
+def _two_look_site(rng, n_episodes=30, per=6):
+    """A site whose empty look is one of two (nothing there, or a dark block below) and
+    whose occupied look is bright; labels for the even episodes only."""
+    n = n_episodes * per
+    episode = np.repeat(np.arange(n_episodes), per)
+    truth = rng.integers(0, 2, n).astype(bool)
+    below = rng.integers(0, 2, n).astype(bool)
+    px = np.zeros((n, 8, 3), dtype=np.float32)
+    px[below & ~truth, :4] = 0.6                    # the block below shows in half the site
+    px[truth] = 1.0
+    px += 0.05 * rng.standard_normal(px.shape).astype(np.float32)
+    labels = np.where(truth, 0, occ.EMPTY)
+    labels[episode % 2 == 1] = occ.UNLABELLED
+    return px, np.full(8, 1 / 8), labels, episode, truth
+
+
+def test_nearest_looks_know_every_empty_look():
+    rng = np.random.default_rng(0)
+    px, w, labels, episode, truth = _two_look_site(rng)
+    p = occ.look_presence(px, w, labels, episode)
+    assert p.min() >= 0 and p.max() <= 1
+    assert np.all((p >= 0.5) == truth)              # unlabelled episodes included
+    # the mean of the empties (what one template compares with) sits between the two looks
+    mean_empty = px[labels == occ.EMPTY].mean(axis=0)
+    dev = np.abs(px - mean_empty).sum(-1) @ w
+    assert dev[~truth & ~(px[:, 0, 0] > 0.3)].mean() > 0.2
+    # a label of one kind only, or too few, teaches nothing
+    assert occ.look_presence(px, w, np.where(truth, 0, occ.UNLABELLED), episode) is None
+    # the references of a labelled observation come from other episodes
+    d = occ.nearest_looks(px, w, np.arange(6), episode)
+    assert np.all(np.isinf(d[:6])) and np.all(np.isfinite(d[6:]))
+
+
+def test_looks_that_do_not_separate_give_nothing():
+    rng = np.random.default_rng(1)
+    px, w, labels, episode, _ = _two_look_site(rng)
+    shuffled = labels.copy()
+    known = shuffled != occ.UNLABELLED
+    shuffled[known] = rng.permutation(shuffled[known])
+    out = occ.look_presence(px, w, shuffled, episode)
+    assert out is None or np.mean((out[known] >= 0.5) == (labels[known] >= 0)) < 0.75
+
+
+def test_side_by_side_sites_keep_the_hand_made_presence():
+    """Nothing on the shipped fruit trace is stacked: the presence is the hand-made one."""
+    trace = load_trace(DATA).without_states()
+    fp = action_footprints(trace)
+    ov = overlaps(fp.maps)
+    kinds = trace.action_kinds()
+    twin = occ.twins(ov, fp.colour, kinds)
+    assert not occ.stacked(ov, fp.colour, twin, 0.2).any()
+    p, refined = occ.refine_presence(normalise_frames(trace.observations), trace.actions,
+                                     trace.episodes(), fp.sites, ov, fp.colour, kinds,
+                                     fp.counts, fp.presence, 0.2)
+    assert not refined.any() and np.array_equal(p, fp.presence)

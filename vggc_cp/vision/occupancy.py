@@ -1,0 +1,236 @@
+"""Presence of many looks: what a site holds, as the trace's actions state it, and nearest looks.
+
+The presence of :mod:`vggc_cp.vision.footprints` measures how far a site is from *one* empty
+look, the mean of the observations right after its pick. A site above another (a block on a
+block) is empty in several looks: with the block below it, or with nothing there at all, and
+the second is far from the mean of the first. This module gives such a site a presence that
+knows every look, taught by the trace itself.
+
+**Labels.** Between two actions at one place nothing changes there, so the actions of an
+episode state what a site holds for every observation of that episode: before a pick of a
+class at the site, an object of the class's colour; after it, nothing; before a place,
+nothing; after it, that colour (:func:`site_labels`). The actions at site ``a`` are ``a``, its
+*twin* (the action of the other kind and the same colour whose footprint overlaps ``a``'s
+most: a pick and a place of one slot), every action of another colour overlapping ``a``'s
+footprint by ``site_overlap`` or more, and their twins. An episode whose actions contradict
+each other at the site (two picks with no place between) is not labelled; an episode with no
+action at the site is not either.
+
+**Nearest looks.** With ``D_e(o)`` and ``D_o(o)`` the mean of the ``k`` smallest site-weighted
+Euclidean differences between ``o`` and the observations labelled empty and occupied, from
+*other episodes* (so that a labelled observation is judged on looks it did not teach),
+``r(o) = D_e / (D_e + D_o)`` is 1/2 where ``o`` is as near the one kind of look as the other
+(the nearest-neighbour rule's boundary); the presence maps ``r`` linearly on each side of 1/2
+so that the median of the empty-labelled observations is 0 and that of the occupied ones 1
+(:func:`look_presence`).
+
+**Which sites.** A site is *stacked* when a slot of its own colour other than its twin shares
+its pixels (footprints overlapping by ``site_overlap`` or more): there its empty look depends
+on what the other slot holds, and it takes the nearest-look presence (:func:`refine_presence`).
+Every other site (side-by-side regions, one object per place, objects of other colours at one
+place, which the site already covers) keeps the hand-made presence: one empty look describes
+it, and on such sites the hand-made presence was the better one on the tuning traces. Colour
+is left to the hand-made posterior. Nothing reads action names or ground-truth states.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.trace import PICK
+
+#: Label of an empty site (colours are numbered from 0; -2: unlabelled).
+EMPTY = -1
+UNLABELLED = -2
+#: Nearest looks averaged in ``D_e`` and ``D_o``.
+NEAREST = 3
+
+
+def twins(ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Twin of every taken action, int array of shape (A,) (-1 when none).
+
+    The twin of ``a`` is the action of the other kind (pick / place) and the same colour whose
+    footprint overlaps ``a``'s most (positive overlap).
+    """
+    out = np.full(len(ov), -1, dtype=np.int64)
+    for a in np.flatnonzero(colour >= 0):
+        cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
+        if len(cand) and ov[a, cand].max() > 0:
+            out[a] = int(cand[np.argmax(ov[a, cand])])
+    return out
+
+
+def acting_at(a: int, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
+              site_overlap: float) -> np.ndarray:
+    """Actions that change what site ``a`` holds (module docstring), sorted int array."""
+    other = np.flatnonzero((colour >= 0) & (colour != colour[a]) & (ov[a] >= site_overlap))
+    acts = {a, *other.tolist()}
+    acts |= {int(twin[b]) for b in list(acts) if twin[b] >= 0}
+    return np.array(sorted(acts), dtype=np.int64)
+
+
+def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np.ndarray,
+                kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """What a site holds at every observation, as its actions state it.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+        The trace's actions (-1 between episodes).
+    episodes : list of (first, last)
+    acting : ndarray of int
+        Actions that change what the site holds.
+    kinds, colour : ndarray, shape (A,)
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+        :data:`EMPTY`, a colour, or :data:`UNLABELLED` (no action at the site in the
+        episode, or the episode's actions contradict each other there).
+    """
+    n = len(actions) + 1
+    labels = np.full(n, UNLABELLED, dtype=np.int64)
+    is_acting = np.zeros(len(kinds), dtype=bool)
+    is_acting[acting] = True
+    for first, last in episodes:
+        steps = [t for t in range(first, last) if actions[t] >= 0 and is_acting[actions[t]]]
+        if not steps:
+            continue
+        events = []                        # (t, held before, held after)
+        for t in steps:
+            a = actions[t]
+            c = int(colour[a])
+            events.append((t, c, EMPTY) if kinds[a] == PICK else (t, EMPTY, c))
+        if any(prev[2] != nxt[1] for prev, nxt in zip(events, events[1:])):
+            continue                       # contradiction: this site is not one slot here
+        labels[first:events[0][0] + 1] = events[0][1]
+        for prev, nxt in zip(events, events[1:]):
+            labels[prev[0] + 1:nxt[0] + 1] = prev[2]
+        labels[events[-1][0] + 1:last + 1] = events[-1][2]
+    return labels
+
+
+def episode_of(episodes: list[tuple[int, int]], n: int) -> np.ndarray:
+    """Episode index of every observation, shape (N,)."""
+    out = np.zeros(n, dtype=np.int64)
+    for k, (first, last) in enumerate(episodes):
+        out[first:last + 1] = k
+    return out
+
+
+
+
+def nearest_looks(px: np.ndarray, weight: np.ndarray, ref: np.ndarray, episode: np.ndarray,
+                  k: int = NEAREST, chunk: int = 256) -> np.ndarray:
+    """Mean of the ``k`` smallest site-weighted Euclidean differences to the reference
+    observations of other episodes.
+
+    Parameters
+    ----------
+    px : ndarray of float32, shape (N, P, 3)
+        The site's pixels of every observation.
+    weight : ndarray, shape (P,)
+    ref : ndarray of int, shape (R,)
+        Reference observations.
+    episode : ndarray of int, shape (N,)
+
+    Returns
+    -------
+    ndarray of float64, shape (N,)
+        ``inf`` where fewer than ``k`` references lie in other episodes.
+    """
+    f = (px * np.sqrt(weight.astype(np.float32))[None, :, None]).reshape(len(px), -1)
+    f = f.astype(np.float64)
+    sq = (f ** 2).sum(axis=1)
+    refs, ref_sq, ref_ep = f[ref], sq[ref], episode[ref]
+    out = np.empty(len(px))
+    for s in range(0, len(px), chunk):
+        d2 = sq[s:s + chunk, None] + ref_sq[None] - 2.0 * f[s:s + chunk] @ refs.T
+        d = np.sqrt(np.maximum(d2, 0.0))
+        d = np.where(episode[s:s + chunk, None] == ref_ep[None], np.inf, d)
+        kk = min(k, d.shape[1])
+        out[s:s + chunk] = np.sort(d, axis=1)[:, :kk].mean(axis=1) if kk else np.inf
+    return out
+
+
+def look_presence(px: np.ndarray, weight: np.ndarray, labels: np.ndarray, episode: np.ndarray
+                  ) -> np.ndarray | None:
+    """Nearest-look presence of one site (module docstring), shape (N,), in ``[0, 1]``.
+
+    None when fewer than :data:`NEAREST` observations are labelled empty or occupied, or when
+    the medians do not lie on either side of 1/2.
+    """
+    empty, occupied = np.flatnonzero(labels == EMPTY), np.flatnonzero(labels >= 0)
+    if min(len(empty), len(occupied)) < NEAREST:
+        return None
+    de = nearest_looks(px, weight, empty, episode)
+    do = nearest_looks(px, weight, occupied, episode)
+    # no look of one kind in another episode: the other kind decides; of neither: undecided
+    ratio = np.full(len(de), 0.5)
+    both = np.isfinite(de) & np.isfinite(do)
+    ratio[both] = de[both] / np.maximum(de[both] + do[both], 1e-12)
+    ratio[np.isfinite(do) & ~np.isfinite(de)] = 1.0
+    ratio[np.isfinite(de) & ~np.isfinite(do)] = 0.0
+    lo, hi = np.median(ratio[empty]), np.median(ratio[occupied])
+    if not lo < 0.5 < hi:
+        return None                        # the looks do not tell the two apart
+    up = 0.5 + 0.5 * (ratio - 0.5) / (hi - 0.5)
+    down = 0.5 - 0.5 * (0.5 - ratio) / (0.5 - lo)
+    return np.clip(np.where(ratio >= 0.5, up, down), 0.0, 1.0)
+
+
+def stacked(ov: np.ndarray, colour: np.ndarray, twin: np.ndarray, site_overlap: float
+            ) -> np.ndarray:
+    """Sites shared with another slot of their own colour, boolean shape (A,).
+
+    Action ``a`` is stacked when an action ``b`` of ``a``'s colour, neither ``a`` nor its twin,
+    overlaps ``a``'s footprint by ``site_overlap`` or more: a block on a block, whose empty
+    look depends on what the other slot holds.
+    """
+    same = (colour[:, None] == colour[None, :]) & (colour[:, None] >= 0) & (ov >= site_overlap)
+    np.fill_diagonal(same, False)
+    has = np.flatnonzero(twin >= 0)
+    same[has, twin[has]] = False
+    return same.any(axis=1)
+
+
+def refine_presence(x: np.ndarray, trace_actions: np.ndarray, episodes: list[tuple[int, int]],
+                    sites: np.ndarray, ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray,
+                    counts: np.ndarray, presence: np.ndarray, site_overlap: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Give every stacked site (:func:`stacked`) the nearest-look presence.
+
+    Parameters
+    ----------
+    x : ndarray of float32, shape (N, H, W, 3)
+        Normalised frames.
+    trace_actions : ndarray, shape (N-1,)
+    episodes : list of (first, last)
+    sites : ndarray, shape (A, H, W)
+    ov : ndarray, shape (A, A)
+    colour, kinds, counts : ndarray, shape (A,)
+    presence : ndarray, shape (N, A)
+        The hand-made presence.
+    site_overlap : float
+
+    Returns
+    -------
+    presence : ndarray, shape (N, A)
+        A copy with the refined sites replaced.
+    refined : ndarray of bool, shape (A,)
+        Sites given the nearest-look presence (a stacked site keeps the hand-made one when
+        its labels hold too few looks of either kind, or the looks do not separate).
+    """
+    presence = presence.copy()
+    refined = np.zeros(len(counts), dtype=bool)
+    twin = twins(ov, colour, kinds)
+    episode = episode_of(episodes, len(x))
+    for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
+        labels = site_labels(trace_actions, episodes,
+                             acting_at(int(a), ov, colour, twin, site_overlap), kinds, colour)
+        support = sites[a] > 0
+        look = look_presence(x[:, support], sites[a][support], labels, episode)
+        if look is not None:
+            presence[:, a] = look
+            refined[a] = True
+    return presence, refined
