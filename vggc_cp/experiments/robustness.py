@@ -67,7 +67,8 @@ MIN_OBS_PER_STATE = 2.0
 #: Modules whose source is part of a cell's key (changed code recomputes the cells).
 CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.mdl",
                 "vggc_cp.solvers.confidence", "vggc_cp.vision.footprints",
-                "vggc_cp.vision.distances", "vggc_cp.evaluate.metrics")
+                "vggc_cp.vision.occupancy", "vggc_cp.vision.distances",
+                "vggc_cp.evaluate.metrics")
 #: Columns of ``robustness.csv``, in order (measured I2P columns follow when present).
 ROW_FIELDS = ("benchmark", "look", "seed", "split", "transitions", "observations",
               "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
