@@ -118,8 +118,6 @@ def episode_of(episodes: list[tuple[int, int]], n: int) -> np.ndarray:
     return out
 
 
-
-
 def nearest_looks(px: np.ndarray, weight: np.ndarray, ref: np.ndarray, episode: np.ndarray,
                   k: int = NEAREST, chunk: int = 256) -> np.ndarray:
     """Mean of the ``k`` smallest site-weighted Euclidean differences to the reference
