@@ -229,3 +229,9 @@ def test_written_files_get_the_usual_mode(tmp_path, toy_trace):
     umask = os.umask(0)
     os.umask(umask)
     assert path.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_episode_index_numbers_the_episodes_of_every_observation():
+    trace = make_trace([["A", "pick_L", "B", "place_R", "C"], ["D", "pick_R", "E"]], TOY_NAMES)
+    assert trace.episodes() == [(0, 2), (3, 4)]
+    assert trace.episode_index().tolist() == [0, 0, 0, 1, 1]

@@ -177,14 +177,6 @@ def evidence_distances(trace: Trace, evidence: str, options: LearnOptions,
     return compute_distances(trace, cfg, progress=progress)
 
 
-def episode_index(trace: Trace) -> np.ndarray:
-    """Episode of every observation, int64 array of shape (N,)."""
-    out = np.empty(trace.n_obs, dtype=np.int64)
-    for e, (first, last) in enumerate(trace.episodes()):
-        out[first:last + 1] = e
-    return out
-
-
 def run_candidate(trace: Trace, evidence: str, options: LearnOptions,
                   progress: bool = False) -> Candidate:
     """Distances, merge path, selection and confidence under one evidence."""
@@ -201,7 +193,7 @@ def run_candidate(trace: Trace, evidence: str, options: LearnOptions,
     n_trans = max(len(problem.act), 1)
     margin = (min(others) - dls[k]) / n_trans if others else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
-    heldout = (heldout_prediction(problem, path.thresholds[k], episode_index(trace),
+    heldout = (heldout_prediction(problem, path.thresholds[k], trace.episode_index(),
                                   options.folds) if options.folds >= 2 else None)
     conf = assess(margin, plateau, heldout, problem.n_obs / max(best.n_nodes, 1),
                   options.warning, criterion=options.rule)

@@ -90,6 +90,14 @@ class Trace:
         ends = np.concatenate([breaks, [self.n_obs - 1]])
         return [(int(s), int(e)) for s, e in zip(starts, ends)]
 
+    def episode_index(self) -> np.ndarray:
+        """Episode of every observation, int64 array of shape (N,) (positions in
+        :meth:`episodes`)."""
+        out = np.empty(self.n_obs, dtype=np.int64)
+        for e, (first, last) in enumerate(self.episodes()):
+            out[first:last + 1] = e
+        return out
+
     def roles(self) -> np.ndarray:
         """Role of every observation, int8 array of shape (N,): :data:`PICK` or :data:`PLACE`."""
         return compute_roles(self.actions, self.action_names)

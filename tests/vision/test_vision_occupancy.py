@@ -26,7 +26,6 @@ def test_the_actions_state_what_a_site_holds_between_them():
     assert lab.tolist() == [0, 0, occ.EMPTY, occ.EMPTY, 0,
                             occ.UNLABELLED, occ.UNLABELLED,
                             occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED]
-    assert occ.episode_of(episodes, 10).tolist() == [0] * 5 + [1] * 2 + [2] * 3
 
 
 def test_twins_actions_at_a_site_and_stacked_sites():
@@ -67,7 +66,8 @@ def _two_look_site(rng, n_episodes=30, per=6):
 def test_nearest_looks_know_every_empty_look():
     rng = np.random.default_rng(0)
     px, w, labels, episode, truth = _two_look_site(rng)
-    p = occ.look_presence(px, w, labels, episode)
+    f = occ.site_features(px, w)
+    p = occ.look_presence(f, labels, episode)
     assert p.min() >= 0 and p.max() <= 1
     assert np.all((p >= 0.5) == truth)              # unlabelled episodes included
     # the mean of the empties (what one template compares with) sits between the two looks
@@ -75,9 +75,9 @@ def test_nearest_looks_know_every_empty_look():
     dev = np.abs(px - mean_empty).sum(-1) @ w
     assert dev[~truth & ~(px[:, 0, 0] > 0.3)].mean() > 0.2
     # a label of one kind only, or too few, teaches nothing
-    assert occ.look_presence(px, w, np.where(truth, 0, occ.UNLABELLED), episode) is None
+    assert occ.look_presence(f, np.where(truth, 0, occ.UNLABELLED), episode) is None
     # the references of a labelled observation come from other episodes
-    d = occ.nearest_looks(px, w, np.arange(6), episode)
+    d = occ.nearest_looks(f, np.arange(6), episode)
     assert np.all(np.isinf(d[:6])) and np.all(np.isfinite(d[6:]))
 
 
@@ -87,7 +87,7 @@ def test_looks_that_do_not_separate_give_nothing():
     shuffled = labels.copy()
     known = shuffled != occ.UNLABELLED
     shuffled[known] = rng.permutation(shuffled[known])
-    out = occ.look_presence(px, w, shuffled, episode)
+    out = occ.look_presence(occ.site_features(px, w), shuffled, episode)
     assert out is None or np.mean((out[known] >= 0.5) == (labels[known] >= 0)) < 0.75
 
 
@@ -99,7 +99,6 @@ def test_side_by_side_sites_keep_the_hand_made_presence():
     kinds = trace.action_kinds()
     twin = occ.twins(ov, fp.colour, kinds)
     assert not occ.stacked(ov, fp.colour, twin, 0.2).any()
-    p, refined = occ.refine_presence(normalise_frames(trace.observations), trace.actions,
-                                     trace.episodes(), fp.sites, ov, fp.colour, kinds,
-                                     fp.counts, fp.presence, 0.2)
+    p, refined = occ.refine_presence(trace, normalise_frames(trace.observations), fp.sites, ov,
+                                     fp.colour, fp.counts, fp.presence, 0.2)
     assert not refined.any() and np.array_equal(p, fp.presence)

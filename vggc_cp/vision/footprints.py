@@ -464,8 +464,8 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
                 for c in range(n_col)]
     posterior = colour_posteriors(chroma, examples, params.bandwidth)
     # a site that shares its pixels with another slot of its colour has many empty looks
-    presence, _ = refine_presence(x, trace.actions, trace.episodes(), sites, ov, colour, kinds,
-                                  counts, presence, params.site_overlap)
+    presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
+                                  params.site_overlap)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts)
 

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vggc_cp.trace import PICK
+from vggc_cp.trace import PICK, Trace
 
 #: Label of an empty site (colours are numbered from 0; -2: unlabelled).
 EMPTY = -1
@@ -110,24 +110,16 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     return labels
 
 
-def episode_of(episodes: list[tuple[int, int]], n: int) -> np.ndarray:
-    """Episode index of every observation, shape (N,)."""
-    out = np.zeros(n, dtype=np.int64)
-    for k, (first, last) in enumerate(episodes):
-        out[first:last + 1] = k
-    return out
-
-
-def nearest_looks(px: np.ndarray, weight: np.ndarray, ref: np.ndarray, episode: np.ndarray,
+def nearest_looks(features: np.ndarray, ref: np.ndarray, episode: np.ndarray,
                   k: int = NEAREST, chunk: int = 256) -> np.ndarray:
-    """Mean of the ``k`` smallest site-weighted Euclidean differences to the reference
-    observations of other episodes.
+    """Mean of the ``k`` smallest Euclidean distances to the reference observations of other
+    episodes.
 
     Parameters
     ----------
-    px : ndarray of float32, shape (N, P, 3)
-        The site's pixels of every observation.
-    weight : ndarray, shape (P,)
+    features : ndarray of float64, shape (N, F)
+        Every observation's site pixels, each scaled by the square root of its site weight
+        (:func:`site_features`).
     ref : ndarray of int, shape (R,)
         Reference observations.
     episode : ndarray of int, shape (N,)
@@ -137,13 +129,11 @@ def nearest_looks(px: np.ndarray, weight: np.ndarray, ref: np.ndarray, episode: 
     ndarray of float64, shape (N,)
         ``inf`` where fewer than ``k`` references lie in other episodes.
     """
-    f = (px * np.sqrt(weight.astype(np.float32))[None, :, None]).reshape(len(px), -1)
-    f = f.astype(np.float64)
-    sq = (f ** 2).sum(axis=1)
-    refs, ref_sq, ref_ep = f[ref], sq[ref], episode[ref]
-    out = np.empty(len(px))
-    for s in range(0, len(px), chunk):
-        d2 = sq[s:s + chunk, None] + ref_sq[None] - 2.0 * f[s:s + chunk] @ refs.T
+    sq = (features ** 2).sum(axis=1)
+    refs, ref_sq, ref_ep = features[ref], sq[ref], episode[ref]
+    out = np.empty(len(features))
+    for s in range(0, len(features), chunk):
+        d2 = sq[s:s + chunk, None] + ref_sq[None] - 2.0 * features[s:s + chunk] @ refs.T
         d = np.sqrt(np.maximum(d2, 0.0))
         d = np.where(episode[s:s + chunk, None] == ref_ep[None], np.inf, d)
         kk = min(k, d.shape[1])
@@ -151,18 +141,36 @@ def nearest_looks(px: np.ndarray, weight: np.ndarray, ref: np.ndarray, episode: 
     return out
 
 
-def look_presence(px: np.ndarray, weight: np.ndarray, labels: np.ndarray, episode: np.ndarray
+def site_features(px: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Site pixels ``px`` (N, P, 3) scaled by ``sqrt(weight)`` (P,), flattened to (N, 3P)
+    float64: their Euclidean distance is the site-weighted one."""
+    f = px * np.sqrt(weight.astype(np.float32))[None, :, None]
+    return f.reshape(len(px), -1).astype(np.float64)
+
+
+def look_presence(features: np.ndarray, labels: np.ndarray, episode: np.ndarray
                   ) -> np.ndarray | None:
     """Nearest-look presence of one site (module docstring), shape (N,), in ``[0, 1]``.
 
-    None when fewer than :data:`NEAREST` observations are labelled empty or occupied, or when
-    the medians do not lie on either side of 1/2.
+    Parameters
+    ----------
+    features : ndarray, shape (N, F)
+        :func:`site_features`.
+    labels : ndarray of int, shape (N,)
+        :func:`site_labels`.
+    episode : ndarray of int, shape (N,)
+
+    Returns
+    -------
+    ndarray or None
+        None when fewer than :data:`NEAREST` observations are labelled empty or occupied, or
+        when the medians do not lie on either side of 1/2.
     """
     empty, occupied = np.flatnonzero(labels == EMPTY), np.flatnonzero(labels >= 0)
     if min(len(empty), len(occupied)) < NEAREST:
         return None
-    de = nearest_looks(px, weight, empty, episode)
-    do = nearest_looks(px, weight, occupied, episode)
+    de = nearest_looks(features, empty, episode)
+    do = nearest_looks(features, occupied, episode)
     # no look of one kind in another episode: the other kind decides; of neither: undecided
     ratio = np.full(len(de), 0.5)
     both = np.isfinite(de) & np.isfinite(do)
@@ -192,21 +200,20 @@ def stacked(ov: np.ndarray, colour: np.ndarray, twin: np.ndarray, site_overlap: 
     return same.any(axis=1)
 
 
-def refine_presence(x: np.ndarray, trace_actions: np.ndarray, episodes: list[tuple[int, int]],
-                    sites: np.ndarray, ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray,
-                    counts: np.ndarray, presence: np.ndarray, site_overlap: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarray,
+                    colour: np.ndarray, counts: np.ndarray, presence: np.ndarray,
+                    site_overlap: float) -> tuple[np.ndarray, np.ndarray]:
     """Give every stacked site (:func:`stacked`) the nearest-look presence.
 
     Parameters
     ----------
+    trace : Trace
+        Its actions and episodes (never its states).
     x : ndarray of float32, shape (N, H, W, 3)
         Normalised frames.
-    trace_actions : ndarray, shape (N-1,)
-    episodes : list of (first, last)
     sites : ndarray, shape (A, H, W)
     ov : ndarray, shape (A, A)
-    colour, kinds, counts : ndarray, shape (A,)
+    colour, counts : ndarray, shape (A,)
     presence : ndarray, shape (N, A)
         The hand-made presence.
     site_overlap : float
@@ -221,13 +228,14 @@ def refine_presence(x: np.ndarray, trace_actions: np.ndarray, episodes: list[tup
     """
     presence = presence.copy()
     refined = np.zeros(len(counts), dtype=bool)
+    kinds = trace.action_kinds()
     twin = twins(ov, colour, kinds)
-    episode = episode_of(episodes, len(x))
+    episodes, episode = trace.episodes(), trace.episode_index()
     for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
-        labels = site_labels(trace_actions, episodes,
+        labels = site_labels(trace.actions, episodes,
                              acting_at(int(a), ov, colour, twin, site_overlap), kinds, colour)
         support = sites[a] > 0
-        look = look_presence(x[:, support], sites[a][support], labels, episode)
+        look = look_presence(site_features(x[:, support], sites[a][support]), labels, episode)
         if look is not None:
             presence[:, a] = look
             refined[a] = True
