@@ -9,7 +9,7 @@ import pytest
 from conftest import shuffled_within_roles
 
 from vggc_cp.errors import VggcError
-from vggc_cp.pipeline import LearnOptions, choose, learn_graph, threshold_grid
+from vggc_cp.pipeline import LearnConfig, choose, learn_graph, threshold_grid
 from vggc_cp.trace import Trace, load_trace
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
@@ -21,7 +21,7 @@ def shipped():
 
 
 def test_the_shipped_trace_gives_its_true_graph_without_a_warning(shipped):
-    learned = learn_graph(shipped.without_states(), LearnOptions(evidence="footprints"))
+    learned = learn_graph(shipped.without_states(), LearnConfig(evidence="footprints"))
     same = learned.labels[:, None] == learned.labels[None, :]
     np.testing.assert_array_equal(same, shipped.states[:, None] == shipped.states[None, :])
     conf = learned.confidence
@@ -36,7 +36,7 @@ def test_a_trace_whose_images_say_nothing_is_flagged(shipped):
     """Images shuffled within each role: no graph the trace supports can be right, and the
     tool must say so rather than print a confident graph."""
     noise = shuffled_within_roles(shipped, 0, keep_states=False)
-    learned = learn_graph(noise, LearnOptions(evidence="footprints"))
+    learned = learn_graph(noise, LearnConfig(evidence="footprints"))
     assert learned.confidence.suspect and learned.confidence.reasons
 
 
@@ -50,7 +50,7 @@ def test_choose_keeps_the_first_evidence_unless_only_a_later_one_passes_its_chec
 
     from vggc_cp.pipeline import _with_disagreement, run_candidate
 
-    options = LearnOptions()
+    options = LearnConfig()
     fp = run_candidate(shipped.without_states(), "footprints", options)
     assert not fp.confidence.suspect
     suspect = replace(fp, evidence="footprints", confidence=replace(

@@ -40,7 +40,7 @@ from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
 from vggc_cp.trace import Trace
 from vggc_cp.vision.distances import DistanceConfig, compute_distances
-from vggc_cp.vision.footprints import FootprintParams, footprint_distances
+from vggc_cp.vision.footprints import FootprintConfig, footprint_distances
 
 #: Evidence names: ``footprints``, or an attention backend of the Sinkhorn distances.
 FOOTPRINTS = "footprints"
@@ -52,7 +52,7 @@ AUTO_FALLBACK = ("keypoints",)
 
 
 @dataclass(frozen=True)
-class LearnOptions:
+class LearnConfig:
     """Every setting of :func:`learn_graph`.
 
     Attributes
@@ -62,7 +62,7 @@ class LearnOptions:
         attention backend (``saliency``, ``keypoints``, ``dinov2``) of the Sinkhorn distances.
     distance : DistanceConfig
         Settings of the Sinkhorn distances (its ``backend`` is replaced by the evidence).
-    footprint : FootprintParams
+    footprint : FootprintConfig
     rule : str
         Path selection rule (``mdl`` default; ``cascade``, ``fewest``).
     thresholds : tuple of float or None
@@ -76,7 +76,7 @@ class LearnOptions:
 
     evidence: str = AUTO
     distance: DistanceConfig = field(default_factory=DistanceConfig)
-    footprint: FootprintParams = field(default_factory=FootprintParams)
+    footprint: FootprintConfig = field(default_factory=FootprintConfig)
     rule: str = "mdl"
     thresholds: tuple[float, ...] | None = None
     steps: int = 24
@@ -167,7 +167,7 @@ def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9)
     return np.geomspace(lo, hi, int(steps))
 
 
-def evidence_distances(trace: Trace, evidence: str, options: LearnOptions,
+def evidence_distances(trace: Trace, evidence: str, options: LearnConfig,
                        progress: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Within-role distances of ``trace`` under ``evidence`` (``footprints`` or an attention
     backend)."""
@@ -177,7 +177,7 @@ def evidence_distances(trace: Trace, evidence: str, options: LearnOptions,
     return compute_distances(trace, cfg, progress=progress)
 
 
-def run_candidate(trace: Trace, evidence: str, options: LearnOptions,
+def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
                   progress: bool = False) -> Candidate:
     """Distances, merge path, selection and confidence under one evidence."""
     t0 = time.perf_counter()
@@ -200,7 +200,7 @@ def run_candidate(trace: Trace, evidence: str, options: LearnOptions,
     return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
 
 
-def learn_graph(trace: Trace, options: LearnOptions | None = None,
+def learn_graph(trace: Trace, options: LearnConfig | None = None,
                 progress: bool = False) -> Learned:
     """Learn the task graph of ``trace`` (module docstring).
 
@@ -208,7 +208,7 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
     ----------
     trace : Trace
         Only observations and actions are read.
-    options : LearnOptions, optional
+    options : LearnConfig, optional
     progress : bool
         Progress bars on stderr.
 
@@ -221,7 +221,7 @@ def learn_graph(trace: Trace, options: LearnOptions | None = None,
     VggcError
         When the trace has no transition.
     """
-    options = options or LearnOptions()
+    options = options or LearnConfig()
     if trace.n_transitions == 0:
         raise VggcError("the trace has no transition: nothing to learn")
     t0 = time.perf_counter()

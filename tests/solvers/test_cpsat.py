@@ -23,7 +23,7 @@ from vggc_cp.solvers.brute import (
     violations,
 )
 from vggc_cp.solvers.cpsat import (
-    CpSatOptions,
+    CpSatConfig,
     CpSatSolver,
     build_cell_model,
     enumerate_colourings,
@@ -143,7 +143,7 @@ def test_parse_cpsat_params():
 
 
 def test_user_params_override_defaults():
-    opts = CpSatOptions(params="max_time_in_seconds:3")
+    opts = CpSatConfig(params="max_time_in_seconds:3")
     text = opts.sat_parameters_text()
     assert "max_time_in_seconds: 3" in text and "num_workers" in text
 
@@ -188,7 +188,7 @@ def test_enumeration_visits_each_valid_colouring_once(problem, k_pick, k_place, 
     """One model solution per valid colouring up to renaming: the counts of brute force."""
     cons = CellConstraints(deterministic, max_actions)
     brute = enumerate_cell(problem, k_pick, k_place, cons)
-    opts = CpSatOptions(deterministic=deterministic, max_actions=max_actions)
+    opts = CpSatConfig(deterministic=deterministic, max_actions=max_actions)
     e = enumerate_colourings(problem, k_pick, k_place, opts, limit=10**6, max_seconds=20)
     assert e.complete and e.count == brute.n_valid
     if brute.feasible:
@@ -246,7 +246,7 @@ def test_hint_is_complete_and_consistent(problem, k_pick, k_place, deterministic
     pc, qc = valid[len(valid) // 2]
     # scramble colour names: the hint must be renamed into value-precedence form
     pc = (pc + 1) % k_pick
-    cm = build_cell_model(problem, k_pick, k_place, CpSatOptions(deterministic=deterministic))
+    cm = build_cell_model(problem, k_pick, k_place, CpSatConfig(deterministic=deterministic))
     assert cm.model is not None
     values = cm.hint_assignment(pc, qc)
     assert len(values) == cm.n_variables

@@ -6,7 +6,7 @@ import numpy as np
 
 from vggc_cp.trace import Trace
 from vggc_cp.vision import DistanceConfig, compute_distances
-from vggc_cp.vision.attention import AttentionParams, colour_channel_maps
+from vggc_cp.vision.attention import AttentionConfig, colour_channel_maps
 
 RED = (200, 30, 30)
 YELLOW = (220, 200, 30)
@@ -36,12 +36,12 @@ def test_two_colours_make_channels_and_one_colour_none():
     rng = np.random.default_rng(0)
     two = np.stack([scene(RED, YELLOW, rng=rng), scene(YELLOW, RED, rng=rng),
                     scene(None, None, rng=rng)] * 3)
-    maps, kept = colour_channel_maps(two, AttentionParams(grid=8))
+    maps, kept = colour_channel_maps(two, AttentionConfig(grid=8))
     assert kept == [0, 1] and maps.shape == (9, 2, 64)
     assert np.allclose(maps.sum(axis=2), 1) and (maps > 0).all()
     one = np.stack([scene(RED, None, rng=rng), scene(None, RED, rng=rng),
                     scene(None, None, rng=rng)] * 3)
-    maps, kept = colour_channel_maps(one, AttentionParams(grid=8))
+    maps, kept = colour_channel_maps(one, AttentionConfig(grid=8))
     assert kept == [] and maps.shape == (9, 0, 64)
 
 

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from vggc_cp.errors import VggcError
-from vggc_cp.vision import AttentionParams, DistanceConfig, attention_maps, compute_distances_full
+from vggc_cp.vision import AttentionConfig, DistanceConfig, attention_maps, compute_distances_full
 from vggc_cp.vision.dinov2 import DinoVisionTransformer, arch_from_state_dict, load_dinov2
 
 TINY = dict(embed_dim=32, depth=2, num_heads=2, patch_size=14, pos_grid=4,
@@ -39,7 +39,7 @@ def images(n: int = 5, size: int = 40, seed: int = 0) -> np.ndarray:
 def test_tiny_checkpoint_gives_maps(tmp_path, registers):
     path = tmp_path / "tiny.pth"
     model, _ = write_checkpoint(path, num_register_tokens=registers)
-    maps = attention_maps(images(), "dinov2", AttentionParams(grid=3, weights=str(path)))
+    maps = attention_maps(images(), "dinov2", AttentionConfig(grid=3, weights=str(path)))
     assert maps.shape == (5, 9)
     assert np.all(maps > 0)
     np.testing.assert_allclose(maps.sum(1), 1.0)
@@ -79,14 +79,14 @@ def test_official_layout_loads_without_arch(tmp_path):
 def test_missing_weights_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.delenv("VGGC_CP_DINOV2_WEIGHTS", raising=False)
     with pytest.raises(VggcError, match="--weights"):
-        attention_maps(images(1), "dinov2", AttentionParams(grid=2))
+        attention_maps(images(1), "dinov2", AttentionConfig(grid=2))
     with pytest.raises(VggcError, match="does not exist"):
-        attention_maps(images(1), "dinov2", AttentionParams(grid=2,
+        attention_maps(images(1), "dinov2", AttentionConfig(grid=2,
                                                             weights=str(tmp_path / "no.pth")))
     junk = tmp_path / "junk.pth"
     junk.write_bytes(b"not a checkpoint")
     with pytest.raises(VggcError, match="unreadable"):
-        attention_maps(images(1), "dinov2", AttentionParams(grid=2, weights=str(junk)))
+        attention_maps(images(1), "dinov2", AttentionConfig(grid=2, weights=str(junk)))
 
 
 def test_env_weights_and_cache_key_follow_the_file(tmp_path, monkeypatch):

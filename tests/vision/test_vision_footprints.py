@@ -11,7 +11,7 @@ from conftest import shuffled_within_roles
 from vggc_cp.errors import VggcError
 from vggc_cp.trace import PICK, PLACE, Trace, load_trace
 from vggc_cp.vision.footprints import (
-    FootprintParams,
+    FootprintConfig,
     action_classes,
     action_footprints,
     colour_classes,
@@ -81,9 +81,9 @@ def test_shuffled_images_destroy_the_evidence(shipped):
 
 def test_bad_parameters_and_an_empty_trace_are_refused(shipped):
     with pytest.raises(VggcError):
-        FootprintParams(gripper=1.5)
+        FootprintConfig(gripper=1.5)
     with pytest.raises(VggcError):
-        FootprintParams(bandwidth=0)
+        FootprintConfig(bandwidth=0)
     one = Trace(shipped.observations[:1], np.zeros(0, dtype=np.int64), shipped.action_names)
     with pytest.raises(VggcError):
         action_footprints(one)

@@ -9,7 +9,7 @@ import pytest
 from vggc_cp.trace import Trace
 from vggc_cp.vision import DistanceConfig, compute_distances_full
 from vggc_cp.vision.attention import (
-    AttentionParams,
+    AttentionConfig,
     attention_maps,
     background,
     background_bare,
@@ -67,8 +67,8 @@ def test_two_kinds_of_one_colour_swapping_places_leave_the_map_unchanged():
     moved = scene([(RED, 6), None, (RED, 3), (YELLOW, 4)])
     empty = scene([None, None, None, None])
     images = np.stack([a, b, moved, empty] * 3)
-    kp = attention_maps(images, "keypoints", AttentionParams(grid=16))
-    sal = attention_maps(images, "saliency", AttentionParams(grid=16))
+    kp = attention_maps(images, "keypoints", AttentionConfig(grid=16))
+    sal = attention_maps(images, "saliency", AttentionConfig(grid=16))
     assert np.allclose(kp.sum(axis=1), 1) and (kp > 0).all()
     # keypoints: the swap moves nothing; the saliency map weighs the large object more
     assert np.abs(kp[0] - kp[1]).sum() < 0.02
@@ -90,7 +90,7 @@ def test_bare_background_shows_the_table_where_an_object_stands_most_of_the_time
     assert median[centre][0] > 0.6   # the median keeps the object
     assert abs(bare[centre][0] - TABLE[0] / 255) < 0.03  # the bare table
     # so the frame without the object has no blob at region 0 under keypoints
-    kp = attention_maps(images, "keypoints", AttentionParams(grid=16))
+    kp = attention_maps(images, "keypoints", AttentionConfig(grid=16))
     assert np.allclose(kp[9], 1 / 256)
     assert kp[0].max() > 0.05
 

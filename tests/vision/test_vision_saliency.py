@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vggc_cp.vision import AttentionParams, attention_maps, cost_matrix
+from vggc_cp.vision import AttentionConfig, attention_maps, cost_matrix
 from vggc_cp.vision.attention import finish_maps, pool_to_grid
 from vggc_cp.vision.sinkhorn import sinkhorn_divergence_matrix
 
@@ -26,7 +26,7 @@ def divergences(maps: np.ndarray, grid: int) -> np.ndarray:
 def test_maps_are_histograms_with_a_floor():
     rng = np.random.default_rng(0)
     imgs = rng.integers(0, 256, (6, 33, 47, 3), dtype=np.uint8)
-    maps = attention_maps(imgs, "saliency", AttentionParams(grid=5, floor=0.02))
+    maps = attention_maps(imgs, "saliency", AttentionConfig(grid=5, floor=0.02))
     assert maps.shape == (6, 25)
     np.testing.assert_allclose(maps.sum(1), 1.0)
     assert maps.min() >= 0.02 / 25 * (1 - 1e-9)
@@ -60,7 +60,7 @@ def test_gain_tint_and_noise_do_not_move_the_map_synthetic():
     views = [base, gain(base, [1.15] * 3, rng), gain(base, [0.85] * 3, rng),
              gain(base, [1.15, 1.0, 0.87], rng), render(3, 1)]
     maps = attention_maps(np.concatenate([trace, np.stack(views)]), "saliency",
-                          AttentionParams(grid=16))[-len(views):]
+                          AttentionConfig(grid=16))[-len(views):]
     # a global gain change does not spread mass over the table
     for m in maps[1:4]:
         assert np.abs(m - maps[0]).sum() < 0.15
@@ -106,7 +106,7 @@ def test_rendered_scene_gain_and_noise_stay_far_closer_than_a_moved_object():
     views = [img, gain(img, [1.15] * 3, rng), gain(img, [0.85] * 3, rng),
              gain(img, [1.15, 1.0, 0.87], rng), gain(img, [1.0] * 3, rng, noise=6.0), moved]
     maps = attention_maps(np.concatenate([trace, np.stack(views)]), "saliency",
-                          AttentionParams(grid=16))[-len(views):]
+                          AttentionConfig(grid=16))[-len(views):]
     S = divergences(maps, 16)
     far = S[0, 5]
     near = S[0, 1:5]

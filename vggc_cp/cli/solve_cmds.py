@@ -305,9 +305,9 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
 
 
 def _learn_options(args):
-    """The :class:`~vggc_cp.pipeline.LearnOptions` of ``solve``'s merge options."""
+    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options."""
     from vggc_cp.errors import lookup
-    from vggc_cp.pipeline import EVIDENCES, LearnOptions
+    from vggc_cp.pipeline import EVIDENCES, LearnConfig
     from vggc_cp.solvers.merge import PATH_SELECTIONS
 
     rule = args.select or "mdl"
@@ -316,7 +316,7 @@ def _learn_options(args):
     thresholds = _parse_thresholds(args.thresholds)
     cfg = config_from_args(args)
     evidence = cfg.backend if args.evidence == "attention" else args.evidence
-    return LearnOptions(evidence=evidence, distance=cfg, rule=rule,
+    return LearnConfig(evidence=evidence, distance=cfg, rule=rule,
                         thresholds=None if thresholds is None else tuple(thresholds)), cfg
 
 

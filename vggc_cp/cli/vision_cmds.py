@@ -117,13 +117,13 @@ def parse_indices(text: str, n: int) -> list[int]:
 def cmd_show_attention(args) -> int:
     from vggc_cp.safeio import check_grid
     from vggc_cp.trace import ROLE_NAMES, load_trace
-    from vggc_cp.vision import AttentionParams, attention_maps
+    from vggc_cp.vision import AttentionConfig, attention_maps
     from vggc_cp.vision.attention import SALIENCY_BACKENDS
     from vggc_cp.vision.overlay import draw_attention
 
     trace = load_trace(args.trace)
     idx = parse_indices(args.indices, trace.n_obs)
-    params = AttentionParams(grid=args.grid, floor=args.floor, weights=args.weights)
+    params = AttentionConfig(grid=args.grid, floor=args.floor, weights=args.weights)
     if args.grid < 2:
         raise VggcError(f"--grid must be at least 2, got {args.grid}")
     if not 0 < args.floor < 1:
@@ -147,10 +147,10 @@ def cmd_bench_distance(args) -> int:
     rng = np.random.default_rng(args.seed)
     if args.trace:
         from vggc_cp.trace import load_trace
-        from vggc_cp.vision import AttentionParams, attention_maps
+        from vggc_cp.vision import AttentionConfig, attention_maps
 
         trace = load_trace(args.trace)
-        maps = attention_maps(trace.observations, "saliency", AttentionParams(grid=args.grid))
+        maps = attention_maps(trace.observations, "saliency", AttentionConfig(grid=args.grid))
         maps = maps[np.flatnonzero(trace.roles() == 0)]
         source = f"saliency maps of the pick observations of {args.trace}"
     else:

@@ -118,9 +118,9 @@ def compute_solution(trace, *, cache_dir: str | Path | None = None,
     the fallback, if any, are cached in ``cache_dir`` (default: the vision package's)."""
     from dataclasses import replace
 
-    from vggc_cp.pipeline import LearnOptions, learn_graph, solution_record
+    from vggc_cp.pipeline import LearnConfig, learn_graph, solution_record
 
-    options = LearnOptions()
+    options = LearnConfig()
     options = replace(options, distance=replace(options.distance, cache_dir=cache_dir))
     learned = learn_graph(trace.without_states(), options, progress=progress)
     return solution_record(learned.problem, learned.chosen.best, **learned.solution_fields())

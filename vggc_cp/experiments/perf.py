@@ -48,9 +48,9 @@ def bench_solve(trace: Trace, threads: int | None = None) -> SolveTiming:
     previous one on ``trace``."""
     from dataclasses import replace
 
-    from vggc_cp.pipeline import LearnOptions
+    from vggc_cp.pipeline import LearnConfig
 
-    options = LearnOptions()
+    options = LearnConfig()
     options = replace(options, distance=replace(options.distance, use_cache=False,
                                                 threads=threads))
     t0 = time.perf_counter()

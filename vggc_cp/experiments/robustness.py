@@ -233,10 +233,10 @@ def code_digest() -> str:
 
 
 def learn_key() -> dict:
-    """The default :class:`vggc_cp.pipeline.LearnOptions` as JSON values (part of a cell's key)."""
-    from vggc_cp.pipeline import LearnOptions
+    """The default :class:`vggc_cp.pipeline.LearnConfig` as JSON values (part of a cell's key)."""
+    from vggc_cp.pipeline import LearnConfig
 
-    opts = LearnOptions()
+    opts = LearnConfig()
     out = {k: v for k, v in asdict(opts).items() if k != "distance"}
     out["distance"] = opts.distance.key()
     return _jsonable(out)
@@ -329,11 +329,11 @@ def run_cell(job: RobustCell) -> dict:
     import numpy as np
 
     from vggc_cp.evaluate import evaluate_trace
-    from vggc_cp.pipeline import LearnOptions, learn_graph
+    from vggc_cp.pipeline import LearnConfig, learn_graph
     from vggc_cp.solution import labels_solution, write_solution
 
     trace = ensure_trace(job)
-    learned = learn_graph(trace.without_states(), LearnOptions(), progress=False)
+    learned = learn_graph(trace.without_states(), LearnConfig(), progress=False)
     t0 = time.perf_counter()
     metrics, dynamics = evaluate_trace(trace, learned.graph, learned.labels,
                                        n_queries=job.queries, seed=0)

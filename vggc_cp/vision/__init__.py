@@ -17,7 +17,7 @@ Typical use::
 """
 
 from vggc_cp.score import affinity, visual_score, visual_score_role
-from vggc_cp.vision.attention import ATTENTION_BACKENDS, AttentionParams, attention_maps
+from vggc_cp.vision.attention import ATTENTION_BACKENDS, AttentionConfig, attention_maps
 from vggc_cp.vision.distances import (
     CACHE_ENV,
     DistanceConfig,
@@ -49,7 +49,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "ATTENTION_BACKENDS",
-    "AttentionParams",
+    "AttentionConfig",
     "CACHE_ENV",
     "DistanceConfig",
     "DistanceResult",

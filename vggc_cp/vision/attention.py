@@ -74,7 +74,7 @@ SATURATED = 0.98
 
 
 @dataclass(frozen=True)
-class AttentionParams:
+class AttentionConfig:
     """Parameters of the attention backends (part of the distance cache key).
 
     Attributes
@@ -164,7 +164,7 @@ def background_bare(images: np.ndarray) -> np.ndarray:
     return x[pick, rows, cols]
 
 
-def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionParams) -> np.ndarray:
+def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionConfig) -> np.ndarray:
     """Per-pixel foreground strength of ``images`` (uint8 ``(N, H, W, 3)``) -> ``(N, H, W)``."""
     x = images.astype(np.float32) / 255.0
     # 2. robust per-channel gain against the background, from pixels that are lit and
@@ -194,7 +194,7 @@ def saliency_raw(images: np.ndarray, bg: np.ndarray, params: AttentionParams) ->
     return np.clip(dev - thr[:, None, None], 0.0, None)
 
 
-def saliency_maps(images: np.ndarray, params: AttentionParams,
+def saliency_maps(images: np.ndarray, params: AttentionConfig,
                   progress: Callable[[int], None] | None = None) -> np.ndarray:
     """The ``saliency`` backend: ``(N, H, W, 3)`` uint8 -> ``(N, g*g)`` maps (module docstring)."""
     bg = background(images)
@@ -208,7 +208,7 @@ def saliency_maps(images: np.ndarray, params: AttentionParams,
     return out
 
 
-def dinov2_maps(images: np.ndarray, params: AttentionParams,
+def dinov2_maps(images: np.ndarray, params: AttentionConfig,
                 progress: Callable[[int], None] | None = None) -> np.ndarray:
     """The ``dinov2`` backend: CLS-to-patch attention of the last block, ``(N, g*g)``."""
     import torch
@@ -245,7 +245,7 @@ def hue_bins(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return bins, sat
 
 
-def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: float = 0.1,
+def colour_channel_maps(images: np.ndarray, params: AttentionConfig, min_share: float = 0.1,
                         progress: Callable[[int], None] | None = None,
                         keypoints: bool = False) -> tuple[np.ndarray, list[int]]:
     """Colour-channel maps of the salient foreground (module docstring).
@@ -253,7 +253,7 @@ def colour_channel_maps(images: np.ndarray, params: AttentionParams, min_share: 
     Parameters
     ----------
     images : uint8 ndarray, shape (N, H, W, 3)
-    params : AttentionParams
+    params : AttentionConfig
     min_share : float
         Smallest share of the trace's chromatic foreground mass that makes a hue bin a channel.
     keypoints : bool
@@ -352,7 +352,7 @@ def keypoint_raw(weight: np.ndarray, grid: int) -> np.ndarray:
     return out
 
 
-def keypoint_maps(images: np.ndarray, params: AttentionParams,
+def keypoint_maps(images: np.ndarray, params: AttentionConfig,
                   progress: Callable[[int], None] | None = None) -> np.ndarray:
     """The ``keypoints`` backend: one unit of mass per chromatic blob, ``(N, g*g)``."""
     bg = background_bare(images)
@@ -390,7 +390,7 @@ NEEDS_WEIGHTS = frozenset({"dinov2"})
 
 
 def attention_maps(images: np.ndarray, backend: str = "saliency",
-                   params: AttentionParams | None = None,
+                   params: AttentionConfig | None = None,
                    progress: Callable[[int], None] | None = None) -> np.ndarray:
     """Attention maps of ``images`` (uint8 ``(N, H, W, 3)``) with a registered backend.
 
@@ -399,4 +399,4 @@ def attention_maps(images: np.ndarray, backend: str = "saliency",
     ndarray, float64, shape (N, g*g): strictly positive rows summing to 1.
     """
     fn = lookup(ATTENTION_BACKENDS, backend, "attention backend")
-    return fn(np.asarray(images), params or AttentionParams(), progress)
+    return fn(np.asarray(images), params or AttentionConfig(), progress)

@@ -56,7 +56,7 @@ from vggc_cp.vision.attention import (
     KEYPOINT_BACKENDS,
     NEEDS_WEIGHTS,
     SALIENCY_BACKENDS,
-    AttentionParams,
+    AttentionConfig,
     attention_maps,
     colour_channel_maps,
 )
@@ -160,8 +160,8 @@ class DistanceConfig:
         if self.rows is not None and self.rows < 1:
             raise VggcError(f"--distance-rows must be at least 1, got {self.rows}")
 
-    def attention_params(self) -> AttentionParams:
-        return AttentionParams(grid=self.grid, floor=self.floor, noise_k=self.noise_k,
+    def attention_params(self) -> AttentionConfig:
+        return AttentionConfig(grid=self.grid, floor=self.floor, noise_k=self.noise_k,
                                min_contrast=self.min_contrast, weights=self.weights)
 
     def key(self) -> dict:

@@ -75,7 +75,7 @@ from vggc_cp.vision.occupancy import refine_presence
 
 
 @dataclass(frozen=True)
-class FootprintParams:
+class FootprintConfig:
     """Settings of the footprint evidence (module docstring).
 
     Attributes
@@ -184,7 +184,7 @@ def normalise_frames(observations: np.ndarray, chunk: int = 512) -> np.ndarray:
 
 
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
-                   dst: np.ndarray, n_actions: int, params: FootprintParams) -> np.ndarray:
+                   dst: np.ndarray, n_actions: int, params: FootprintConfig) -> np.ndarray:
     """``F_a`` of every action (module docstring), shape ``(A, H, W)``.
 
     Parameters
@@ -350,7 +350,7 @@ def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float =
 
 
 def action_colours(chroma: np.ndarray, counts: np.ndarray, classes: np.ndarray,
-                   occupied: dict[int, np.ndarray], params: FootprintParams
+                   occupied: dict[int, np.ndarray], params: FootprintConfig
                    ) -> np.ndarray:
     """Colour of every action, shape (A,) (-1 for an action never taken): the task classes
     (:func:`action_classes`) pooled by :func:`colour_classes` on the chroma of their actions'
@@ -420,7 +420,7 @@ def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
     return mag, chroma
 
 
-def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Footprints:
+def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
 
     Raises
@@ -428,7 +428,7 @@ def action_footprints(trace: Trace, params: FootprintParams | None = None) -> Fo
     VggcError
         When the trace has no transition, or no action changes the images in one place.
     """
-    params = params or FootprintParams()
+    params = params or FootprintConfig()
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise VggcError("footprint evidence needs at least one transition")
@@ -491,7 +491,7 @@ def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.nda
 
 def footprint_nuisance(presence: np.ndarray, posterior: np.ndarray, counts: np.ndarray,
                        src: np.ndarray, act: np.ndarray, dst: np.ndarray,
-                       params: FootprintParams) -> np.ndarray:
+                       params: FootprintConfig) -> np.ndarray:
     """``nu_a`` (module docstring): how much site ``a`` differs across a transition that does
     not act on it. Returns shape (A,); 0 for an action never taken."""
     taken = np.flatnonzero(counts > 0)
@@ -536,11 +536,11 @@ def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken
     return d
 
 
-def footprint_distances(trace: Trace, params: FootprintParams | None = None
+def footprint_distances(trace: Trace, params: FootprintConfig | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
     """Within-role footprint distances of ``trace``: ``(dist_pick, dist_place)``, rows in the
     order of ``flatnonzero(roles == PICK)`` and ``flatnonzero(roles == PLACE)``."""
-    fp = action_footprints(trace, params or FootprintParams())
+    fp = action_footprints(trace, params or FootprintConfig())
     roles = trace.roles()
     return tuple(footprint_distance_matrix(fp.presence[roles == role], fp.posterior[roles == role],
                                            fp.taken, fp.nuisance)

@@ -2,7 +2,7 @@
 
 One module per job:
 
-* :mod:`~vggc_cp.solvers.cpsat.parameters` -- :class:`CpSatOptions`, the ``--cpsat-params`` string;
+* :mod:`~vggc_cp.solvers.cpsat.parameters` -- :class:`CpSatConfig`, the ``--cpsat-params`` string;
 * :mod:`~vggc_cp.solvers.cpsat.model` -- the constraints of a cell's model (the mathematics);
 * :mod:`~vggc_cp.solvers.cpsat.objective` -- the quantized visual score J it minimizes;
 * :mod:`~vggc_cp.solvers.cpsat.cell` -- :class:`CellModel`: decode a solution, hint a colouring;
@@ -25,12 +25,12 @@ from vggc_cp.solvers.cpsat.parameters import (
     DEFAULT_PARAMS,
     HINTS,
     OBJECTIVES,
-    CpSatOptions,
+    CpSatConfig,
     parse_cpsat_params,
 )
 from vggc_cp.solvers.cpsat.solve import CpSatSolver, greedy_result
 
-__all__ = ["DEFAULT_PARAMS", "HINTS", "OBJECTIVES", "OPTIMIZE", "CellModel", "CpSatOptions",
+__all__ = ["DEFAULT_PARAMS", "HINTS", "OBJECTIVES", "OPTIMIZE", "CellModel", "CpSatConfig",
            "CpSatSolver", "Enumeration", "NodeFrontier", "build_cell_model", "compare_records",
            "enumerate_colourings", "exact_sweep", "greedy_result", "node_frontier",
            "parse_cpsat_params"]

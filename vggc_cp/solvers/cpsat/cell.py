@@ -12,7 +12,7 @@ import numpy as np
 from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
-from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ class CellModel:
     problem: Problem
     k_pick: int
     k_place: int
-    options: CpSatOptions
+    options: CpSatConfig
     model: cp_model.CpModel | None
     infeasible_reason: str | None
     objective_mode: str

@@ -30,7 +30,7 @@ from ortools.sat.python import cp_model
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.cell import CellModel
 from vggc_cp.solvers.cpsat.model import build_cell_model
-from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ def _role_scorer(dist: np.ndarray, k: int):
 
 
 def enumerate_colourings(problem: Problem, k_pick: int, k_place: int,
-                         options: CpSatOptions | None = None, limit: int = 20_000,
+                         options: CpSatConfig | None = None, limit: int = 20_000,
                          max_seconds: float = 10.0) -> Enumeration:
     """Visit every valid colouring of a cell (up to renaming) with CP-SAT; keep the lowest J.
 
@@ -141,7 +141,7 @@ def enumerate_colourings(problem: Problem, k_pick: int, k_place: int,
     (``complete=False``) after ``limit`` colourings or ``max_seconds``.
     """
     t0 = time.perf_counter()
-    options = CpSatOptions() if options is None else options
+    options = CpSatConfig() if options is None else options
     opts = dataclasses.replace(options, objective="none", symmetry=True)  # one per partition
     cm = build_cell_model(problem, k_pick, k_place, opts)
     if cm.model is None:

@@ -75,7 +75,7 @@ from ortools.sat.python import cp_model
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.cell import CellModel, RoleVars
 from vggc_cp.solvers.cpsat.objective import add_objective, quantize
-from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 from vggc_cp.trace import PICK, PLACE
 
 
@@ -118,12 +118,12 @@ def _conflict_graph(problem: Problem, role: int) -> list[set[int]]:
 
 
 def build_cell_model(problem: Problem, k_pick: int, k_place: int,
-                     options: CpSatOptions | None = None) -> CellModel:
+                     options: CpSatConfig | None = None) -> CellModel:
     """Build the CP-SAT model of one cell (see the module docstring for the mathematics).
 
-    ``options`` defaults to ``CpSatOptions()``.
+    ``options`` defaults to ``CpSatConfig()``.
     """
-    options = CpSatOptions() if options is None else options
+    options = CpSatConfig() if options is None else options
     notes: list[str] = []
     n_role = (problem.n_pick, problem.n_place)
     kk = (min(k_pick, n_role[0]), min(k_place, n_role[1]))

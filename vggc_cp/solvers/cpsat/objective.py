@@ -50,7 +50,7 @@ import numpy as np
 from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
-from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 from vggc_cp.trace import PICK, PLACE
 
 #: The largest symmetrized distance becomes this integer.
@@ -74,7 +74,7 @@ def quantize(problem: Problem, resolution: int = RESOLUTION) -> tuple[float, tup
     return scale, dhat
 
 
-def add_objective(model: cp_model.CpModel, roles: list, dhat: tuple, options: CpSatOptions,
+def add_objective(model: cp_model.CpModel, roles: list, dhat: tuple, options: CpSatConfig,
                   notes: list[str]) -> tuple[str, dict, dict, dict]:
     """Add the quantized J (or nothing) to ``model``; see the module docstring.
 
@@ -86,7 +86,7 @@ def add_objective(model: cp_model.CpModel, roles: list, dhat: tuple, options: Cp
         Pick then place.
     dhat : tuple of ndarray
         Integer distances of :func:`quantize`.
-    options : CpSatOptions
+    options : CpSatConfig
     notes : list of str
         Appended to when the objective is dropped.
 

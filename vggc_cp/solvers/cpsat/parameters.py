@@ -1,4 +1,4 @@
-"""CP-SAT options of a cell: :class:`CpSatOptions` and the one ``--cpsat-params`` string."""
+"""CP-SAT options of a cell: :class:`CpSatConfig` and the one ``--cpsat-params`` string."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def parse_cpsat_params(text: str | None) -> str:
 
 
 @dataclass(frozen=True)
-class CpSatOptions:
+class CpSatConfig:
     r"""Everything that shapes the CP-SAT model of a cell and its solve.
 
     Attributes

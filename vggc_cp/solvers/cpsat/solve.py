@@ -34,7 +34,7 @@ from vggc_cp.solvers.brute import fit_colouring, split_colours, violations
 from vggc_cp.solvers.cpsat.cell import CellModel
 from vggc_cp.solvers.cpsat.enumeration import Enumeration, enumerate_colourings
 from vggc_cp.solvers.cpsat.model import build_cell_model
-from vggc_cp.solvers.cpsat.parameters import CpSatOptions
+from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 from vggc_cp.solvers.greedy import GreedySolver
 
 #: A colouring offered as a repair hint is used only this many colour merges from the cell:
@@ -60,7 +60,7 @@ class CpSatSolver(Solver):
     ----------
     objective, deterministic, max_actions, params, max_pair_terms, hint, symmetry,
     enumerate_limit, codeterministic, cannot_link :
-        See :class:`CpSatOptions`. ``params`` errors raise :class:`VggcError` here.
+        See :class:`CpSatConfig`. ``params`` errors raise :class:`VggcError` here.
     greedy_options : dict, optional
         Keyword arguments of the greedy solver that computes the hint.
     hints : sequence of (str, ndarray), optional
@@ -82,7 +82,7 @@ class CpSatSolver(Solver):
                  greedy_options: dict | None = None, codeterministic: bool = False,
                  cannot_link: float | None = None,
                  hints: Sequence[tuple[str, np.ndarray]] = ()):
-        self.options = CpSatOptions(objective, deterministic, max_actions, params,
+        self.options = CpSatConfig(objective, deterministic, max_actions, params,
                                     max_pair_terms, hint, symmetry, enumerate_limit,
                                     codeterministic, cannot_link)
         self.params_text = self.options.sat_parameters_text()
