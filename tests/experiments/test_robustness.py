@@ -158,7 +158,7 @@ def test_cli_bad_values_exit_2_with_one_line(argv, phrase, tmp_path, capsys):
 
 
 def test_cli_seeds_parse():
-    from vggc_cp.cli.robustness_cmds import parse_seeds
+    from vggc_cp.cli.options import parse_seeds
 
     assert parse_seeds("0:4") == (0, 1, 2, 3, 4)
     assert parse_seeds("3") == (3,) and parse_seeds("0, 2") == (0, 2)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vggc_cp.sim.dynamics import get_benchmark
+from vggc_cp.sim import get_benchmark
 from vggc_cp.sim.explore import random_walk
 from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult
 from vggc_cp.solvers.confidence import (

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 
+from vggc_cp.errors import VggcError
 from vggc_cp.parallel import BACKENDS, LOCAL, SCHEDULER_ENV, Backend
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import COLOUR_MODES, DistanceConfig
@@ -165,3 +166,20 @@ def add_i2p_options(p) -> None:
     p.add_argument("--novel", default=None, help="novel renders .npz for --model")
     p.add_argument("--i2p-queries", type=int, default=150,
                    help="start/goal image pairs for I2P (the paper's Q is 150)")
+
+
+def parse_seeds(text: str, option: str = "--seeds") -> tuple[int, ...]:
+    """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            if b < a:
+                raise ValueError
+            return tuple(range(a, b + 1))
+        seeds = tuple(int(s) for s in text.split(",") if s.strip())
+    except ValueError:
+        raise VggcError(f"{option} {text!r}: expected an inclusive range A:B (A <= B) or "
+                        "comma-separated integers") from None
+    if not seeds:
+        raise VggcError(f"{option} {text!r}: no seed")
+    return seeds

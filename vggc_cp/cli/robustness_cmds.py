@@ -45,26 +45,10 @@ def _split(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-def parse_seeds(text: str, option: str = "--seeds") -> tuple[int, ...]:
-    """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds."""
-    try:
-        if ":" in text:
-            a, b = (int(x) for x in text.split(":"))
-            if b < a:
-                raise ValueError
-            return tuple(range(a, b + 1))
-        seeds = tuple(int(s) for s in _split(text))
-    except ValueError:
-        raise VggcError(f"{option} {text!r}: expected an inclusive range A:B (A <= B) or "
-                        "comma-separated integers") from None
-    if not seeds:
-        raise VggcError(f"{option} {text!r}: no seed")
-    return seeds
-
-
 def cmd_robustness(args) -> int:
     from pathlib import Path
 
+    from vggc_cp.cli.options import parse_seeds
     from vggc_cp.experiments.robustness import RobustnessConfig, run_robustness, write_tables
     from vggc_cp.sim import benchmark_names
 

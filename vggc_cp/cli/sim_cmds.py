@@ -21,7 +21,14 @@ def register(sub) -> None:
                        description="Random valid pick/place episodes from random valid starts (or "
                                    "the benchmark's home states), "
                                    "rendered headless. Benchmarks: " + ", ".join(benchmark_names()))
-    p.add_argument("bench", metavar="BENCH", help="benchmark name (see `vggc-cp envs`)")
+    p.add_argument("bench", metavar="BENCH", nargs="?", default=None,
+                   help="benchmark name, random-S or a spec string task:... (see `vggc-cp envs`)")
+    p.add_argument("--task", default=None, metavar="TASK",
+                   help="a task beyond the seven instead of BENCH: 'random' (drawn from "
+                        "--task-seed), random-S, a spec string task:... or a JSON file with "
+                        "{\"spec\": \"task:...\"} (a trace's meta['task'])")
+    p.add_argument("--task-seed", type=int, default=None, metavar="S",
+                   help="with --task random: the seed the task is drawn from (default: --seed)")
     p.add_argument("-o", "--output", required=True, help="trace .npz to write")
     p.add_argument("--transitions", type=int, default=None,
                    help="|D|, number of transitions (default: the paper's)")
@@ -38,7 +45,9 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 
-    p = sub.add_parser("envs", help="list the benchmarks and their parameters")
+    p = sub.add_parser("envs", help="list the task families, the benchmarks and their parameters")
+    p.add_argument("--tasks", default=None, metavar="SEEDS",
+                   help="also list the tasks drawn from these seeds (e.g. 0:9 or 3,5)")
     p.set_defaults(func=cmd_envs)
 
     p = sub.add_parser("render", help="draw a contact sheet of a trace's observations")
@@ -72,11 +81,28 @@ def _write(generated, output: str, novel: int) -> list[str]:
     return written
 
 
+def _task_name(args) -> str:
+    """The task ``generate`` explores: BENCH, or --task (exactly one of them)."""
+    from vggc_cp.sim.tasks import RANDOM_PREFIX, read_task_argument
+
+    if (args.bench is None) == (args.task is None):
+        raise VggcError("give a benchmark BENCH or --task, not both and not neither")
+    if args.task_seed is not None and args.task != "random":
+        raise VggcError("--task-seed goes with --task random")
+    if args.task is None:
+        return args.bench
+    if args.task == "random":
+        seed = args.seed if args.task_seed is None else args.task_seed
+        return read_task_argument(f"{RANDOM_PREFIX}{seed}")
+    return read_task_argument(args.task)
+
+
 def cmd_generate(args) -> int:
     from vggc_cp.sim import get_benchmark
     from vggc_cp.sim.explore import generate
     from vggc_cp.sim.looks import check_look
 
+    args.bench = _task_name(args)
     spec = get_benchmark(args.bench).spec
     check_look(args.look)
     d = spec.default_transitions if args.transitions is None else args.transitions
@@ -88,7 +114,7 @@ def cmd_generate(args) -> int:
         if not bars:
             from tqdm import tqdm
 
-            bars.append(tqdm(total=total, unit="frame", desc=args.bench, leave=False))
+            bars.append(tqdm(total=total, unit="frame", desc=args.bench[:40], leave=False))
         bars[0].update(1)
 
     try:
@@ -110,6 +136,8 @@ def cmd_generate(args) -> int:
 
 def cmd_envs(args) -> int:
     from vggc_cp.sim import benchmark_names, get_benchmark
+    from vggc_cp.cli.options import parse_seeds
+    from vggc_cp.sim.tasks import FAMILIES, describe, format_spec
 
     head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|", "attention",
             "episodes")
@@ -131,6 +159,16 @@ def cmd_envs(args) -> int:
           "paper |V*|: states a trace at the default |D| visits;\n"
           "attention: the backend `vggc-cp benchmark --attention auto` uses;\n"
           "episodes: transitions per exploration episode, and where each begins")
+    print("\nfamilies:")
+    for fam, text in FAMILIES.items():
+        print(f"  {fam:<7} {text}")
+    if args.tasks is not None:
+        print("\ndrawn tasks (generate random-S, or --task random --task-seed S):")
+        for seed in parse_seeds(args.tasks, "--tasks"):
+            spec = get_benchmark(f"random-{seed}").spec
+            print(f"  random-{seed}: {describe(spec)}; {spec.paper_states} states, "
+                  f"default |D| {spec.default_transitions}")
+            print(f"    {format_spec(spec)}")
     return 0
 
 

@@ -60,7 +60,7 @@ def _table_offset(bench: Benchmark, below: tuple[float, float, float] | None,
                   ) -> tuple[float, float, float]:
     """Noise of a body put on the table; ``jitter`` replaces the position half-range of a
     fruit or a base block (None: :data:`FRUIT_JITTER` / :data:`BLOCK_JITTER`)."""
-    if not bench.blocks:
+    if not bench.stacking:
         j = FRUIT_JITTER if jitter is None else jitter
         dx, dy = rng.uniform(-j, j, 2)
         return float(dx), float(dy), float(rng.uniform(0.0, 2 * np.pi))

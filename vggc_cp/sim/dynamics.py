@@ -7,11 +7,16 @@ State keys are strings in which interchangeable objects are equal:
   e.g. ``"r-r|-"`` (two fruits on regions 0 and 2, nothing held) or ``"r--|r"``.
 * blocks: one digit per base region, its stack height, then ``|`` and ``b`` when a block is
   held or ``-``; e.g. ``"200|-"`` or ``"100|b"``.
+* task (the family beyond the seven, :mod:`vggc_cp.sim.tasks`): per region its stack's class
+  letters bottom to top (``r`` red, ``y`` yellow, ``b`` blue, ``g`` green) or ``-``, regions
+  separated by ``.``, then ``|`` and the held letter or ``-``; e.g. ``"ry.-.g|-"`` or
+  ``"r.-.g|y"``.
 
 A state with nothing held is a *pick* state (the next action is a pick), one with an object
 held a *place* state. Action names: fruit ``pick_<class>_<region>`` / ``place_<class>_<region>``;
 blocks ``pick_<region>_<level>`` / ``place_<region>_<level>`` (level 0 is the table), where a
-pick takes the top block at that level and a place puts the held block at that level.
+pick takes the top block at that level and a place puts the held block at that level; task
+``pick_<class>_<region>`` (no stacking) or ``pick_<class>_<region>_<level>`` (stacking).
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from vggc_cp.errors import VggcError
-from vggc_cp.sim.specs import BLOCKS, BenchmarkSpec, get_spec
+from vggc_cp.sim.specs import BLOCKS, TASK, BenchmarkSpec
 
 EMPTY = "-"
 HELD_BLOCK = "b"
@@ -93,6 +98,10 @@ class Benchmark:
             if s.family == BLOCKS:
                 for r, lvl in itertools.product(range(s.R), range(s.max_height)):
                     acts.append(Action(f"{verb}_{r}_{lvl}", pick, r, HELD_BLOCK, lvl))
+            elif s.family == TASK:
+                for c, r, lvl in itertools.product(s.classes, range(s.R), range(s.max_height)):
+                    name = f"{verb}_{c}_{r}" if s.max_height == 1 else f"{verb}_{c}_{r}_{lvl}"
+                    acts.append(Action(name, pick, r, c[0], lvl))
             else:
                 for c, r in itertools.product(s.classes, range(s.R)):
                     acts.append(Action(f"{verb}_{c}_{r}", pick, r, c[0], 0))
@@ -104,13 +113,26 @@ class Benchmark:
     def blocks(self) -> bool:
         return self.spec.family == BLOCKS
 
+    @property
+    def stacking(self) -> bool:
+        """True when objects stack (blocks, and tasks of height > 1)."""
+        return self.spec.max_height > 1
+
     def decode(self, key: str) -> State:
         """Parse a state key; raise :class:`VggcError` when it is malformed or impossible."""
         s = self.spec
         body, sep, held = key.partition("|")
-        if not sep or len(body) != s.R or len(held) != 1:
+        if s.family == TASK:
+            parts = body.split(".")
+            if not sep or len(parts) != s.R or len(held) != 1 or any(
+                    not p or (p != EMPTY and EMPTY in p) for p in parts):
+                raise VggcError(f"{s.name}: malformed state key {key!r}")
+            body = ""
+        if not sep or (s.family != TASK and len(body) != s.R) or len(held) != 1:
             raise VggcError(f"{s.name}: malformed state key {key!r}")
-        if self.blocks:
+        if s.family == TASK:
+            stacks = tuple("" if p == EMPTY else p for p in parts)
+        elif self.blocks:
             if not body.isdigit() or held not in (EMPTY, HELD_BLOCK):
                 raise VggcError(f"{s.name}: malformed state key {key!r}")
             stacks = tuple(HELD_BLOCK * int(h) for h in body)
@@ -126,6 +148,8 @@ class Benchmark:
         """The canonical key of a decoded state."""
         if self.blocks:
             body = "".join(str(len(st)) for st in state.stacks)
+        elif self.spec.family == TASK:
+            body = ".".join(st if st else EMPTY for st in state.stacks)
         else:
             body = "".join(st if st else EMPTY for st in state.stacks)
         return f"{body}|{state.held}"
@@ -221,6 +245,11 @@ class Benchmark:
         s = self.spec
         if self.blocks:
             start = State((HELD_BLOCK * s.m,) + ("",) * (s.R - 1), EMPTY)
+        elif s.family == TASK:
+            letters = "".join(s.object_class(i)[0] for i in range(s.m))
+            h = s.max_height
+            stacks = [letters[i:i + h] for i in range(0, len(letters), h)]
+            start = State(tuple(stacks) + ("",) * (s.R - len(stacks)), EMPTY)
         else:
             letters = [s.object_class(i)[0] for i in range(s.m)]
             start = State(tuple(letters) + ("",) * (s.R - s.m), EMPTY)
@@ -237,8 +266,3 @@ class Benchmark:
                         seen.add(key)
                         queue.append(nxt)
         return tuple(sorted(seen))
-
-
-def get_benchmark(name: str) -> Benchmark:
-    """The dynamics of benchmark ``name`` (raises :class:`VggcError` listing known names)."""
-    return Benchmark(get_spec(name))

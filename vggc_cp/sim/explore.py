@@ -18,7 +18,8 @@ import numpy as np
 from vggc_cp import __version__
 from vggc_cp.errors import VggcError
 from vggc_cp.sim.arrange import arrangement_after, fresh_arrangement
-from vggc_cp.sim.dynamics import Benchmark, get_benchmark
+from vggc_cp.sim.dynamics import Benchmark
+from vggc_cp.sim.tasks import get_benchmark, spec_dict
 from vggc_cp.sim.looks import CLEAN, check_look, finish_frame, make_look
 from vggc_cp.trace import Trace
 
@@ -30,6 +31,8 @@ MAX_SIZE = 1024
 STATE_KEY_DOC = {
     "fruit": "per region the class letter on it or '-', then '|' and the held class or '-'",
     "blocks": "per base region its stack height, then '|' and 'b' if a block is held or '-'",
+    "task": "per region its stack's class letters bottom to top or '-', regions separated by "
+            "'.', then '|' and the held class letter or '-'",
 }
 
 
@@ -234,6 +237,8 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         "state_key": STATE_KEY_DOC[spec.family],
         "generator": f"vggc-cp {__version__}",
     }
+    if spec.object_classes is not None:
+        meta["task"] = spec_dict(spec)
     if not the_look.is_clean:
         meta["look_params"] = the_look.as_meta()
     trace = Trace(frames, walk.actions.copy(), bench.action_names,

@@ -50,7 +50,8 @@ BORDER_RGBA = (0.92, 0.92, 0.88, 1.0)
 LIGHT_DIRECTION = (0.4, -0.6, 1.0)
 #: Colour of each task class in the clean look.
 CLASS_RGBA = {"red": (0.86, 0.08, 0.08, 1.0), "yellow": (0.97, 0.85, 0.12, 1.0),
-              "block": (0.2, 0.55, 1.0, 1.0)}
+              "block": (0.2, 0.55, 1.0, 1.0), "blue": (0.2, 0.55, 1.0, 1.0),
+              "green": (0.16, 0.72, 0.24, 1.0)}
 
 # ------------------------------------------------------------- randomized: per trace
 #: Table tone families, each ``(darkest RGB, lightest RGB)``: a family is drawn uniformly,
@@ -94,7 +95,9 @@ SIZE_SCALE = (0.85, 1.15)
 #: yellow yellow, a block blue.
 SHADES = {"red": ((0.68, 0.02, 0.02), (0.95, 0.16, 0.14)),
           "yellow": ((0.88, 0.72, 0.04), (1.0, 0.92, 0.28)),
-          "block": ((0.08, 0.38, 0.82), (0.32, 0.64, 1.0))}
+          "block": ((0.08, 0.38, 0.82), (0.32, 0.64, 1.0)),
+          "blue": ((0.08, 0.38, 0.82), (0.32, 0.64, 1.0)),
+          "green": ((0.06, 0.52, 0.12), (0.30, 0.82, 0.36))}
 #: Placement noise (position, per axis) relative to the clean look's.
 JITTER_SCALE = 1.3
 #: A fruit's footprint plus its placement noise stays within this distance (m) of its
@@ -103,7 +106,7 @@ JITTER_SCALE = 1.3
 CELL_HALF = 0.076
 #: Horizontal half-extent (m) of each fruit shape at scale 1 (stalks and stubs included).
 FOOTPRINT = {"apple": 0.032, "strawberry": 0.034, "tomato": 0.036, "lemon": 0.051,
-             "banana": 0.0585, "pear": 0.031}
+             "banana": 0.0585, "pear": 0.031, "cube": 0.036, "cylinder": 0.027, "brick": 0.041}
 
 # ------------------------------------------------------------- randomized: per frame
 #: Global lighting gain of a frame, uniform.
@@ -225,7 +228,7 @@ def _classes(bench: Benchmark) -> list[str]:
 def clean_look(bench: Benchmark) -> Look:
     """The clean look of ``bench`` (today's renderer)."""
     objects = tuple(
-        ObjectLook(kind, 1.0, CLASS_RGBA[cls], BLOCK_JITTER if bench.blocks else FRUIT_JITTER)
+        ObjectLook(kind, 1.0, CLASS_RGBA[cls], BLOCK_JITTER if bench.stacking else FRUIT_JITTER)
         for kind, cls in zip(bench.spec.objects, _classes(bench)))
     return Look(CLEAN, TABLE_RGBA, REGION_RGBA, BORDER_RGBA, None, 0, (0.0, 0.0, 0.0),
                 (0.0, 0.0, 0.0), LIGHT_DIRECTION, objects, (1.0, 1.0), 0.0, 0.0)
@@ -255,7 +258,8 @@ def sample_look(rng: np.random.Generator, bench: Benchmark) -> Look:
     light = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
     classes = _classes(bench)
     kinds: list[str] = [""] * len(classes)
-    for cls in sorted(set(classes)):
+    # a task beyond the seven names its objects' shapes; the seven draw them per class
+    for cls in sorted(set(classes)) if bench.spec.object_classes is None else ():
         bodies = [i for i, c in enumerate(classes) if c == cls]
         shapes = CLASS_SHAPES[cls]
         pool: list[str] = []
@@ -263,12 +267,14 @@ def sample_look(rng: np.random.Generator, bench: Benchmark) -> Look:
             pool += [shapes[j] for j in rng.permutation(len(shapes))]
         for i, kind in zip(bodies, pool):
             kinds[i] = kind
+    if bench.spec.object_classes is not None:
+        kinds = list(bench.spec.objects)
     objects = []
     for kind, cls in zip(kinds, classes):
         scale = float(rng.uniform(*SIZE_SCALE))
         lo_s, hi_s = (np.array(v) for v in SHADES[cls])
         rgb = lo_s + rng.uniform(0.0, 1.0, 3) * (hi_s - lo_s)
-        if cls == "block":
+        if bench.stacking:
             jitter = JITTER_SCALE * BLOCK_JITTER
         else:
             jitter = min(JITTER_SCALE * FRUIT_JITTER, max(0.0, CELL_HALF - FOOTPRINT[kind] * scale))

@@ -34,6 +34,9 @@ PITCH = 0.16
 REGION_SIDE = 0.13
 #: Cube side (m).
 CUBE = 0.05
+#: Stackable shapes of the task family besides the cube: cylinder (radius, half height),
+#: brick (half extents); metres at scale 1.
+SOLIDS = {"cube": (CUBE / 2,), "cylinder": (0.027, 0.024), "brick": (0.036, 0.021, 0.018)}
 #: Physics steps (at 240 Hz) that settle the cubes of a frame.
 SETTLE_STEPS = 24
 #: Margin of the table around the regions (m).
@@ -116,14 +119,20 @@ class Layout:
 
 
 def scene_layout(bench: Benchmark) -> Layout:
-    """Region centres, table, gripper and camera of ``bench`` (row 0 is the back row)."""
+    """Region centres, table, gripper and camera of ``bench`` (row 0 is the back row; a
+    scattered task's centres are its spec's)."""
     rows, cols = bench.spec.grid
-    r = np.arange(bench.spec.R)
-    cx = (r % cols - (cols - 1) / 2) * PITCH
-    cy = ((rows - 1) / 2 - r // cols) * PITCH
-    centres = np.stack([cx, cy], axis=1)
-    hx = cols * PITCH / 2 + MARGIN
-    hy = rows * PITCH / 2 + MARGIN
+    if bench.spec.centres is not None:
+        centres = np.array(bench.spec.centres, dtype=np.float64)
+        hx = float(np.abs(centres[:, 0]).max()) + PITCH / 2 + MARGIN
+        hy = float(np.abs(centres[:, 1]).max()) + PITCH / 2 + MARGIN
+    else:
+        r = np.arange(bench.spec.R)
+        cx = (r % cols - (cols - 1) / 2) * PITCH
+        cy = ((rows - 1) / 2 - r // cols) * PITCH
+        centres = np.stack([cx, cy], axis=1)
+        hx = cols * PITCH / 2 + MARGIN
+        hy = rows * PITCH / 2 + MARGIN
     gripper = (0.0, hy + GRIPPER_BACK, HELD_Z)
     # camera in front of and above the table, looking at its centre
     span = max(2 * hx, 2 * hy + 0.2)
@@ -332,6 +341,24 @@ class Scene:
             return self._multibody(parts), r
         raise ValueError(f"unknown fruit kind {kind!r}")
 
+    def _solid(self, kind: str, rgba, s: float = 1.0) -> tuple[int, float]:
+        """A stackable body of ``kind`` (:data:`SOLIDS`) without collision (posed exactly,
+        stacks rest on each other by construction); returns the body and its half height."""
+        p = self._p
+        if kind == "cube":
+            h = CUBE / 2 * s
+            vis = self._visual(p.GEOM_BOX, rgba, halfExtents=[h, h, h])
+        elif kind == "cylinder":
+            h = SOLIDS["cylinder"][1] * s
+            vis = self._visual(p.GEOM_CYLINDER, rgba, radius=SOLIDS["cylinder"][0] * s,
+                               length=2 * h)
+        elif kind == "brick":
+            hx, hy, h = (v * s for v in SOLIDS["brick"])
+            vis = self._visual(p.GEOM_BOX, rgba, halfExtents=[hx, hy, h])
+        else:
+            raise ValueError(f"unknown solid kind {kind!r}")
+        return self._multibody([(vis, None)]), h
+
     def _build(self) -> None:
         p, cid, lay = self._p, self._cid, self.layout
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
@@ -377,7 +404,8 @@ class Scene:
                 self._rest.append(h)
         else:
             for obj in look.objects:
-                body, rest = self._fruit(obj.kind, obj.rgba, obj.scale)
+                make = self._solid if obj.kind in SOLIDS else self._fruit
+                body, rest = make(obj.kind, obj.rgba, obj.scale)
                 self._bodies.append(body)
                 self._rest.append(rest)
 
@@ -408,8 +436,9 @@ class Scene:
             base = 0.0  # top of the cubes below (a look with cubes of several sizes)
             for level, b in enumerate(stack):
                 dx, dy, yaw = arr.offsets[b]
-                if not self.bench.blocks:
-                    z = self._rest[b]
+                if not self.bench.blocks:  # fruit never stack; a task's solids may
+                    z = base + self._rest[b] + (0.0005 * level if level else 0.0)
+                    base += 2 * self._rest[b]
                 elif self.look.is_clean:
                     z = self._rest[b] + (level * CUBE + 0.0005 * (level + 1))
                 else:

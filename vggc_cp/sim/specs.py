@@ -1,8 +1,11 @@
-"""The seven benchmarks of the paper: parameters as frozen values, and a registry.
+"""Task specs as frozen values: the paper's seven benchmarks, and the task families.
 
-Parameters follow the paper's table (Ajith & Chamzas, arXiv 2509.14460): ``m`` objects,
-``n`` task-distinct classes, ``R`` regions, ``|A|`` actions, ``|V*|`` the number of states a
-trace at the paper's ``|D|`` visits, and the default number of transitions ``|D|``.
+Parameters of the seven follow the paper's table (Ajith & Chamzas, arXiv 2509.14460): ``m``
+objects, ``n`` task-distinct classes, ``R`` regions, ``|A|`` actions, ``|V*|`` the number of
+states a trace at the paper's ``|D|`` visits, and the default number of transitions ``|D|``.
+Tasks beyond the seven (family :data:`TASK`: any number of colour classes, shapes, objects,
+regions, a layout and stacking) are drawn or parsed by :mod:`vggc_cp.sim.tasks`, which is also
+where every name -- a benchmark's, ``random-S`` or a ``task:...`` spec string -- is resolved.
 """
 
 from __future__ import annotations
@@ -13,9 +16,10 @@ from vggc_cp.errors import lookup
 
 FRUIT = "fruit"
 BLOCKS = "blocks"
+TASK = "task"
 
 #: Attention backend suited to each family (:attr:`BenchmarkSpec.attention`).
-FAMILY_ATTENTION = {FRUIT: "keypoints", BLOCKS: "saliency"}
+FAMILY_ATTENTION = {FRUIT: "keypoints", BLOCKS: "saliency", TASK: "keypoints"}
 
 #: Fruit kinds: name -> task class. Kinds of one class are interchangeable for the task.
 FRUIT_CLASS = {"apple": "red", "strawberry": "red", "lemon": "yellow", "banana": "yellow"}
@@ -61,6 +65,14 @@ class BenchmarkSpec:
         multifruit-4x6 uses it (``k = 1``, with episodes of 2-8 transitions): its 210 states
         cannot all be visited by 400 transitions, and the paper's trace visits 58 of them, so
         its exploration is local; uniform starts visit about 165, home starts 50-75.
+    object_classes : tuple of str, optional
+        Family :data:`TASK`: the task class (colour) of every object; its ``objects`` are
+        then shapes (:data:`vggc_cp.sim.tasks.SHAPES`). None for the seven benchmarks (the
+        class follows from the fruit kind).
+    centres : tuple of (float, float), optional
+        Region centres (m) for a scattered layout; None: the ``grid``.
+    layout : str, optional
+        Family :data:`TASK`: the layout word (``row``, ``grid:RxC``, ``scattered:SEED``).
     """
 
     name: str
@@ -77,6 +89,9 @@ class BenchmarkSpec:
     grid: tuple[int, int]
     episode_length: tuple[int, int]
     start_states: int = 0
+    object_classes: tuple[str, ...] | None = None
+    centres: tuple[tuple[float, float], ...] | None = None
+    layout: str | None = None
 
     def __post_init__(self) -> None:
         if self.start_states < 0:
@@ -85,7 +100,12 @@ class BenchmarkSpec:
             raise ValueError(f"{self.name}: objects/classes disagree with m={self.m}, n={self.n}")
         if self.grid[0] * self.grid[1] != self.R:
             raise ValueError(f"{self.name}: grid {self.grid} does not hold R={self.R} regions")
-        levels = self.max_height if self.family == BLOCKS else self.n
+        if self.object_classes is not None and len(self.object_classes) != self.m:
+            raise ValueError(f"{self.name}: object_classes disagree with m={self.m}")
+        if self.centres is not None and len(self.centres) != self.R:
+            raise ValueError(f"{self.name}: {len(self.centres)} centres for R={self.R}")
+        levels = {BLOCKS: self.max_height, TASK: self.n * self.max_height}.get(self.family,
+                                                                              self.n)
         if 2 * self.R * levels != self.n_actions:
             raise ValueError(f"{self.name}: |A|={self.n_actions} disagrees with the action set")
 
@@ -98,6 +118,8 @@ class BenchmarkSpec:
 
     def object_class(self, i: int) -> str:
         """Task class of object ``i``."""
+        if self.object_classes is not None:
+            return self.object_classes[i]
         kind = self.objects[i]
         return FRUIT_CLASS.get(kind, "block")
 
@@ -133,8 +155,9 @@ def benchmark_names() -> tuple[str, ...]:
     return tuple(SPECS)
 
 
-def get_spec(name: str) -> BenchmarkSpec:
-    """Return the spec called ``name``.
+def paper_spec(name: str) -> BenchmarkSpec:
+    """Return the spec of the paper's benchmark called ``name`` (any name, a drawn or parsed
+    task's too: :func:`vggc_cp.sim.tasks.get_spec`).
 
     Raises
     ------
