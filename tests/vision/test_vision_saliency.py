@@ -81,8 +81,8 @@ def test_gain_change_without_normalisation_would_spread_mass():
 
 def real_scene():
     """A fruit-2x3 trace rendered by the simulator, and renders of one arrangement."""
-    from vggc_cp.sim.arrange import Arrangement, fresh_arrangement
     from vggc_cp.sim import get_benchmark
+    from vggc_cp.sim.arrange import Arrangement, fresh_arrangement
     from vggc_cp.sim.explore import generate
     from vggc_cp.sim.render import Scene
 

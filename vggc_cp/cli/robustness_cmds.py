@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import os
 
-from vggc_cp.errors import VggcError
-
 
 def register(sub) -> None:
     p = sub.add_parser(

@@ -135,8 +135,8 @@ def cmd_generate(args) -> int:
 
 
 def cmd_envs(args) -> int:
-    from vggc_cp.sim import benchmark_names, get_benchmark
     from vggc_cp.cli.options import parse_seeds
+    from vggc_cp.sim import benchmark_names, get_benchmark
     from vggc_cp.sim.tasks import FAMILIES, describe, format_spec
 
     head = ("bench", "m", "n", "R", "|A|", "states", "paper |V*|", "default |D|", "attention",

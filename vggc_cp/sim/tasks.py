@@ -30,7 +30,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import replace
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -112,7 +112,7 @@ def count_states(classes: tuple[str, ...], object_classes: tuple[str, ...], regi
     """
     counts = tuple(sum(1 for c in object_classes if c == k) for k in classes)
 
-    @lru_cache(maxsize=None)
+    @cache
     def arrangements(r: int, left: tuple[int, ...]) -> int:
         if r == 0:
             return 1 if not any(left) else 0
