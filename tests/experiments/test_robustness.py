@@ -24,7 +24,7 @@ def study(tmp_path_factory):
     :func:`test_two_workers_give_the_same_rows`)."""
     out = tmp_path_factory.mktemp("robustness")
     cfg = rob.RobustnessConfig(out, ("fruit-2x3",), (0, 1), ("clean",), transitions=D,
-                               n_queries=Q, jobs=1, heldout_seeds=(1,))
+                               n_queries=Q, jobs=1, heldout_seeds=(1,), tasks=())
     run = rob.run_robustness(cfg, progress=False)
     return cfg, run
 
@@ -70,10 +70,10 @@ def test_tables_have_both_splits(study):
     cfg, run = study
     csv, md = rob.write_tables(run.rows, cfg.out)
     df = pd.read_csv(csv)
-    assert len(df) == 2 and list(df.columns[:3]) == ["benchmark", "look", "seed"]
+    assert len(df) == 2 and list(df.columns[:4]) == ["benchmark", "family", "look", "seed"]
     assert list(df["split"]) == ["tuning", "held-out"]
     text = md.read_text()
-    assert "## Tuning split: seeds 0" in text and "## Held-out split" in text
+    assert "## Tuning split: trace seeds 0" in text and "## Held-out split" in text
     assert text.count("| fruit-2x3 | clean | 50 | 1 |") == 2
     assert "Calibration:" in text and "silent failure" in text and "## Overall" in text
     tables = [ln for ln in text.splitlines() if ln.startswith("|")]
@@ -168,7 +168,7 @@ def test_cli_reuses_the_study_and_prints_the_summary(study, capsys):
     cfg, _ = study
     argv = ["robustness", "--out", str(cfg.out), "--benchmarks", "fruit-2x3", "--seeds", "0:1",
             "--looks", "clean", "--transitions", str(D), "--queries", str(Q), "--jobs", "1",
-            "--quiet"]
+            "--tasks", "none", "--quiet"]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "# Robustness of the default" in out and "0 computed, 2 reused" in out
@@ -179,7 +179,7 @@ def test_cli_reuses_the_study_and_prints_the_summary(study, capsys):
                     reason="this checkout's renderer has no randomized look (branch looks)")
 def test_randomized_look_cell(tmp_path):
     cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("randomized",), transitions=D,
-                               n_queries=Q)
+                               n_queries=Q, tasks=())
     (row,) = rob.run_robustness(cfg, progress=False).rows
     assert row["look"] == "randomized" and row["true_states"] == 6
     meta = load_trace(cfg.trace_path("fruit-2x3", "randomized", 0)).meta
@@ -191,7 +191,8 @@ def test_randomized_look_cell(tmp_path):
 def test_i2p_cell_measures_and_is_reused_without_i2p(tmp_path):
     """A localizer trained on the learned labels (about a minute on 2 cores)."""
     cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("clean",), transitions=D,
-                               n_queries=Q, i2p=True, novel=20, i2p_queries=20)
+                               n_queries=Q, i2p=True, novel=20, i2p_queries=20,
+                               tasks=())
     (row,) = rob.run_robustness(cfg, progress=False).rows
     assert {"localization", "i2p", "exec_i2p"} <= set(row) and 0.0 <= row["i2p"] <= 1.0
     assert cfg.novel_path("fruit-2x3", "clean", 0).is_file()
@@ -199,3 +200,61 @@ def test_i2p_cell_measures_and_is_reused_without_i2p(tmp_path):
     assert again.computed == 0 and again.rows[0]["i2p"] == row["i2p"]
     other = rob.cell_jobs(replace(cfg, i2p_queries=21))
     assert rob.cached_row(other[0]) is None
+
+
+# ---------------------------------------------------------------- tasks beyond the seven
+
+
+def test_the_default_study_holds_the_seven_and_thirty_random_tasks_split_by_task_and_seed(
+        tmp_path):
+    cfg = rob.RobustnessConfig(tmp_path, looks=("clean",))
+    cells = cfg.cells()
+    assert len(cells) == 7 * 5 + 30
+    tasks = sorted({rob.task_seed(b) for b, _ in cells} - {None})
+    assert tasks == [*range(10), *range(100, 120)]
+    split = {(b, s): cfg.split(s, b) for b, s in cells}
+    # the seven: by trace seed
+    assert split[("fruit-4x6", 2)] == rob.TUNING and split[("fruit-4x6", 3)] == rob.HELDOUT
+    # random tasks: by task seed (trace seed 0 everywhere)
+    assert split[("random-9", 0)] == rob.TUNING and split[("random-100", 0)] == rob.HELDOUT
+    assert cfg.split(3, "random-2") == rob.HELDOUT  # a held-out trace seed of a tuning task
+    jobs = rob.cell_jobs(cfg)
+    assert len({j.cell_path for j in jobs}) == len(jobs) == len(cells)
+    assert {j.split for j in jobs if j.benchmark == "random-105"} == {rob.HELDOUT}
+
+
+def test_held_out_tasks_are_never_the_tuning_tasks():
+    tuning = {b for b in (f"random-{t}" for t in rob.DEFAULT_TASKS)
+              if rob.task_seed(b) < rob.HELDOUT_TASK_FROM}
+    from vggc_cp.sim import get_spec
+    from vggc_cp.sim.tasks import format_spec
+
+    held = {format_spec(get_spec(f"random-{t}")) for t in rob.DEFAULT_TASKS
+            if t >= rob.HELDOUT_TASK_FROM}
+    assert len(tuning) == 10 and len(held) == 20
+    assert not held & {format_spec(get_spec(b)) for b in tuning}
+
+
+def test_a_spec_string_task_gets_a_file_safe_cell_name(tmp_path):
+    text = "task:regions=3,layout=row,height=1,starts=0,episode=4-12,transitions=30," \
+           "objects=red/apple+blue/cube"
+    cfg = rob.RobustnessConfig(tmp_path, (text,), (0,), ("clean",), tasks=())
+    (job,) = rob.cell_jobs(cfg)
+    assert job.cell_path.name.startswith("task-") and "/" not in job.cell_path.name
+    assert rob.slug("random-3") == "random-3" and rob.slug("fruit-2x3") == "fruit-2x3"
+
+
+def test_tables_by_family_and_look_count_silent_failures():
+    base = {"exec": 1.0, "opt_path": 1.0, "any_path": 1.0, "true_states": 10, "nodes": 10,
+            "suspect": False, "seed": 0, "transitions": 100}
+    rows = [base | {"benchmark": "fruit-2x3", "look": "clean", "split": rob.TUNING},
+            base | {"benchmark": "random-3", "look": "robot", "split": rob.TUNING,
+                    "nodes": 5},
+            base | {"benchmark": "random-101", "look": "robot", "split": rob.HELDOUT,
+                    "nodes": 5, "suspect": True}]
+    text = rob.family_markdown(rows)
+    assert "| fruit | clean | 1 | 1 | 100.0 % | 0 | 0 |" in text
+    assert "| task | robot | 2 | 0 | 0.0 % | 1 | 1 |" in text
+    md = rob.table_markdown(rows)
+    assert "random tasks of task seeds 3" in md and "random tasks of task seeds 101" in md
+    assert "By task family and look:" in md

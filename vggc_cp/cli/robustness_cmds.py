@@ -14,14 +14,23 @@ def register(sub) -> None:
         description="Generate (or reuse) one trace per benchmark, look and seed, learn its graph "
                     "with the default pipeline (what `vggc-cp solve trace.npz` runs), evaluate "
                     "it, and write robustness.csv and robustness.md into --out. Finished cells "
-                    "are cached there and skipped on a rerun with the same settings. Seeds >= 3 "
-                    "are the held-out split, reported separately.")
+                    "are cached there and skipped on a rerun with the same settings. Besides "
+                    "the seven benchmarks it runs tasks drawn beyond them (random-S, --tasks). "
+                    "Trace seeds >= 3 and tasks drawn from task seeds >= 100 are the held-out "
+                    "split, reported separately.")
     p.add_argument("--out", required=True, help="output and cache folder")
     p.add_argument("--benchmarks", default="all",
-                   help="comma-separated benchmark names, or all")
+                   help="comma-separated task names (the seven benchmarks, random-S, "
+                        "task:...), all (the seven) or none")
     p.add_argument("--seeds", default="0:4",
-                   help="trace seeds: an inclusive range A:B or comma-separated integers")
-    p.add_argument("--looks", default="clean,randomized", help="comma-separated looks")
+                   help="trace seeds of --benchmarks: an inclusive range A:B or "
+                        "comma-separated integers")
+    p.add_argument("--tasks", default="0:9,100:119",
+                   help="task seeds S of the random tasks random-S to run besides "
+                        "--benchmarks (ranges A:B and integers, comma-separated), or none")
+    p.add_argument("--task-seeds", default="0", help="trace seeds of the random tasks")
+    p.add_argument("--looks", default="all",
+                   help="comma-separated looks, or all (clean, randomized, robot)")
     p.add_argument("--transitions", type=int, default=None,
                    help="|D| of every trace; None: the paper's per benchmark")
     p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries")
@@ -47,13 +56,23 @@ def cmd_robustness(args) -> int:
     from pathlib import Path
 
     from vggc_cp.cli.options import parse_seeds
-    from vggc_cp.experiments.robustness import RobustnessConfig, run_robustness, write_tables
+    from vggc_cp.experiments.robustness import (
+        RobustnessConfig,
+        looks_available,
+        run_robustness,
+        write_tables,
+    )
     from vggc_cp.sim import benchmark_names
 
     benches = (tuple(benchmark_names()) if args.benchmarks == "all"
-               else tuple(_split(args.benchmarks)))
-    cfg = RobustnessConfig(Path(args.out), benches, parse_seeds(args.seeds),
-                           tuple(_split(args.looks)), args.transitions, n_queries=args.queries,
+               else () if args.benchmarks == "none" else tuple(_split(args.benchmarks)))
+    tasks = () if args.tasks == "none" else tuple(
+        s for part in _split(args.tasks) for s in parse_seeds(part, "--tasks"))
+    looks = looks_available() if args.looks == "all" else tuple(_split(args.looks))
+    cfg = RobustnessConfig(Path(args.out), benches, parse_seeds(args.seeds), looks,
+                           args.transitions, tasks=tasks,
+                           task_seeds=parse_seeds(args.task_seeds, "--task-seeds"),
+                           n_queries=args.queries,
                            jobs=args.jobs, i2p=args.i2p,
                            i2p_seeds=parse_seeds(args.i2p_seeds, "--i2p-seeds"),
                            novel=args.novel, i2p_queries=args.i2p_queries, force=args.force)

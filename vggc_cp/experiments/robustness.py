@@ -15,8 +15,14 @@ One **cell** per (benchmark, look, seed):
    was made under (the key). A rerun with the same settings reuses it (the study resumes where it
    stopped); a changed setting -- or changed pipeline code -- recomputes it.
 
-Seeds ``>= HELDOUT_FROM_SEED`` (or ``heldout_seeds``) form the **held-out** split: keep them out
-of any tuning and read their table separately. :func:`passes` is the acceptance rule of a run,
+Besides the seven benchmarks the study runs **tasks beyond them** (``random-S``, drawn by
+:func:`vggc_cp.sim.tasks.draw_task`; ``tasks``): the default draws ten tuning tasks (task
+seeds ``0-9``) and twenty held-out tasks (task seeds ``100-119``) at trace seed 0.
+
+The **held-out** split holds every cell whose trace seed is ``>= HELDOUT_FROM_SEED`` (or in
+``heldout_seeds``) and every cell of a task drawn from a task seed ``>= HELDOUT_TASK_FROM``:
+tasks and seeds never looked at while the method was chosen. Keep them out of any tuning and
+read their table separately. :func:`passes` is the acceptance rule of a run,
 :func:`calibration` counts how the ground-truth-free warning (``Confidence.suspect``) matched it,
 and :func:`write_tables` writes ``robustness.csv`` and ``robustness.md``.
 """
@@ -57,10 +63,16 @@ MIN_I2P = 0.90
 TOLERANCE = 1e-9
 #: Seeds from this one on are the held-out split by default.
 HELDOUT_FROM_SEED = 3
+#: Tasks drawn from task seeds from this one on are held out (whatever the trace seed).
+HELDOUT_TASK_FROM = 100
+#: The random tasks of the default study (task seeds): ten for tuning, twenty held out.
+DEFAULT_TASKS = tuple(range(10)) + tuple(range(HELDOUT_TASK_FROM, HELDOUT_TASK_FROM + 20))
+#: Trace seeds of the random tasks in the default study.
+DEFAULT_TASK_SEEDS = (0,)
 TUNING, HELDOUT = "tuning", "held-out"
 SPLITS = (TUNING, HELDOUT)
-CLEAN, RANDOMIZED = "clean", "randomized"
-DEFAULT_LOOKS = (CLEAN, RANDOMIZED)
+CLEAN, RANDOMIZED, ROBOT = "clean", "randomized", "robot"
+#: The looks of the default study (those this checkout's renderer has).
 DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 #: Runs with fewer observations per true state than this are marked sparse in the tables.
 MIN_OBS_PER_STATE = 2.0
@@ -70,12 +82,16 @@ CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.md
                 "vggc_cp.vision.occupancy", "vggc_cp.vision.distances",
                 "vggc_cp.evaluate.metrics")
 #: Columns of ``robustness.csv``, in order (measured I2P columns follow when present).
-ROW_FIELDS = ("benchmark", "look", "seed", "split", "transitions", "observations",
+ROW_FIELDS = ("benchmark", "family", "look", "seed", "split", "transitions", "observations",
               "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
               "trans_prec", "trans_cov", "passed", "evidence", "threshold", "suspect", "reasons",
               "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
               "obs_per_state", "seconds_learn", "seconds_evaluate", "dynamics")
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
+
+
+def _default_looks() -> tuple[str, ...]:
+    return tuple(look for look in (CLEAN, RANDOMIZED, ROBOT) if look in looks_available())
 
 
 def looks_available() -> tuple[str, ...]:
@@ -99,9 +115,9 @@ class RobustnessConfig:
     out : Path
         Folder of traces, cached cells, solutions, localizers and tables.
     benchmarks : tuple of str
-        Names of :func:`vggc_cp.sim.benchmark_names` (default all seven).
+        Task names :func:`vggc_cp.sim.get_spec` takes (default the seven benchmarks).
     seeds : tuple of int
-        Trace seeds (default 0..4).
+        Trace seeds of ``benchmarks`` (default 0..4).
     looks : tuple of str
         Looks of :func:`vggc_cp.sim.explore.generate` (default clean and randomized).
     transitions : int or None
@@ -126,12 +142,17 @@ class RobustnessConfig:
         Recompute cached cells.
     backend, scheduler : str, str or None
         Parallel backend as in :class:`vggc_cp.evaluate.benchmark.BenchmarkConfig`.
+    tasks : tuple of int
+        Task seeds of random tasks ``random-S`` run besides ``benchmarks`` (default
+        :data:`DEFAULT_TASKS`; empty: none).
+    task_seeds : tuple of int
+        Trace seeds of the random tasks (default :data:`DEFAULT_TASK_SEEDS`).
     """
 
     out: Path
     benchmarks: tuple[str, ...] = field(default_factory=lambda: tuple(benchmark_names()))
     seeds: tuple[int, ...] = DEFAULT_SEEDS
-    looks: tuple[str, ...] = DEFAULT_LOOKS
+    looks: tuple[str, ...] = field(default_factory=lambda: _default_looks())
     transitions: int | None = None
     size: int = 64
     n_queries: int = 1500
@@ -144,19 +165,25 @@ class RobustnessConfig:
     force: bool = False
     backend: str = "local"
     scheduler: str | None = None
+    tasks: tuple[int, ...] = DEFAULT_TASKS
+    task_seeds: tuple[int, ...] = DEFAULT_TASK_SEEDS
 
     def __post_init__(self) -> None:
         for b in self.benchmarks:
             get_spec(b)
-        if not self.benchmarks or not self.seeds or not self.looks:
-            raise VggcError("robustness needs at least one benchmark, seed and look")
-        if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
-            raise VggcError(f"--seeds must be distinct non-negative integers, got "
-                            f"{list(self.seeds)}")
+        if not (self.benchmarks or self.tasks) or not self.seeds or not self.looks:
+            raise VggcError("robustness needs at least one benchmark or task, seed and look")
+        for opt, seeds in (("--seeds", self.seeds), ("--tasks", self.tasks),
+                           ("--task-seeds", self.task_seeds)):
+            if len(set(seeds)) != len(seeds) or any(s < 0 for s in seeds):
+                raise VggcError(f"{opt} must be distinct non-negative integers, got "
+                                f"{list(seeds)}")
+        if self.tasks and not self.task_seeds:
+            raise VggcError("--task-seeds: random tasks need at least one trace seed")
         known = looks_available()
         for look in self.looks:
             if look not in known:
-                hint = ("" if look not in DEFAULT_LOOKS else
+                hint = ("" if look not in (CLEAN, RANDOMIZED, ROBOT) else
                         " (this checkout's renderer has no such look yet)")
                 raise VggcError(f"unknown look {look!r}; known: {', '.join(known)}{hint}")
         if self.jobs < 1:
@@ -173,21 +200,45 @@ class RobustnessConfig:
     def n_transitions(self, benchmark: str) -> int:
         return self.transitions or get_spec(benchmark).default_transitions
 
-    def split(self, seed: int) -> str:
-        """``tuning`` or ``held-out``."""
+    def cells(self) -> list[tuple[str, int]]:
+        """Every (task name, trace seed) of the study: the benchmarks at ``seeds``, then the
+        random tasks at ``task_seeds``."""
+        out = [(b, int(s)) for b in self.benchmarks for s in self.seeds]
+        return out + [(f"random-{t}", int(s)) for t in self.tasks for s in self.task_seeds]
+
+    def split(self, seed: int, benchmark: str | None = None) -> str:
+        """``tuning`` or ``held-out``: held out by the trace seed, or by the task (a random
+        task drawn from a seed ``>= HELDOUT_TASK_FROM``)."""
+        if benchmark is not None and task_seed(benchmark) is not None \
+                and task_seed(benchmark) >= HELDOUT_TASK_FROM:
+            return HELDOUT
         if self.heldout_seeds is not None:
             return HELDOUT if seed in self.heldout_seeds else TUNING
         return HELDOUT if seed >= HELDOUT_FROM_SEED else TUNING
 
     def trace_path(self, benchmark: str, look: str, seed: int) -> Path:
         d = self.n_transitions(benchmark)
-        return Path(self.out) / "traces" / f"{benchmark}-{look}-d{d}-s{seed}.npz"
+        return Path(self.out) / "traces" / f"{slug(benchmark)}-{look}-d{d}-s{seed}.npz"
 
     def novel_path(self, benchmark: str, look: str, seed: int) -> Path:
         return self.trace_path(benchmark, look, seed).with_suffix(f".novel{self.novel}.npz")
 
     def cell_name(self, benchmark: str, look: str, seed: int) -> str:
-        return f"{benchmark}-{look}-s{seed}"
+        return f"{slug(benchmark)}-{look}-s{seed}"
+
+
+def task_seed(benchmark: str) -> int | None:
+    """The task seed of a ``random-S`` name, else None."""
+    head, _, tail = benchmark.partition("random-")
+    return int(tail) if not head and tail.isdigit() else None
+
+
+def slug(benchmark: str) -> str:
+    """A file-name-safe name of a task: itself, or ``task-<sha256 prefix>`` for a spec
+    string (which holds ``:``, ``/`` and ``,``)."""
+    if all(c.isalnum() or c in "-_." for c in benchmark):
+        return benchmark
+    return "task-" + hashlib.sha256(benchmark.encode()).hexdigest()[:12]
 
 
 @dataclass(frozen=True)
@@ -243,21 +294,26 @@ def learn_key() -> dict:
 
 
 def cell_jobs(cfg: RobustnessConfig) -> list[RobustCell]:
-    """Every cell of the study, benchmark-major, then look, then seed."""
+    """Every cell of the study, task-major (the benchmarks, then the random tasks), then look,
+    then seed."""
     out = Path(cfg.out)
     base = {"format": CELL_FORMAT, "size": cfg.size, "queries": cfg.n_queries,
             "learn": learn_key(), "code": code_digest()}
     threads = max(1, (os.cpu_count() or 1) // max(1, cfg.jobs))
     jobs = []
-    for bench in cfg.benchmarks:
+    by_task: dict[str, list[int]] = {}
+    for bench, seed in cfg.cells():
+        by_task.setdefault(bench, []).append(seed)
+    for bench, seeds in by_task.items():
         d = cfg.n_transitions(bench)
         for look in cfg.looks:
-            for seed in cfg.seeds:
+            for seed in seeds:
                 measured = bool(cfg.i2p and seed in cfg.i2p_seeds)
                 name = cfg.cell_name(bench, look, seed)
                 key = base | {"benchmark": bench, "look": look, "seed": int(seed),
                               "transitions": d, "exploration": exploration_of(bench)}
-                jobs.append(RobustCell(bench, look, int(seed), cfg.split(seed), d, cfg.size,
+                jobs.append(RobustCell(bench, look, int(seed), cfg.split(seed, bench), d,
+                                       cfg.size,
                                        cfg.n_queries, cfg.trace_path(bench, look, seed),
                                        out / "cells" / f"{name}.json",
                                        out / "solutions" / f"{name}.json", measured, cfg.novel,
@@ -340,7 +396,8 @@ def run_cell(job: RobustCell) -> dict:
     conf = learned.confidence
     held = conf.heldout
     true_states = int(len(np.unique(trace.states)))
-    row = {"benchmark": job.benchmark, "look": job.look, "seed": job.seed, "split": job.split,
+    row = {"benchmark": job.benchmark, "family": get_spec(job.benchmark).family,
+           "look": job.look, "seed": job.seed, "split": job.split,
            "transitions": trace.n_transitions, "observations": trace.n_obs,
            "true_states": int(metrics.true_states), "nodes": int(metrics.nodes),
            "nodes_ratio": metrics.nodes / max(int(metrics.true_states), 1),
@@ -471,6 +528,17 @@ def calibration_line(counts: dict[str, int]) -> str:
 # ---------------------------------------------------------------- tables
 
 
+def _ranges(values: list[int]) -> str:
+    """``[0, 1, 2, 5]`` -> ``"0-2, 5"``."""
+    out: list[str] = []
+    for v in values:
+        if out and out[-1].split("-")[-1] == str(v - 1):
+            out[-1] = out[-1].split("-")[0] + f"-{v}"
+        else:
+            out.append(str(v))
+    return ", ".join(out)
+
+
 def _pct(x) -> str:
     return "–" if not _measured(x) else f"{100 * float(x):.1f}"
 
@@ -509,6 +577,32 @@ def split_markdown(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _family(r: dict) -> str:
+    """The row's task family (rows cached before families were recorded: from the name)."""
+    if r.get("family"):
+        return str(r["family"])
+    try:
+        return get_spec(r["benchmark"]).family
+    except VggcError:
+        return "?"
+
+
+def family_markdown(rows: list[dict]) -> str:
+    """Per task family x look: runs, passed (share), warned, silent failures, mean Exec."""
+    lines = ["| family | look | runs | passed | share | warned | silent | Exec |",
+             "|---|---|---|---|---|---|---|---|"]
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((_family(r), r["look"]), []).append(r)
+    for (fam, look), g in sorted(groups.items()):
+        ok = sum(passes(r) for r in g)
+        silent = sum(not passes(r) and not r.get("suspect") for r in g)
+        lines.append(f"| {fam} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
+                     f"{sum(bool(r.get('suspect')) for r in g)} | {silent} | "
+                     f"{_pct(_mean(g, 'exec'))} |")
+    return "\n".join(lines) + "\n"
+
+
 def _missed_line(r: dict) -> str:
     sparse = (f" (sparse: {r['obs_per_state']:.1f} observations per state)"
               if _measured(r.get("obs_per_state")) and r["obs_per_state"] < MIN_OBS_PER_STATE
@@ -523,6 +617,8 @@ def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
     """The whole report: the rule, then per split its table, share passing, calibration and
     missed runs, then the overall share and calibration."""
     seeds = {s: sorted({r["seed"] for r in rows if r.get("split") == s}) for s in SPLITS}
+    tasks = {s: sorted({task_seed(r["benchmark"]) for r in rows if r.get("split") == s}
+                       - {None}) for s in SPLITS}
     lines = ["# Robustness of the default `vggc-cp solve`", "",
              f"A run passes with Exec >= {_pct(MIN_EXEC)} %, nodes within [{NODES_LOW}, "
              f"{NODES_HIGH}] x |V*|, OptPath >= {_pct(MIN_OPT_PATH)} %, AnyPath "
@@ -532,13 +628,17 @@ def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
     for split in SPLITS:
         sub = [r for r in rows if r.get("split") == split]
         title = "Tuning split" if split == TUNING else "Held-out split (kept out of tuning)"
-        lines += [f"## {title}: seeds {', '.join(map(str, seeds[split])) or 'none'}", ""]
+        drawn = (f"; random tasks of task seeds {_ranges(tasks[split])}" if tasks[split]
+                 else "")
+        lines += [f"## {title}: trace seeds {', '.join(map(str, seeds[split])) or 'none'}"
+                  f"{drawn}", ""]
         if not sub:
-            lines += [f"No run in this split (by default seeds >= {HELDOUT_FROM_SEED} are "
-                      "held out).", ""]
+            lines += [f"No run in this split (by default trace seeds >= {HELDOUT_FROM_SEED} "
+                      f"and tasks random-S with S >= {HELDOUT_TASK_FROM} are held out).", ""]
             continue
         n_ok = sum(passes(r) for r in sub)
-        lines += [split_markdown(sub).rstrip("\n"), "",
+        lines += ["By task family and look:", "", family_markdown(sub).rstrip("\n"), "",
+                  "By task and look:", "", split_markdown(sub).rstrip("\n"), "",
                   f"Passing: {n_ok} / {len(sub)} runs ({100 * n_ok / len(sub):.1f} %).",
                   calibration_line(calibration(sub)[split]), ""]
         missed = [r for r in sub if not passes(r)]
