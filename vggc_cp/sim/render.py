@@ -67,7 +67,7 @@ _ARM_LIMITS = ((-2.9, 2.9), (-1.8, 1.8), (-2.9, 2.9), (-3.0, -0.07), (-2.9, 2.9)
 _ARM_FINGER_OPEN = 0.04
 ARM_RGBA = (0.92, 0.92, 0.90, 1.0)
 ARM_DARK_RGBA = (0.25, 0.25, 0.27, 1.0)
-_ARM_DARK_LINKS = (6, 9, 10)  # the flange (link 7) and the fingers
+_ARM_DARK_LINKS = (6,)  # the flange (link 7)
 _MUG_INSIDE = (0.12, 0.1, 0.08, 1.0)
 
 # Table, region and marker colours are the look's (vggc_cp.sim.looks).
