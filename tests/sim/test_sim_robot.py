@@ -96,6 +96,9 @@ def test_robot_extends_randomized_and_records_its_draws(tmp_path):
     assert DISTRACTOR_RADIUS[0] <= mug["radius_m"] <= DISTRACTOR_RADIUS[1]
     assert DISTRACTOR_HEIGHT[0] <= mug["height_m"] <= DISTRACTOR_HEIGHT[1]
     assert pa["distractor_spots"][0][0] == 0
+    starts = [0] + [t + 1 for t, a in enumerate(robot.actions) if a < 0]
+    assert [f for f, _ in pa["arm_start_regions"]] == starts
+    assert all(0 <= r < 3 for _, r in pa["arm_start_regions"])
 
 
 def test_fresh_arrangement_draws_the_arm_region_last():

@@ -202,11 +202,13 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
 
     frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)
     moves: list[list[float]] = []  # the distractor's spots: [frame, x, y, yaw]
+    starts: list[list[int]] = []  # [frame, region the arm rests above] at episode starts
     with Scene(bench, size, the_look) as scene:
         arr = None
         for t, state in enumerate(walk.states):
             if t == 0 or walk.actions[t - 1] < 0:
                 arr = fresh_arrangement(bench, state, noise_rng, jitter, arm=arm)
+                starts.append([t, arr.last_region])
             else:
                 arr = arrangement_after(bench, arr, bench.action_names[walk.actions[t - 1]],
                                         noise_rng, jitter)
@@ -246,6 +248,8 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     }
     if not the_look.is_clean:
         meta["look_params"] = the_look.as_meta()
+    if arm:
+        meta["look_params"]["arm_start_regions"] = starts
     if the_look.distractor is not None:
         meta["look_params"]["distractor_spots"] = moves
     trace = Trace(frames, walk.actions.copy(), bench.action_names,
