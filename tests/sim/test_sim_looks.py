@@ -43,6 +43,15 @@ CLEAN_HASHES = {
     "blocks-2": "f1d72c274b149789e1b390ac81d6201326b39e7a8bdc4cad2fe45df663f33081",
 }
 
+#: The same for the randomized look, computed before the robot look existed (commit
+#: 8314881): adding the robot look (its arm region, frame index and distractor draws) must
+#: not change a randomized trace.
+RANDOMIZED_HASHES = {
+    "fruit-2x3": "193ceb62f075c77971cb0e31795a08129551df1867bde3c7baa17a22dd9f51d2",
+    "multifruit-2x3": "f9a059edc3392252dde7bad0e2752fd5af76926d9536570fefcbcd736af26680",
+    "blocks-2": "6e957b29d400986c688d5885eef2736c3d17d48f99e8d6e03f7d8c19d468e780",
+}
+
 
 def _hash(g) -> str:
     return hashlib.sha256(g.trace.observations.tobytes()
@@ -54,6 +63,13 @@ def test_clean_look_renders_the_old_pixels(name):
     g = generate(name, 6, seed=5, size=32, novel=2, look="clean")
     assert _hash(g) == CLEAN_HASHES[name]
     assert g.trace.meta["look"] == "clean" and "look_params" not in g.trace.meta
+
+
+@pytest.mark.parametrize("name", sorted(RANDOMIZED_HASHES))
+def test_randomized_look_renders_the_old_pixels(name):
+    g = generate(name, 6, seed=5, size=32, novel=2, look="randomized")
+    assert _hash(g) == RANDOMIZED_HASHES[name]
+    assert "arm" not in g.trace.meta["look_params"]
 
 
 def test_clean_is_the_default_and_matches_a_plain_scene():

@@ -41,7 +41,9 @@ def register(sub) -> None:
                         "randomized: a stand-in for another renderer or a real camera -- table "
                         "colour and texture, region markers, camera pose, light, object shapes, "
                         "sizes and shades drawn per trace, lighting gain, tint and sensor noise "
-                        "per frame, all from --seed")
+                        "per frame, all from --seed; robot: randomized plus a Panda arm resting "
+                        "above the region it last acted on, a camera shake of up to 2 px, a slow "
+                        "lighting drift and a mug that moves between some frames")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 

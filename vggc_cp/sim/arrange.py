@@ -40,11 +40,15 @@ class Arrangement:
     offsets : tuple of (float, float, float)
         Per body ``(dx, dy, yaw)``: metres from its region centre (table) or from the
         gripper's centre (held), and the yaw in radians (held: relative to the grip axis).
+    last_region : int
+        The region the robot last acted on (an arm rests above it; the robot look), or -1
+        (not known: looks without an arm ignore it).
     """
 
     stacks: tuple[tuple[int, ...], ...]
     held: int
     offsets: tuple[tuple[float, float, float], ...]
+    last_region: int = -1
 
 
 def body_letters(bench: Benchmark) -> tuple[str, ...]:
@@ -78,12 +82,15 @@ def _held_offset(rng: np.random.Generator) -> tuple[float, float, float]:
 
 
 def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator,
-                      jitter: tuple[float, ...] | None = None) -> Arrangement:
+                      jitter: tuple[float, ...] | None = None,
+                      arm: bool = False) -> Arrangement:
     """A random arrangement of ``state``: bodies of each class shuffled over its places,
     every body with fresh noise.
 
     ``jitter``: per body, the half-range (m) of its table position noise (a look's
     :attr:`~vggc_cp.sim.looks.Look.placement_jitter`); None: the module's constants.
+    ``arm``: also draw the region the arm last acted on (uniform, after every other draw;
+    without it ``last_region`` is -1 and ``rng`` draws exactly what it drew before).
     """
     st: State = bench.decode(state)
     letters = body_letters(bench)
@@ -106,13 +113,15 @@ def fresh_arrangement(bench: Benchmark, state: str, rng: np.random.Generator,
     if st.held != EMPTY:
         held = pools[st.held].pop()
         offsets[held] = _held_offset(rng)
-    return Arrangement(tuple(stacks), held, tuple(offsets))  # type: ignore[arg-type]
+    last = int(rng.integers(len(st.stacks))) if arm else -1
+    return Arrangement(tuple(stacks), held, tuple(offsets), last)  # type: ignore[arg-type]
 
 
 def arrangement_after(bench: Benchmark, arr: Arrangement, action: str,
                       rng: np.random.Generator,
                       jitter: tuple[float, ...] | None = None) -> Arrangement:
-    """The arrangement after ``action`` (assumed valid): only the moved body changes.
+    """The arrangement after ``action`` (assumed valid): only the moved body changes, and
+    ``last_region`` becomes the action's region.
 
     A pick moves the top body of the region into the gripper; a place puts the held body on
     top of the region with fresh noise (``jitter`` as in :func:`fresh_arrangement`).
@@ -132,7 +141,7 @@ def arrangement_after(bench: Benchmark, arr: Arrangement, action: str,
                                       None if jitter is None else jitter[body])
         stacks[act.region] = stacks[act.region] + (body,)
         held = -1
-    return Arrangement(tuple(stacks), held, tuple(offsets))
+    return Arrangement(tuple(stacks), held, tuple(offsets), act.region)
 
 
 def arrangement_state(bench: Benchmark, arr: Arrangement) -> str:

@@ -4,8 +4,10 @@ rendered to a trace.
 One seed drives everything through :class:`numpy.random.SeedSequence` children: the
 discrete walk, the continuous placement noise of the trace, and that of the novel renders
 (children 0-2), and the look (child 3: the per-trace look, then the per-frame effects of the
-trace and of the novel renders; the clean look draws nothing). The same seed gives the same
-bytes.
+trace and of the novel renders -- in the robot look also the distractor's moves, drawn
+before each frame's render; the clean look draws nothing). The robot look's arm rests above
+a region drawn from the noise stream at every episode start (and every novel render). The
+same seed gives the same bytes.
 """
 
 from __future__ import annotations
@@ -163,10 +165,13 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         observations, one more per episode than transitions, plus the novel renders), which
         is known once the walk is drawn: a progress bar's total.
     look : str
-        ``"clean"`` (the renderer the defaults were tuned on) or ``"randomized"`` (table,
-        camera, light and objects drawn per trace, gain, tint and noise per frame; see
-        :mod:`vggc_cp.sim.looks`). The novel renders share the trace's look and draw their
-        own per-frame effects.
+        ``"clean"`` (the renderer the defaults were tuned on), ``"randomized"`` (table,
+        camera, light and objects drawn per trace, gain, tint and noise per frame) or
+        ``"robot"`` (randomized plus an arm resting above the region it last acted on, a
+        lighting drift, a camera shake and a distractor that moves between some frames);
+        see :mod:`vggc_cp.sim.looks`. The novel renders share the trace's look and draw
+        their own per-frame effects (each: the arm above a random region, the distractor
+        on a fresh spot, the drift at its index among the novel renders).
 
     Raises
     ------
@@ -186,9 +191,10 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     check_look(look)
     walk_rng, noise_rng, novel_rng = seed_streams(seed)
     look_rng, frame_rng, novel_frame_rng = look_streams(seed)
-    the_look = make_look(look, bench, look_rng)
-    jitter = the_look.placement_jitter
     walk = random_walk(bench, d, walk_rng)
+    the_look = make_look(look, bench, look_rng, len(walk.states))
+    jitter = the_look.placement_jitter
+    arm = the_look.arm is not None
     n_frames = len(walk.states) + novel
 
     def tick() -> None:
@@ -198,22 +204,28 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     from vggc_cp.sim.render import Scene
 
     frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)
+    moves: list[list[float]] = []  # the distractor's spots: [frame, x, y, yaw]
+    starts: list[list[int]] = []  # [frame, region the arm rests above] at episode starts
     with Scene(bench, size, the_look) as scene:
         arr = None
         for t, state in enumerate(walk.states):
             if t == 0 or walk.actions[t - 1] < 0:
-                arr = fresh_arrangement(bench, state, noise_rng, jitter)
+                arr = fresh_arrangement(bench, state, noise_rng, jitter, arm=arm)
+                starts.append([t, arr.last_region])
             else:
                 arr = arrangement_after(bench, arr, bench.action_names[walk.actions[t - 1]],
                                         noise_rng, jitter)
-            frames[t] = finish_frame(scene.render(arr), the_look, frame_rng)
+            if scene.distractor_step(frame_rng, first=t == 0):
+                moves.append([t, *(round(v, 4) for v in scene.distractor_spot)])
+            frames[t] = finish_frame(scene.render(arr), the_look, frame_rng, t)
             tick()
         novel_states = novel_order(walk.states, novel, novel_rng)
         novel_frames = np.empty((novel, size, size, 3), dtype=np.uint8)
         for k, state in enumerate(novel_states):
+            scene.distractor_step(novel_frame_rng, first=True)
             novel_frames[k] = finish_frame(
-                scene.render(fresh_arrangement(bench, state, novel_rng, jitter)), the_look,
-                novel_frame_rng)
+                scene.render(fresh_arrangement(bench, state, novel_rng, jitter, arm=arm)),
+                the_look, novel_frame_rng, k)
             tick()
         camera = scene.camera.as_dict()
     meta = {
@@ -241,6 +253,10 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         meta["task"] = spec_dict(spec)
     if not the_look.is_clean:
         meta["look_params"] = the_look.as_meta()
+    if arm:
+        meta["look_params"]["arm_start_regions"] = starts
+    if the_look.distractor is not None:
+        meta["look_params"]["distractor_spots"] = moves
     trace = Trace(frames, walk.actions.copy(), bench.action_names,
                   np.array(walk.states, dtype=str), meta)
     return Generated(trace, novel_frames, np.array(novel_states, dtype=str).reshape(-1))

@@ -1,5 +1,6 @@
-"""How a benchmark scene looks: the ``clean`` renderer, and a ``randomized`` stand-in for
-another renderer or a real camera.
+"""How a benchmark scene looks: the ``clean`` renderer, a ``randomized`` stand-in for
+another renderer or a real camera, and a ``robot`` look that adds what a robot's own camera
+sees.
 
 ``clean`` is the scene the learning defaults were tuned on: one table colour, fixed camera,
 light and object appearance, no sensor noise. ``randomized`` varies every knob below, all
@@ -18,6 +19,19 @@ scenes they were not tuned on:
   tint (:data:`FRAME_TINT`) and Gaussian sensor noise (:data:`NOISE_SIGMA`), in numpy after
   rendering.
 
+``robot`` draws everything ``randomized`` draws, then (same per-trace stream, after those):
+
+* a real arm model (:data:`ARM_MODEL`, the Franka Panda of ``pybullet_data``) behind the
+  table's back edge, its hand resting above the region it last acted on (the renderer,
+  :mod:`vggc_cp.sim.render`), holding the held object; the old fixed gripper is hidden;
+* a slow lighting drift over the recording (:data:`DRIFT_AMPLITUDE`, :data:`DRIFT_PERIOD`,
+  any phase), on top of the per-frame gain;
+* a whole-pixel camera shake per frame (:data:`SHAKE_PX`);
+* a distractor (:data:`DISTRACTOR_COLOURS`, :data:`DISTRACTOR_RADIUS`,
+  :data:`DISTRACTOR_HEIGHT`) on the table outside every region (the table grows by
+  :data:`ROBOT_TABLE_EXTRA`), moved to a new random spot before a frame with probability
+  :data:`DISTRACTOR_MOVE` (drawn from the trace's per-frame stream).
+
 Ground-truth states stay by class: an apple and a strawberry swapped are the same state.
 Nothing here needs PyBullet.
 """
@@ -27,7 +41,7 @@ from __future__ import annotations
 import math
 import struct
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -37,11 +51,15 @@ from vggc_cp.sim.dynamics import Benchmark
 
 CLEAN = "clean"
 RANDOMIZED = "randomized"
+ROBOT = "robot"
 #: Known looks (``vggc-cp generate --look``).
 LOOKS = {CLEAN: "the renderer the defaults were tuned on (fixed colours, camera, light; "
                 "no noise)",
          RANDOMIZED: "table colour and texture, markers, camera, light, object shapes, sizes "
-                     "and shades drawn per trace; gain, tint and sensor noise per frame"}
+                     "and shades drawn per trace; gain, tint and sensor noise per frame",
+         ROBOT: "randomized, plus a Franka Panda arm resting above the region it last acted "
+                "on (holding the held object), a slow lighting drift, a camera shake of up "
+                "to 2 px per frame and a mug that moves between some frames"}
 
 # ------------------------------------------------------------------ clean appearance
 TABLE_RGBA = (0.62, 0.47, 0.32, 1.0)
@@ -116,6 +134,33 @@ FRAME_TINT = 0.04
 #: Gaussian sensor noise, standard deviation in 0-255 units (then rounded and clipped).
 NOISE_SIGMA = 4.0
 
+# ------------------------------------------------------------------- robot look
+#: The arm: a URDF of ``pybullet_data`` (installed with PyBullet, read from disk). Only the
+#: Panda: the KUKA iiwa there has no gripper to hold an object with.
+ARM_MODEL = "franka_panda/panda.urdf"
+#: Lighting drift: the frame at index ``t`` is multiplied by
+#: ``1 + A sin(2 pi t / T + phase)``, with ``A`` uniform in this range ...
+DRIFT_AMPLITUDE = (0.05, 0.12)
+#: ... and the period ``T`` uniform in this range times the number of frames of the
+#: recording (the trace; the novel renders are a recording of their own); any phase.
+DRIFT_PERIOD = (0.8, 1.5)
+#: Camera shake: every frame is shifted by a whole number of pixels, ``dx`` and ``dy``
+#: uniform in ``[-SHAKE_PX, SHAKE_PX]`` (edge pixels replicated).
+SHAKE_PX = 2
+#: The distractor (a mug: a cylinder with a dark opening and a handle): its colour, drawn
+#: uniformly among these (none is a task class colour: red, yellow, blue, green) ...
+DISTRACTOR_COLOURS = {"grey": (0.55, 0.56, 0.58), "brown": (0.42, 0.27, 0.16),
+                      "white": (0.93, 0.93, 0.90), "purple": (0.45, 0.22, 0.55)}
+#: ... its radius (m) and height (m), uniform ...
+DISTRACTOR_RADIUS = (0.026, 0.034)
+DISTRACTOR_HEIGHT = (0.07, 0.10)
+#: ... and the probability, per frame after the first, that it moves to a new random spot on
+#: the table outside every region (and inside the view).
+DISTRACTOR_MOVE = 0.15
+#: The robot look's table is this much (m) larger on every side than the layout's, so that
+#: the distractor has room beside the regions (the camera is the layout's).
+ROBOT_TABLE_EXTRA = 0.08
+
 
 @dataclass(frozen=True)
 class ObjectLook:
@@ -138,6 +183,28 @@ class ObjectLook:
     scale: float
     rgba: tuple[float, float, float, float]
     jitter: float
+
+
+@dataclass(frozen=True)
+class Distractor:
+    """An object nobody acts on (a mug), standing on the table outside every region.
+
+    Attributes
+    ----------
+    colour : str
+        A name of :data:`DISTRACTOR_COLOURS`.
+    rgba : tuple of float
+    radius, height : float
+        Of the mug's body (m).
+    move_prob : float
+        Probability, per frame after a recording's first, of a move to a new spot.
+    """
+
+    colour: str
+    rgba: tuple[float, float, float, float]
+    radius: float
+    height: float
+    move_prob: float
 
 
 @dataclass(frozen=True)
@@ -167,6 +234,17 @@ class Look:
         Per-frame half-range of the channel tint (0: none).
     noise_sigma : float
         Per-frame Gaussian noise (0-255 units; 0: none).
+    arm : str or None
+        The arm's URDF under ``pybullet_data`` (:data:`ARM_MODEL`), or None (the old fixed
+        gripper).
+    drift : tuple of float
+        Lighting drift ``(amplitude, period in frames, phase in radians)``
+        (:meth:`drift_gain`).
+    shake_px : int
+        Largest whole-pixel camera shake per frame and axis (0: none).
+    distractor : Distractor or None
+    table_extra : float
+        How much larger (m) the table is on every side than the layout's.
     """
 
     name: str
@@ -182,10 +260,20 @@ class Look:
     frame_gain: tuple[float, float]
     frame_tint: float
     noise_sigma: float
+    arm: str | None = None
+    drift: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    shake_px: int = 0
+    distractor: Distractor | None = None
+    table_extra: float = 0.0
 
     @property
     def is_clean(self) -> bool:
         return self.name == CLEAN
+
+    def drift_gain(self, t: int) -> float:
+        """The lighting drift's gain at frame ``t`` (1 without drift)."""
+        amp, period, phase = self.drift
+        return 1.0 + amp * math.sin(2 * math.pi * t / period + phase)
 
     @property
     def placement_jitter(self) -> tuple[float, ...] | None:
@@ -210,7 +298,21 @@ class Look:
             "frame_gain": rs(self.frame_gain),
             "frame_tint": r(self.frame_tint),
             "noise_sigma": r(self.noise_sigma),
-        }
+        } | ({} if self.arm is None else self._robot_meta())
+
+    def _robot_meta(self) -> dict:
+        r = lambda v: round(float(v), 4)  # noqa: E731
+        d = self.distractor
+        out = {"arm": self.arm,
+               "drift": {"amplitude": r(self.drift[0]), "period_frames": r(self.drift[1]),
+                         "phase": r(self.drift[2])},
+               "shake_px": int(self.shake_px),
+               "table_extra_m": r(self.table_extra)}
+        if d is not None:
+            out["distractor"] = {"kind": "mug", "colour": d.colour,
+                                 "rgb": [r(c) for c in d.rgba[:3]], "radius_m": r(d.radius),
+                                 "height_m": r(d.height), "move_prob": r(d.move_prob)}
+        return out
 
 
 def check_look(name: str) -> str:
@@ -284,19 +386,60 @@ def sample_look(rng: np.random.Generator, bench: Benchmark) -> Look:
                 light, tuple(objects), FRAME_GAIN, FRAME_TINT, NOISE_SIGMA)
 
 
-def make_look(name: str, bench: Benchmark, rng: np.random.Generator) -> Look:
-    """The look called ``name`` for ``bench`` (``rng`` is used by ``randomized`` only)."""
+def sample_robot_look(rng: np.random.Generator, bench: Benchmark, n_frames: int) -> Look:
+    """Draw a robot look: :func:`sample_look`'s draws, then (from the same ``rng``) the
+    drift's amplitude, period (times ``n_frames``, the recording's length) and phase, and
+    the distractor's colour, radius and height."""
+    base = sample_look(rng, bench)
+    amp = float(rng.uniform(*DRIFT_AMPLITUDE))
+    period = float(rng.uniform(*DRIFT_PERIOD)) * max(int(n_frames), 1)
+    phase = float(rng.uniform(0.0, 2 * math.pi))
+    names = sorted(DISTRACTOR_COLOURS)
+    colour = names[int(rng.integers(len(names)))]
+    radius = float(rng.uniform(*DISTRACTOR_RADIUS))
+    height = float(rng.uniform(*DISTRACTOR_HEIGHT))
+    mug = Distractor(colour, (*DISTRACTOR_COLOURS[colour], 1.0), radius, height,
+                     DISTRACTOR_MOVE)
+    return replace(base, name=ROBOT, arm=ARM_MODEL, drift=(amp, period, phase),
+                   shake_px=SHAKE_PX, distractor=mug, table_extra=ROBOT_TABLE_EXTRA)
+
+
+def make_look(name: str, bench: Benchmark, rng: np.random.Generator,
+              n_frames: int = 1) -> Look:
+    """The look called ``name`` for ``bench`` (``rng`` is used by ``randomized`` and
+    ``robot``; ``n_frames``, the trace's number of observations, by ``robot`` only: the
+    drift's period is a multiple of it)."""
     check_look(name)
-    return clean_look(bench) if name == CLEAN else sample_look(rng, bench)
+    if name == CLEAN:
+        return clean_look(bench)
+    if name == ROBOT:
+        return sample_robot_look(rng, bench, n_frames)
+    return sample_look(rng, bench)
 
 
-def finish_frame(img: np.ndarray, look: Look, rng: np.random.Generator) -> np.ndarray:
-    """Apply the per-frame gain, tint and sensor noise of ``look`` to a rendered uint8 frame
-    (the clean look returns ``img`` untouched and draws nothing)."""
+def shift_image(img: np.ndarray, dx: int, dy: int) -> np.ndarray:
+    """``img`` (H, W, C) moved ``dx`` pixels right and ``dy`` down, edge pixels replicated."""
+    h, w = img.shape[:2]
+    rows = np.clip(np.arange(h) - dy, 0, h - 1)
+    cols = np.clip(np.arange(w) - dx, 0, w - 1)
+    return img[rows][:, cols]
+
+
+def finish_frame(img: np.ndarray, look: Look, rng: np.random.Generator,
+                 t: int = 0) -> np.ndarray:
+    """Apply the per-frame effects of ``look`` to a rendered uint8 frame: gain and tint,
+    then (robot look) the camera shake and the lighting drift at frame ``t``, then sensor
+    noise. The clean look returns ``img`` untouched and draws nothing; the randomized look
+    ignores ``t`` and draws exactly what it always drew."""
     if look.is_clean:
         return img
     gain = rng.uniform(*look.frame_gain)
     tint = 1.0 + rng.uniform(-look.frame_tint, look.frame_tint, 3)
+    if look.shake_px > 0:
+        dx, dy = (int(v) for v in rng.integers(-look.shake_px, look.shake_px + 1, 2))
+        img = shift_image(img, dx, dy)
+    if look.drift[0] != 0.0:
+        gain = gain * look.drift_gain(t)
     noise = rng.standard_normal(img.shape, dtype=np.float32)
     out = img * (gain * tint).astype(np.float32) + np.float32(look.noise_sigma) * noise
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)

@@ -10,6 +10,10 @@ cone-like mesh with a green cap, lemon a yellow ellipsoid, banana a yellow capsu
 are blue cubes. The held object hangs between the two fingers of a gripper behind the table.
 The ``randomized`` look (:mod:`vggc_cp.sim.looks`) adds tomato (red, flattened, green
 calyx) and pear (yellow), and varies colours, sizes, camera, light and the table's texture.
+The ``robot`` look replaces the fixed gripper by a Franka Panda arm (``pybullet_data``) whose
+hand rests above the region it last acted on (joints from PyBullet's inverse kinematics, no
+physics), holding the held object, and adds a mug (the distractor) that
+:meth:`Scene.move_distractor` puts on the table outside every region.
 """
 
 from __future__ import annotations
@@ -45,6 +49,29 @@ MARGIN = 0.05
 HELD_Z = 0.14
 #: Distance of the gripper behind the table's back edge (m).
 GRIPPER_BACK = -0.01
+
+#: The arm's base: this far (m) behind the layout table's back edge, at x = 0 -- or, where a
+#: region lies more than ``ARM_REACH_X`` to the side, moved along the back edge (on a rail)
+#: just enough to reach it.
+ARM_BACK = 0.22
+ARM_REACH_X = 0.40
+#: Free height (m) between the top of what stands on the region and the bottom of the held
+#: object (or the fingertips, with an empty hand) when the hand rests above a region.
+ARM_CLEARANCE = 0.04
+#: Panda joints 1-7 before the inverse kinematics (also its null-space rest pose): elbow up,
+#: hand down. Every rest starts from it, so a pose depends on its target only.
+ARM_REST = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785)
+_ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
+_ARM_FINGERS = (9, 10)
+_ARM_GRASP_LINK = 11  # panda_grasptarget: between the finger pads
+_ARM_LIMITS = ((-2.9, 2.9), (-1.8, 1.8), (-2.9, 2.9), (-3.0, -0.07), (-2.9, 2.9), (-0.08, 3.8),
+               (-2.9, 2.9))
+#: Largest finger opening (m, per finger).
+_ARM_FINGER_OPEN = 0.04
+ARM_RGBA = (0.92, 0.92, 0.90, 1.0)
+ARM_DARK_RGBA = (0.25, 0.25, 0.27, 1.0)
+_ARM_DARK_LINKS = (6,)  # the flange (link 7)
+_MUG_INSIDE = (0.12, 0.1, 0.08, 1.0)
 
 # Table, region and marker colours are the look's (vggc_cp.sim.looks).
 GRIPPER_RGBA = (0.55, 0.57, 0.62, 1.0)
@@ -362,7 +389,7 @@ class Scene:
     def _build(self) -> None:
         p, cid, lay = self._p, self._cid, self.layout
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
-        hx, hy = lay.half_extent
+        hx, hy = (h + self.look.table_extra for h in lay.half_extent)
         thick = 0.02
         table_col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, thick],
                                            physicsClientId=cid)
@@ -408,6 +435,57 @@ class Scene:
                 body, rest = make(obj.kind, obj.rgba, obj.scale)
                 self._bodies.append(body)
                 self._rest.append(rest)
+        self._arm = -1 if look.arm is None else self._load_arm(look.arm)
+        self._mug = -1
+        #: Where the distractor stands: ``(x, y, yaw)``, or None (no distractor, or not yet
+        #: placed: it starts out of sight).
+        self.distractor_spot: tuple[float, float, float] | None = None
+        if look.distractor is not None:
+            self._mug = self._build_mug()
+
+    def _load_arm(self, model: str) -> int:
+        """Load the arm ``model`` (a URDF under ``pybullet_data``) with its coarse meshes
+        (the collision meshes, about 3,500 triangles, drawn as its visual: the full visual
+        meshes, about 100,000, make the tiny renderer several times slower), coloured, not
+        colliding with anything."""
+        from vggc_cp.sim.looks import ARM_MODEL
+
+        if model != ARM_MODEL:
+            raise ValueError(f"unknown arm {model!r} (known: {ARM_MODEL})")
+        import pybullet_data
+
+        p, cid = self._p, self._cid
+        root = Path(pybullet_data.getDataPath()) / Path(model).parent
+        text = (Path(pybullet_data.getDataPath()) / model).read_text()
+        text = text.replace("meshes/visual/", "meshes/collision/")
+        text = text.replace("package://meshes/", f"{root / 'meshes'}/")
+        with tempfile.TemporaryDirectory(prefix="vggc-arm-") as tmp:
+            path = Path(tmp) / "arm.urdf"
+            path.write_text(text)
+            arm = p.loadURDF(str(path), [0.0, 0.0, 0.0], useFixedBase=True,
+                             physicsClientId=cid)
+        if arm < 0:
+            raise VggcError(f"PyBullet could not load the arm model {model}")
+        for link in range(-1, p.getNumJoints(arm, physicsClientId=cid)):
+            rgba = ARM_DARK_RGBA if link in _ARM_DARK_LINKS else ARM_RGBA
+            p.changeVisualShape(arm, link, rgbaColor=list(rgba), physicsClientId=cid)
+            p.setCollisionFilterGroupMask(arm, link, 0, 0, physicsClientId=cid)
+        return arm
+
+    def _build_mug(self) -> int:
+        """The distractor: a cylinder, a dark opening on top and a handle (out of sight
+        until :meth:`move_distractor`)."""
+        p = self._p
+        d = self.look.distractor
+        r, h = d.radius, d.height
+        handle = (self._visual(p.GEOM_BOX, d.rgba, halfExtents=[0.004, 0.004, 0.3 * h]),
+                  (r + 0.014, 0.0, 0.0))
+        stub = self._visual(p.GEOM_BOX, d.rgba, halfExtents=[0.008, 0.004, 0.004])
+        return self._multibody(
+            [(self._visual(p.GEOM_CYLINDER, d.rgba, radius=r, length=h), None),
+             (self._visual(p.GEOM_CYLINDER, _MUG_INSIDE, radius=0.82 * r, length=0.002),
+              (0.0, 0.0, h / 2)),
+             handle, (stub, (r + 0.007, 0.0, 0.28 * h)), (stub, (r + 0.007, 0.0, -0.28 * h))])
 
     def _texture(self, body: int, image: np.ndarray) -> None:
         """Give ``body`` the texture ``image`` (through a temporary PNG file)."""
@@ -450,12 +528,142 @@ class Scene:
         if self.bench.blocks:
             for _ in range(SETTLE_STEPS):
                 self._p.stepSimulation(physicsClientId=self._cid)
+        if self._arm >= 0:
+            self._pose_arm(arr)
+            return
         jx = jy = 0.0
         if arr.held >= 0:
             jx, jy, jyaw = arr.offsets[arr.held]
             self._put(self._bodies[arr.held], (gx + jx, gy + jy, gz), math.pi / 2 + jyaw)
         self._p.resetBasePositionAndOrientation(self._gripper, [gx + jx, gy + jy, gz + 0.06],
                                                 [0, 0, 0, 1], physicsClientId=self._cid)
+
+    def _stack_top(self, arr: Arrangement, region: int) -> float:
+        """Height (m) of the top of what stands on ``region`` (0: nothing)."""
+        if not arr.stacks[region]:
+            return 0.0
+        top = arr.stacks[region][-1]
+        z = self._p.getBasePositionAndOrientation(self._bodies[top],
+                                                  physicsClientId=self._cid)[0][2]
+        return z + self._rest[top] + (0.0 if self.bench.blocks else 0.012)  # fruit stalks
+
+    def arm_target(self, arr: Arrangement) -> tuple[float, float, float] | None:
+        """Where the arm's grasp point rests for ``arr`` (after :meth:`pose` of it): above
+        ``arr.last_region`` -- plus the held object's offset -- high enough to clear what
+        stands there; None when ``last_region`` is -1 (the arm's rest pose)."""
+        r = arr.last_region
+        if r < 0:
+            return None
+        cx, cy = self.layout.centres[r]
+        lift = ARM_CLEARANCE + 0.02
+        if arr.held >= 0:
+            dx, dy, _ = arr.offsets[arr.held]
+            cx, cy = cx + dx, cy + dy
+            lift = ARM_CLEARANCE + self._rest[arr.held]
+        return float(cx), float(cy), self._stack_top(arr, r) + lift
+
+    def _arm_base(self, x: float) -> tuple[float, float, float]:
+        bx = min(max(0.0, x - ARM_REACH_X), x + ARM_REACH_X)
+        return bx, self.layout.half_extent[1] + ARM_BACK, 0.0
+
+    def _pose_arm(self, arr: Arrangement) -> None:
+        """Hide the fixed gripper; pose the arm above ``arr.last_region`` (inverse
+        kinematics from :data:`ARM_REST`, hand pointing down, fingers along x) and put the
+        held object between its fingers."""
+        p, cid, arm = self._p, self._cid, self._arm
+        p.resetBasePositionAndOrientation(self._gripper, [0.0, 0.0, -10.0], [0, 0, 0, 1],
+                                          physicsClientId=cid)
+        target = self.arm_target(arr)
+        base = self._arm_base(0.0 if target is None else target[0])
+        p.resetBasePositionAndOrientation(arm, list(base),
+                                          p.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2]),
+                                          physicsClientId=cid)
+        for j, v in zip(_ARM_JOINTS, ARM_REST):
+            p.resetJointState(arm, j, v, physicsClientId=cid)
+        if target is not None:
+            lo = [a for a, _ in _ARM_LIMITS] + [0.0, 0.0]
+            hi = [b for _, b in _ARM_LIMITS] + [_ARM_FINGER_OPEN] * 2
+            q = p.calculateInverseKinematics(
+                arm, _ARM_GRASP_LINK, list(target),
+                p.getQuaternionFromEuler([math.pi, 0.0, -math.pi / 2]),
+                lowerLimits=lo, upperLimits=hi, jointRanges=[b - a for a, b in zip(lo, hi)],
+                restPoses=list(ARM_REST) + [_ARM_FINGER_OPEN] * 2, maxNumIterations=200,
+                residualThreshold=1e-5, physicsClientId=cid)
+            for j, v in zip(_ARM_JOINTS, q):
+                p.resetJointState(arm, j, v, physicsClientId=cid)
+        opening = _ARM_FINGER_OPEN
+        if arr.held >= 0:
+            opening = min(_ARM_FINGER_OPEN, self._rest[arr.held] + 0.002)
+        for j in _ARM_FINGERS:
+            p.resetJointState(arm, j, opening, physicsClientId=cid)
+        if arr.held >= 0:
+            grasp = p.getLinkState(arm, _ARM_GRASP_LINK, computeForwardKinematics=True,
+                                   physicsClientId=cid)[4]
+            _, _, jyaw = arr.offsets[arr.held]
+            self._put(self._bodies[arr.held], grasp, math.pi / 2 + jyaw)
+
+    def grasp_point(self) -> tuple[float, float, float]:
+        """Where the arm's grasp point is now (world, m); the robot look only."""
+        if self._arm < 0:
+            raise ValueError("this scene has no arm")
+        pos = self._p.getLinkState(self._arm, _ARM_GRASP_LINK, computeForwardKinematics=True,
+                                   physicsClientId=self._cid)[4]
+        return tuple(float(v) for v in pos)
+
+    def project(self, xyz) -> tuple[float, float]:
+        """Pixel ``(column, row)`` of the world point ``xyz`` in this scene's camera."""
+        view = np.array(self._view, dtype=float).reshape(4, 4).T
+        proj = np.array(self._proj, dtype=float).reshape(4, 4).T
+        clip = proj @ view @ np.array([*xyz, 1.0])
+        ndc = clip[:3] / clip[3]
+        return float((ndc[0] + 1) / 2 * self.size), float((1 - ndc[1]) / 2 * self.size)
+
+    def distractor_ok(self, x: float, y: float) -> bool:
+        """Whether the distractor may stand at ``(x, y)``: on the table, clear of every
+        region's marker (handle included) and inside the middle 84 % of the view."""
+        d = self.look.distractor
+        hx, hy = (h + self.look.table_extra for h in self.layout.half_extent)
+        reach = d.radius + 0.022  # the handle
+        if abs(x) > hx - reach or abs(y) > hy - reach:
+            return False
+        clear = REGION_SIDE / 2 + 0.006 + reach + 0.005
+        cheb = np.max(np.abs(self.layout.centres - np.array([x, y])), axis=1)
+        if np.any(cheb < clear):
+            return False
+        lo, hi = 0.08 * self.size, 0.92 * self.size
+        for z in (0.0, d.height):
+            col, row = self.project((x, y, z))
+            if not (lo <= col <= hi and lo <= row <= hi):
+                return False
+        return True
+
+    def move_distractor(self, rng: np.random.Generator, tries: int = 200) -> bool:
+        """Put the distractor on a random spot where :meth:`distractor_ok` (uniform over
+        the table, rejection sampling: ``tries`` draws of ``(x, y, yaw)`` at most) and
+        return True; False (and it stays) when no draw fits."""
+        d = self.look.distractor
+        if d is None:
+            raise ValueError("this look has no distractor")
+        hx, hy = (h + self.look.table_extra for h in self.layout.half_extent)
+        for _ in range(tries):
+            x, y = rng.uniform(-hx, hx), rng.uniform(-hy, hy)
+            yaw = rng.uniform(0.0, 2 * math.pi)
+            if self.distractor_ok(x, y):
+                self.distractor_spot = (float(x), float(y), float(yaw))
+                self._put(self._mug, (x, y, d.height / 2), yaw)
+                return True
+        return False
+
+    def distractor_step(self, rng: np.random.Generator, first: bool) -> bool:
+        """Before a frame: the distractor moves on a recording's ``first`` frame, else with
+        its probability (one uniform draw from ``rng``); returns whether it moved. Draws
+        nothing without a distractor."""
+        d = self.look.distractor
+        if d is None:
+            return False
+        if first or rng.uniform() < d.move_prob:
+            return self.move_distractor(rng)
+        return False
 
     def snapshot(self) -> np.ndarray:
         """Render the current scene: uint8 array of shape (size, size, 3)."""
