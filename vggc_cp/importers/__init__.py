@@ -1,0 +1,49 @@
+"""Recordings in: one module per layout, each registered in :data:`IMPORTERS`.
+
+=============  ================================================================
+``images``     image files listed by a CSV/JSONL log (:mod:`.images`)
+``video``      one video and a CSV/JSONL log of frame indices or times (:mod:`.video`)
+``robomimic``  an HDF5 file in robomimic's layout (:mod:`.robomimic`)
+``lerobot``    a LeRobot dataset folder, parquet + mp4 (:mod:`.lerobot`)
+=============  ================================================================
+
+Adding a layout: a module that calls :func:`~vggc_cp.importers.base.register_importer`, listed
+imported below, and its test; ``vggc-cp import`` finds it in the registry. The
+readers h5py, pyarrow and PyAV are imported only when a layout needs them
+(``pip install -e '.[import]'``).
+
+Example
+-------
+>>> from vggc_cp.importers import ImportConfig, import_recording
+>>> trace = import_recording("images", ImportConfig(size=(64, 64)), log="log.csv")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from vggc_cp.importers.base import (
+    IMPORTERS,
+    Argument,
+    ImportConfig,
+    Importer,
+    get_importer,
+    parse_size,
+    read_label_map,
+    register_importer,
+)
+from vggc_cp.trace import Trace
+
+# the modules that register the layouts, in the order ``vggc-cp import --help`` lists them
+from vggc_cp.importers import images, video, robomimic, lerobot  # noqa: E402, F401, I001
+
+__all__ = ["IMPORTERS", "Argument", "ImportConfig", "Importer", "get_importer",
+           "import_recording", "parse_size", "read_label_map", "register_importer"]
+
+
+def import_recording(layout: str, config: ImportConfig | None = None, **arguments) -> Trace:
+    """Read a recording of ``layout`` (a name in :data:`IMPORTERS`) into a validated trace.
+
+    ``arguments`` are the layout's arguments by name (``log=``, ``video=``, ``file=``,
+    ``folder=``, ``camera=``, ``labels=``, ``states=``).
+    """
+    importer = get_importer(layout)
+    return importer.read(config or ImportConfig(), **arguments)
