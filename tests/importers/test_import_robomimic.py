@@ -34,6 +34,7 @@ def refused(capsys, out, *argv) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 def test_round_trip_with_string_labels_solves_to_the_same_graph(original, tmp_path, capsys):
     f = write_robomimic(original, tmp_path / "demos.hdf5")
     out = tmp_path / "t.npz"

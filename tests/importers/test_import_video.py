@@ -39,7 +39,7 @@ def refused(capsys, out, *argv) -> str:
     return lines[0]
 
 
-@pytest.mark.parametrize("by", ["frame", "time"])
+@pytest.mark.parametrize("by", ["frame", pytest.param("time", marks=pytest.mark.slow)])
 def test_round_trip_is_bit_exact(original, tmp_path, capsys, by):
     video, log = write_video_layout(original, tmp_path / "rec", by=by)
     out = tmp_path / "t.npz"

@@ -20,6 +20,8 @@ Example
 
 from __future__ import annotations
 
+# importing a layout's module registers it
+from vggc_cp.importers import images, lerobot, robomimic, video  # noqa: F401
 from vggc_cp.importers.base import (
     IMPORTERS,
     Argument,
@@ -31,9 +33,6 @@ from vggc_cp.importers.base import (
     register_importer,
 )
 from vggc_cp.trace import Trace
-
-# the modules that register the layouts, in the order ``vggc-cp import --help`` lists them
-from vggc_cp.importers import images, video, robomimic, lerobot  # noqa: E402, F401, I001
 
 __all__ = ["IMPORTERS", "Argument", "ImportConfig", "Importer", "get_importer",
            "import_recording", "parse_size", "read_label_map", "register_importer"]

@@ -126,7 +126,7 @@ def read_lerobot(config: ImportConfig, folder, camera: str, labels: str,
     episodes: dict[int, list] = defaultdict(list)
     for path in data_files:
         cols = _columns(pq, path, list(dict.fromkeys(wanted)))
-        rel = path.relative_to(root)
+        rel = path
         for r in range(len(cols["episode_index"])):
             ep, fi = _scalar(cols["episode_index"][r]), _scalar(cols["frame_index"][r])
             if not isinstance(ep, int) or not isinstance(fi, int):

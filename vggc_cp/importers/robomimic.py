@@ -94,6 +94,52 @@ def _labels(h5py, f, path: str, n_frames: int, src: str) -> list[str | None]:
     return labels + [None] * (n_frames - len(labels))
 
 
+def _read_demos(h5py, f, src: str, builder: RecordingBuilder, camera: str, labels: str,
+                states: str | None) -> None:
+    """Every demo of the open file ``f`` into ``builder``, in natural demo order."""
+    data = f.get("data")
+    if not isinstance(data, h5py.Group):
+        raise VggcError(f"{src}: no group 'data' (robomimic keeps its demos in "
+                        f"data/demo_K)")
+    demos = sorted((int(m.group(1)), k) for k in data.keys()
+                   if (m := DEMO.fullmatch(k)))
+    if not demos:
+        raise VggcError(f"{src}: data holds no demo_K group (it holds: "
+                        f"{', '.join(sorted(data.keys())) or 'nothing'})")
+    for _k, demo in demos:
+        obs_path = f"data/{demo}/obs/{camera}"
+        obs = _dataset(h5py, f, obs_path, src)
+        if obs.dtype != np.uint8 or obs.ndim != 4 or obs.shape[3] != 3:
+            raise VggcError(f"{src}: {obs_path}: dtype {obs.dtype}, shape {obs.shape}; "
+                            f"expected uint8 [T, H, W, 3]")
+        t_len, h, w = (int(x) for x in obs.shape[:3])
+        check_image_size(h, w, f"{src}: {obs_path}")
+        if obs.size > cap("max_bytes"):
+            raise VggcError(f"{src}: {obs_path}: {obs.size:,} bytes, over the cap of "
+                            f"{cap('max_bytes'):,} (VGGC_CP_MAX_BYTES)")
+        names = _labels(h5py, f, f"data/{demo}/{labels}", t_len, src)
+        truth = None
+        if states:
+            st_path = f"data/{demo}/{states}"
+            ds = _dataset(h5py, f, st_path, src)
+            if ds.ndim != 1 or ds.shape[0] != t_len or ds.dtype.kind not in "SOU":
+                raise VggcError(f"{src}: {st_path}: expected {t_len} strings, found "
+                                f"shape {ds.shape} of {ds.dtype}")
+            truth = _strings(ds.asstr()[()] if ds.dtype.kind == "O" else ds[()],
+                             st_path, src)
+        builder.start_episode(demo)
+        for lo in range(0, t_len, BLOCK):
+            try:
+                block = obs[lo:lo + BLOCK]
+            except (OSError, ValueError) as exc:
+                raise VggcError(f"{src}: {obs_path}[{lo}]: unreadable "
+                                f"({type(exc).__name__})") from None
+            for i, image in enumerate(block, start=lo):
+                label = names[i] if i < t_len - 1 else None
+                builder.add(image, label, f"{src}: {obs_path}[{i}]",
+                            truth[i] if truth else None)
+
+
 def read_robomimic(config: ImportConfig, file, camera: str, labels: str,
                    states: str | None = None) -> Trace:
     """The trace of the demos of the robomimic HDF5 ``file`` (module docstring)."""
@@ -106,47 +152,11 @@ def read_robomimic(config: ImportConfig, file, camera: str, labels: str,
         raise VggcError(f"{src}: not a readable HDF5 file ({type(exc).__name__})") from None
     builder = RecordingBuilder(config, last_label="ignore")
     with f:
-        data = f.get("data")
-        if not isinstance(data, h5py.Group):
-            raise VggcError(f"{src}: no group 'data' (robomimic keeps its demos in "
-                            f"data/demo_K)")
-        demos = sorted((int(m.group(1)), k) for k in data.keys()
-                       if (m := DEMO.fullmatch(k)))
-        if not demos:
-            raise VggcError(f"{src}: data holds no demo_K group (it holds: "
-                            f"{', '.join(sorted(data.keys())) or 'nothing'})")
-        for _k, demo in demos:
-            obs_path = f"data/{demo}/obs/{camera}"
-            obs = _dataset(h5py, f, obs_path, src)
-            if obs.dtype != np.uint8 or obs.ndim != 4 or obs.shape[3] != 3:
-                raise VggcError(f"{src}: {obs_path}: dtype {obs.dtype}, shape {obs.shape}; "
-                                f"expected uint8 [T, H, W, 3]")
-            t_len, h, w = (int(x) for x in obs.shape[:3])
-            check_image_size(h, w, f"{src}: {obs_path}")
-            if obs.size > cap("max_bytes"):
-                raise VggcError(f"{src}: {obs_path}: {obs.size:,} bytes, over the cap of "
-                                f"{cap('max_bytes'):,} (VGGC_CP_MAX_BYTES)")
-            names = _labels(h5py, f, f"data/{demo}/{labels}", t_len, src)
-            truth = None
-            if states:
-                st_path = f"data/{demo}/{states}"
-                ds = _dataset(h5py, f, st_path, src)
-                if ds.ndim != 1 or ds.shape[0] != t_len or ds.dtype.kind not in "SOU":
-                    raise VggcError(f"{src}: {st_path}: expected {t_len} strings, found "
-                                    f"shape {ds.shape} of {ds.dtype}")
-                truth = _strings(ds.asstr()[()] if ds.dtype.kind == "O" else ds[()],
-                                 st_path, src)
-            builder.start_episode(demo)
-            for lo in range(0, t_len, BLOCK):
-                try:
-                    block = obs[lo:lo + BLOCK]
-                except (OSError, ValueError) as exc:
-                    raise VggcError(f"{src}: {obs_path}[{lo}]: unreadable "
-                                    f"({type(exc).__name__})") from None
-                for i, image in enumerate(block, start=lo):
-                    label = names[i] if i < t_len - 1 else None
-                    builder.add(image, label, f"{src}: {obs_path}[{i}]",
-                                truth[i] if truth else None)
+        try:
+            _read_demos(h5py, f, src, builder, camera, labels, states)
+        except (OSError, RuntimeError, KeyError, TypeError) as exc:
+            raise VggcError(f"{src}: damaged HDF5 file ({type(exc).__name__}: "
+                            f"{str(exc)[:120]})") from None
     source = {"format": "robomimic", "file": os.path.basename(src), "camera": camera,
               "labels": labels}
     if states:
