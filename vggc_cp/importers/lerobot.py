@@ -79,7 +79,7 @@ def _path_from(template: str, root: Path, where: str, **fields) -> Path:
                         f"{', '.join(sorted(TEMPLATE_FIELDS))}")
     try:
         rel = template.format(**fields)
-    except (KeyError, ValueError, IndexError) as exc:
+    except (KeyError, ValueError, IndexError, TypeError) as exc:
         raise VggcError(f"{where}: cannot fill the template {template!r} ({exc})") from None
     path = (root / rel).resolve()
     if root.resolve() not in path.parents:
