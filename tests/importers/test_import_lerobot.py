@@ -125,3 +125,32 @@ def test_not_a_dataset_and_a_template_leading_out(dataset, tmp_path, capsys):
     (ds / "meta/info.json").write_text(json.dumps(info))
     line = refused(capsys, tmp_path / "t.npz", "lerobot", ds, *ARGS)
     assert "leads out of the dataset folder" in line
+
+
+def test_image_features_in_parquet_and_a_states_column(original, tmp_path, capsys):
+    """A camera of dtype ``image`` (PNG bytes in the parquet rows) and ``--states``."""
+    import io
+
+    from PIL import Image
+
+    ds = write_lerobot(original, tmp_path / "ds", version="v2.1")
+    info = json.loads((ds / "meta/info.json").read_text())
+    info["features"][CAMERA]["dtype"] = "image"
+    (ds / "meta/info.json").write_text(json.dumps(info))
+    for e, (first, last) in enumerate(original.episodes()):
+        path = ds / f"data/chunk-000/episode_{e:06d}.parquet"
+        table = pq.read_table(path)
+        pngs = []
+        for image in original.observations[first:last + 1]:
+            buf = io.BytesIO()
+            Image.fromarray(image).save(buf, format="PNG")
+            pngs.append({"bytes": buf.getvalue(), "path": None})
+        table = table.append_column(CAMERA, pa.array(
+            pngs, pa.struct([("bytes", pa.binary()), ("path", pa.string())])))
+        table = table.append_column("state", pa.array(
+            [str(s) for s in original.states[first:last + 1]], pa.string()))
+        pq.write_table(table, path)
+    (ds / "videos").rename(tmp_path / "no-videos")  # the frames come from the parquet rows
+    out = tmp_path / "t.npz"
+    assert run(capsys, "lerobot", ds, *ARGS, "--states", "state", "-o", out)[0] == 0
+    assert_same_trace(load_trace(out), original, states=True)

@@ -48,11 +48,17 @@ def test_round_trip_with_string_labels_solves_to_the_same_graph(original, tmp_pa
     assert solved_graph(out, tmp_path / "b.json") == solved_graph(SHIPPED, tmp_path / "a.json")
 
 
-def test_integer_labels_with_names_one_per_transition(original, tmp_path, capsys):
+def test_integer_labels_with_names_one_per_transition_and_states(original, tmp_path, capsys):
     f = write_robomimic(original, tmp_path / "demos.hdf5", int_labels=True)
+    with h5py.File(f, "a") as h:
+        for e, (first, last) in enumerate(original.episodes()):
+            h.create_dataset(f"data/demo_{2 ** e}/states",
+                             data=original.states[first:last + 1].astype(object),
+                             dtype=h5py.string_dtype())
     out = tmp_path / "t.npz"
-    assert run(capsys, "robomimic", f, *ARGS, "-o", out, "--quiet")[0] == 0
-    assert_same_trace(load_trace(out), original)
+    assert run(capsys, "robomimic", f, *ARGS, "--states", "states", "-o", out,
+               "--quiet")[0] == 0
+    assert_same_trace(load_trace(out), original, states=True)
 
 
 @pytest.fixture
