@@ -75,3 +75,20 @@ def test_sizes_and_settings():
         ImportConfig(size=(2, 64))
     with pytest.raises(VggcError, match="neither 'pick' nor 'place'"):
         ImportConfig(label_map={"grasp": "grab"})
+
+
+def test_the_last_label_of_an_episode_is_refused_or_ignored():
+    frames = load_trace(SHIPPED).observations[:3]
+    labels = ["pick_a", "place_a", "pick_a"]  # a label on the last frame too
+
+    def build(last_label):
+        b = RecordingBuilder(ImportConfig(), last_label=last_label)
+        b.start_episode("e")
+        for t, (image, label) in enumerate(zip(frames, labels)):
+            b.add(image, label, f"rec: frame {t}")
+        return b.trace({"format": "test", "file": "rec"})
+
+    t = build("ignore")
+    assert t.actions.tolist() == [0, 1] and t.action_names == ("pick_a", "place_a")
+    with pytest.raises(VggcError, match=r"rec: frame 2: action 'pick_a' on the last frame"):
+        build("empty")

@@ -144,8 +144,10 @@ def frames_by_time(path, times: Sequence[float], places: Sequence[str]
     rate = stream.average_rate or stream.guessed_rate
     half = 0.5 / float(rate) if rate else 1e-3
 
+    seconds = float(base) if base else 0.0
+
     def when(frame) -> float:
-        return float(frame.pts * base) if frame.pts is not None else float(frame.time or 0.0)
+        return frame.pts * seconds if frame.pts is not None else float(frame.time or 0.0)
 
     with container:
         it = _frames(av, container, stream, src)
