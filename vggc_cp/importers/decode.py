@@ -85,7 +85,7 @@ def _frames(av, container, stream, src: str) -> Iterator:
         raise VggcError(f"{src}: the video is damaged ({type(exc).__name__})") from None
 
 
-def _rgb(frame, place: str) -> np.ndarray:
+def _rgb(frame) -> np.ndarray:
     image = frame.to_ndarray(format="rgb24")
     return np.ascontiguousarray(image, dtype=np.uint8)
 
@@ -117,7 +117,7 @@ def frames_by_index(path, indices: Sequence[int], places: Sequence[str]
     with container:
         for n, frame in enumerate(_frames(av, container, stream, src), start=1):
             if j < len(indices) and n - 1 == indices[j]:
-                yield _rgb(frame, places[j])
+                yield _rgb(frame)
                 j += 1
             if j == len(indices):
                 return
@@ -178,6 +178,6 @@ def frames_by_time(path, times: Sequence[float], places: Sequence[str]
                 raise VggcError(f"{places[j]}: time {t:.6g} s shows the same frame as "
                                 f"{places[j - 1]} (frames are {2 * half:.4g} s apart)")
             last_pts = best[1].pts
-            yield _rgb(best[1], places[j])
+            yield _rgb(best[1])
 
 
