@@ -32,15 +32,17 @@ def write_png(path: Path, image: np.ndarray) -> None:
     Image.fromarray(image).save(path, format="PNG")
 
 
-def encode_video(path: Path, frames: np.ndarray, fps: int = FPS, gop: int | None = None) -> None:
-    """A lossless H.264 (RGB, crf 0) video of ``frames``: decodes back bit-exact."""
+def encode_video(path: Path, frames: np.ndarray, fps: int = FPS, gop: int | None = None,
+                 av1: bool = False) -> None:
+    """A lossless H.264 (RGB, crf 0) video of ``frames``, which decodes back bit-exact; or with
+    ``av1`` a lossy AV1 one (yuv420p, crf 30) as LeRobot writes by default."""
     import av
 
     h, w = frames.shape[1:3]
     with av.open(str(path), "w") as c:
-        s = c.add_stream("libx264rgb", rate=fps)
-        s.width, s.height, s.pix_fmt = w, h, "rgb24"
-        s.options = {"crf": "0", **({"g": str(gop)} if gop else {})}
+        s = c.add_stream("libsvtav1" if av1 else "libx264rgb", rate=fps)
+        s.width, s.height, s.pix_fmt = w, h, "yuv420p" if av1 else "rgb24"
+        s.options = {"crf": "30" if av1 else "0", **({"g": str(gop)} if gop else {})}
         for image in frames:
             for packet in s.encode(av.VideoFrame.from_ndarray(image, format="rgb24")):
                 c.mux(packet)
@@ -123,7 +125,7 @@ def write_robomimic(trace: Trace, path: Path, int_labels: bool = False) -> Path:
 
 
 def write_lerobot(trace: Trace, folder: Path, version: str = "v3.0",
-                  label_column: str = "action_label") -> Path:
+                  label_column: str = "action_label", av1: bool = False) -> Path:
     """A LeRobot dataset folder holding ``trace``: v3.0 (one parquet and one mp4 for every
     episode, located through ``meta/episodes``) or v2.1 (one parquet and one mp4 per
     episode)."""
@@ -188,7 +190,7 @@ def write_lerobot(trace: Trace, folder: Path, version: str = "v3.0",
         pq.write_table(table(list(enumerate(eps))), p)
         v = folder / info["video_path"].format(chunk_index=0, file_index=0, video_key=CAMERA)
         v.parent.mkdir(parents=True, exist_ok=True)
-        encode_video(v, trace.observations, gop=8)  # key frames to seek to
+        encode_video(v, trace.observations, gop=8, av1=av1)  # key frames to seek to
         rows = {"episode_index": [], "length": [], "dataset_from_index": [],
                 "dataset_to_index": [], "data/chunk_index": [], "data/file_index": [],
                 f"videos/{CAMERA}/chunk_index": [], f"videos/{CAMERA}/file_index": [],

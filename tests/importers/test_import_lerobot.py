@@ -154,3 +154,20 @@ def test_image_features_in_parquet_and_a_states_column(original, tmp_path, capsy
     out = tmp_path / "t.npz"
     assert run(capsys, "lerobot", ds, *ARGS, "--states", "state", "-o", out)[0] == 0
     assert_same_trace(load_trace(out), original, states=True)
+
+
+@pytest.mark.slow
+def test_av1_video_as_lerobot_writes_it(original, tmp_path, capsys):
+    """LeRobot's default codec (AV1, yuv420p) is lossy: the frames come back close, the
+    actions and episodes exactly."""
+    import numpy as np
+
+    ds = write_lerobot(original, tmp_path / "ds", av1=True)
+    out = tmp_path / "t.npz"
+    assert run(capsys, "lerobot", ds, *ARGS, "-o", out, "--quiet")[0] == 0
+    got = load_trace(out)
+    assert got.observations.shape == original.observations.shape
+    assert got.action_names == original.action_names and got.episodes() == original.episodes()
+    np.testing.assert_array_equal(got.actions, original.actions)
+    error = np.abs(got.observations.astype(int) - original.observations.astype(int))
+    assert error.mean() < 8
