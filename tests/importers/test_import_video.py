@@ -69,6 +69,47 @@ def test_seeking_gives_the_frames_decoding_gives(tmp_path):
     np.testing.assert_array_equal(np.stack(near), frames[[0, 40, 119]])
 
 
+def test_frame_indices_in_a_variable_rate_video_and_a_stream_without_time_stamps(tmp_path):
+    """Indices count frames in display order: the time stamps (read from the packets) may be
+    irregular, and a raw H.264 stream without any is decoded from the start."""
+    from fractions import Fraction
+
+    import av
+
+    from vggc_cp.importers.decode import _display_pts
+
+    frames = np.random.default_rng(1).integers(0, 256, size=(60, 16, 16, 3), dtype=np.uint8)
+    vfr = tmp_path / "vfr.mkv"
+    with av.open(str(vfr), "w") as c:
+        s = c.add_stream("ffv1", rate=10)
+        s.width = s.height = 16
+        s.pix_fmt = "bgr0"
+        s.codec_context.time_base = Fraction(1, 1000)
+        t = 0
+        for k, image in enumerate(frames):
+            f = av.VideoFrame.from_ndarray(image, format="rgb24")
+            f.pts, f.time_base = t, Fraction(1, 1000)
+            t += 50 if k % 3 else 2500  # gaps of 2.5 s: reached by seeking
+            for packet in s.encode(f):
+                c.mux(packet)
+        for packet in s.encode():
+            c.mux(packet)
+    raw = tmp_path / "raw.h264"
+    with av.open(str(raw), "w", format="h264") as c:
+        s = c.add_stream("libx264rgb", rate=10)
+        s.width, s.height, s.pix_fmt, s.options = 16, 16, "rgb24", {"crf": "0"}
+        for image in frames:
+            for packet in s.encode(av.VideoFrame.from_ndarray(image, format="rgb24")):
+                c.mux(packet)
+        for packet in s.encode():
+            c.mux(packet)
+    assert _display_pts(vfr)[:4] == [0, 2500, 2550, 2600] and _display_pts(raw) is None
+    wanted = [0, 1, 2, 3, 20, 40, 59]
+    for video in (vfr, raw):
+        got = np.stack(list(frames_by_index(video, wanted, [str(k) for k in wanted])))
+        np.testing.assert_array_equal(got, frames[wanted])
+
+
 @pytest.fixture
 def small(original, tmp_path):
     """The first two episodes in a video, frame k of the video = frame k of the trace."""

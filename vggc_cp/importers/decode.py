@@ -104,11 +104,81 @@ def frames_by_index(path, indices: Sequence[int], places: Sequence[str]
     ``path``, in order, as uint8 [H, W, 3].
 
     ``indices`` must increase strictly; ``places[j]`` names index ``j`` in error messages.
-    Frames between the wanted ones are decoded but not converted to RGB.
+    The packets are read first (no decoding) to learn every frame's time stamp, so a wanted
+    frame more than :data:`SEEK_AHEAD_S` ahead is reached by seeking; a video whose packets
+    carry no time stamps, or whose decoded frames do not match them, is decoded from the start
+    (frames between the wanted ones decoded but not converted to RGB).
     """
     _check_increasing(list(indices), places, "frame")
     if len(indices) and indices[0] < 0:
         raise VggcError(f"{places[0]}: frame {indices[0]} is negative")
+    stamps = _display_pts(path)
+    if stamps is None:
+        yield from _frames_in_order(path, indices, places)
+        return
+    for j, k in enumerate(indices):
+        if k >= len(stamps):
+            raise VggcError(f"{places[j]}: frame {k} is past the end of {path} "
+                            f"({len(stamps)} frames)")
+    done = 0
+    for image in _frames_at_pts(path, [stamps[k] for k in indices]):
+        if image is None:  # the decoded frames do not match the packets' time stamps
+            yield from _frames_in_order(path, indices[done:], places[done:])
+            return
+        yield image
+        done += 1
+
+
+def _display_pts(path) -> list[int] | None:
+    """Time stamps (pts) of every frame in display order, read from the packets without
+    decoding; None when a packet has none or two share one."""
+    av, container, stream = _open_video(path)
+    pts = []
+    with container:
+        try:
+            for packet in container.demux(stream):
+                if packet.size == 0:
+                    continue  # the demuxer's final empty packet
+                if packet.pts is None:
+                    return None
+                pts.append(int(packet.pts))
+        except (av.FFmpegError, OSError, ValueError) as exc:
+            raise VggcError(f"{path}: the video is damaged ({type(exc).__name__})") from None
+    pts.sort()
+    return pts if len(set(pts)) == len(pts) else None
+
+
+def _frames_at_pts(path, targets: Sequence[int]) -> Iterator[np.ndarray | None]:
+    """The frames whose pts are ``targets`` (increasing), seeking over long gaps; yields None
+    (and stops) when decoding does not give a frame of exactly that pts."""
+    av, container, stream = _open_video(path)
+    src = str(path)
+    stream.thread_type = "AUTO"
+    base = float(stream.time_base) if stream.time_base else 0.0
+    with container:
+        it = _frames(av, container, stream, src)
+        last = None  # pts of the last frame decoded
+        for target in targets:
+            ahead = (target - (last if last is not None else 0)) * base
+            if base and ahead > SEEK_AHEAD_S:
+                container.seek(int(target), stream=stream, backward=True, any_frame=False)
+                it = _frames(av, container, stream, src)
+            for frame in it:
+                if frame.pts is None or frame.pts > target:
+                    yield None
+                    return
+                last = frame.pts
+                if frame.pts == target:
+                    yield _rgb(frame)
+                    break
+            else:
+                yield None
+                return
+
+
+def _frames_in_order(path, indices: Sequence[int], places: Sequence[str]
+                     ) -> Iterator[np.ndarray]:
+    """The frames ``indices`` decoding from the first frame, counting frames."""
     av, container, stream = _open_video(path)
     src = str(path)
     stream.thread_type = "AUTO"
