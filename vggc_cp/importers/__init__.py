@@ -39,10 +39,29 @@ __all__ = ["IMPORTERS", "Argument", "ImportConfig", "Importer", "get_importer",
 
 
 def import_recording(layout: str, config: ImportConfig | None = None, **arguments) -> Trace:
-    """Read a recording of ``layout`` (a name in :data:`IMPORTERS`) into a validated trace.
+    """Read a recording of ``layout`` into a validated trace.
 
-    ``arguments`` are the layout's arguments by name (``log=``, ``video=``, ``file=``,
-    ``folder=``, ``camera=``, ``labels=``, ``states=``).
+    Parameters
+    ----------
+    layout : str
+        A name in :data:`IMPORTERS`: ``images``, ``video``, ``robomimic``, ``lerobot``.
+    config : ImportConfig, optional
+        ``--size`` and ``--map``; default: the recording's size, no label map.
+    **arguments
+        The layout's arguments by name: ``log=`` (images); ``video=``, ``log=`` (video);
+        ``file=``, ``camera=``, ``labels=``, ``states=`` (robomimic); ``folder=``,
+        ``camera=``, ``labels=``, ``states=`` (lerobot).
+
+    Returns
+    -------
+    Trace
+        ``observations`` uint8 (N, H, W, 3), ``actions`` int64 (N-1,), ``action_names``
+        sorted, ``states`` (N,) when the recording has them, ``meta["source"]``.
+
+    Raises
+    ------
+    VggcError
+        Naming the file and the row, frame or dataset of the first problem.
     """
     importer = get_importer(layout)
     return importer.read(config or ImportConfig(), **arguments)

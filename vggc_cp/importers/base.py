@@ -254,9 +254,21 @@ def episodes_of_log(src: str, rows: list[tuple[int, dict[str, str]]], key: str =
 
 
 def resize(image: np.ndarray, size: tuple[int, int] | None, place: str) -> np.ndarray:
-    """``image`` (uint8 [H, W, 3]) brought to ``size = (width, height)`` by area averaging.
+    """``image`` brought to ``size`` by area averaging.
 
-    Deterministic (Pillow's box filter, integer arithmetic). Refuses upsampling.
+    Parameters
+    ----------
+    image : ndarray, uint8, shape (H, W, 3)
+    size : (int, int) or None
+        ``(width, height)``; None returns ``image`` unchanged.
+    place : str
+        Names the frame in the error on upsampling (refused).
+
+    Returns
+    -------
+    ndarray, uint8, shape (height, width, 3)
+        Each pixel the mean of the input pixels it covers (Pillow's box filter, fixed-point:
+        within 1 of the exact mean; deterministic).
     """
     if size is None:
         return image
