@@ -15,7 +15,8 @@ ROOT = Path(vggc_cp.__file__).parent
 FLOORS = (
     ("vggc_cp", "vggc_cp.errors", "vggc_cp.atomic", "vggc_cp.safeio", "vggc_cp.score",
      "vggc_cp.trace", "vggc_cp.graph", "vggc_cp.solution"),
-    ("vggc_cp.vision", "vggc_cp.sim", "vggc_cp.solvers", "vggc_cp.baselines"),
+    ("vggc_cp.vision", "vggc_cp.sim", "vggc_cp.solvers", "vggc_cp.baselines",
+     "vggc_cp.importers"),
     ("vggc_cp.pipeline",),
     ("vggc_cp.localize",),
     ("vggc_cp.evaluate",),
