@@ -25,6 +25,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.notebook_cmds",
     "vggc_cp.cli.compare_cmds",
     "vggc_cp.cli.robustness_cmds",
+    "vggc_cp.cli.graph_cmds",
 ]
 
 
