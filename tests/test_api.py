@@ -17,7 +17,7 @@ import pytest
 import vggc_cp as vg
 from vggc_cp import api, pipeline
 from vggc_cp.cli import main
-from vggc_cp.errors import EvidenceNotApplicable, UnknownNameError, VggcError
+from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.vision.evidence import EVIDENCE_REGISTRY, Evidence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,8 +43,8 @@ def test_docstring_examples_run(module, monkeypatch):
 
 
 def test_importing_the_package_imports_nothing_heavy():
-    code = ("import sys, vggc_cp; heavy = %r; "
-            "print([m for m in heavy if m in sys.modules])" % (HEAVY,))
+    code = (f"import sys, vggc_cp; heavy = {HEAVY!r}; "
+            "print([m for m in heavy if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"
@@ -81,7 +81,7 @@ def test_to_networkx(learned):
         assert attrs["role"] == ("pick" if graph.node_role[u] == 0 else "place")
     edges = sorted((u, k, v) for u, v, k in g.edges(keys=True))
     assert edges == sorted(graph.edge_list())
-    for u, v, k, attrs in g.edges(keys=True, data=True):
+    for _u, _v, k, attrs in g.edges(keys=True, data=True):
         assert attrs["action"] == k and attrs["support"] >= 1
 
 

@@ -97,15 +97,12 @@ def band_layout(graph: TaskGraph, sweeps: int = 4) -> dict[int, tuple[float, flo
     cols = min(width, BAND_WIDTH)
     pos: dict[int, tuple[float, float]] = {}
     rows_top = math.ceil(len(order_top) / cols) if order_top else 0
-    for band, order, y0, step in ((0, order_top, 0.0, -1.0), (1, order_bottom, None, -1.0)):
-        if y0 is None:
-            y0 = -(rows_top + 1.0)
+    for order, y0 in ((order_top, 0.0), (order_bottom, -(rows_top + 1.0))):
         n = len(order)
         for i, u in enumerate(order):
             row, col = divmod(i, cols)
             in_row = min(cols, n - row * cols)
-            x = (col + 0.5) * cols / in_row if in_row else 0.0
-            pos[u] = (x, y0 + step * row)
+            pos[u] = ((col + 0.5) * cols / in_row, y0 - row)
     return pos
 
 

@@ -16,11 +16,11 @@ import numpy as np
 
 from vggc_cp.graph_plots import (
     GraphPicture,
-    pyplot,
     draw_graph,
     figure_bytes,
     image_png,
     png_data_uri,
+    pyplot,
     role_name,
 )
 

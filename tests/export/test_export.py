@@ -46,7 +46,7 @@ def _check_networkx(g, solution_path: Path):
     assert isinstance(g, nx.MultiDiGraph)
     assert sorted(g.nodes) == sorted(set(labels))
     assert sorted((u, k, v) for u, v, k in g.edges(keys=True)) == expected_edges(solution_path)
-    for u, v, k, attrs in g.edges(keys=True, data=True):
+    for _u, _v, k, attrs in g.edges(keys=True, data=True):
         assert attrs["action"] == k
     for u, attrs in g.nodes(data=True):
         assert attrs["size"] == labels.count(u)

@@ -30,8 +30,7 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="report .html")
     p.set_defaults(func=cmd_report)
 
-    from vggc_cp.export.base import EXPORTERS
-    from vggc_cp.export import EXPORTERS as _registered  # noqa: F401  (the formats register)
+    from vggc_cp.export import EXPORTERS  # the package registers every format
 
     p = sub.add_parser("export", help="write a solution's graph for other tools: networkx "
                                       "JSON, GraphML, DOT, PDDL")

@@ -23,7 +23,7 @@ from pathlib import Path
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError
 from vggc_cp.export import dot, graphml, node_link, pddl  # noqa: F401  (register the formats)
-from vggc_cp.export.base import EXPORTERS, ExportRequest, Exporter, get_exporter, register_exporter
+from vggc_cp.export.base import EXPORTERS, Exporter, ExportRequest, get_exporter, register_exporter
 from vggc_cp.graph import TaskGraph
 
 __all__ = ["EXPORTERS", "ExportRequest", "Exporter", "export_graph", "export_texts",
