@@ -176,3 +176,16 @@ def test_plan_and_evaluate(trace, learned, tmp_path):
     assert metrics.exec == 1.0 and metrics.nodes == 6
     with pytest.raises(VggcError, match="no field 'states'"):
         vg.evaluate(trace.without_states(), learned)
+
+
+def test_the_readme_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text.split("## From Python", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "data").symlink_to(ROOT / "data")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("6 ") and "no warning" in out[0]
+    assert out[2] == "[(0, 'pick_red_1', 4), (4, 'place_red_2', 1)]" and out[3] == "1.0"
+    assert json.loads((tmp_path / "s.json").read_text())["trace"] == "data/fruit-2x3.npz"

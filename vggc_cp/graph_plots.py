@@ -6,8 +6,9 @@ in the lower one (every edge joins the two bands: a pick leads to a place node a
 band ordered by the barycentre of its neighbours (a few sweeps, as in layered drawing) so that
 edges cross little. A band wider than :data:`BAND_WIDTH` nodes wraps onto more rows. Up to
 :data:`MAX_IMAGES` nodes each node is its medoid image in a frame (blue: pick, orange: place);
-beyond, a small square (pick) or disc (place), so a few hundred nodes stay readable; edge labels
-are drawn up to :data:`MAX_EDGE_LABELS` edges.
+beyond, a small square (pick) or disc (place) and the edges as plain lines (a plan's edges stay
+arrows), so a few hundred nodes stay readable and quick to draw; edge labels are drawn up to
+:data:`MAX_EDGE_LABELS` edges.
 
 The medoid of a node is its member of least total pixel distance to the others, on at most
 :data:`MEDOID_SAMPLE` members (evenly spaced) of images subsampled to about 24 pixels a side:
@@ -178,7 +179,17 @@ def draw_graph(pic: GraphPicture):
     plan_nodes = {u for (u, _, _) in pic.plan} | {v for (_, _, v) in pic.plan}
     labels = graph.n_edges <= MAX_EDGE_LABELS
     rad = 0.15  # one sign for all: the two directions between two nodes bend apart
-    for (u, a, v) in sorted(graph.edges):
+    edges = sorted(graph.edges)
+    if n > MAX_IMAGES:  # many nodes: the edges off the plan as one collection of lines
+        from matplotlib.collections import LineCollection
+
+        cold = [e for e in edges if e not in on_plan]
+        lines = LineCollection([(pos[u], pos[v]) for (u, _, v) in cold], colors="#555555",
+                               linewidths=0.4, alpha=0.3 if pic.plan else 0.5, zorder=1)
+        lines.set_gid("edges")
+        ax.add_collection(lines)
+        edges = [e for e in edges if e in on_plan]
+    for (u, a, v) in edges:
         hot = (u, a, v) in on_plan
         arrow = FancyArrowPatch(pos[u], pos[v], connectionstyle=f"arc3,rad={rad}",
                                 arrowstyle="-|>", mutation_scale=10 if n <= MAX_IMAGES else 6,
