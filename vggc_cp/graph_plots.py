@@ -177,6 +177,7 @@ def draw_graph(pic: GraphPicture):
     ax.set_axis_off()
     on_plan = {(u, a, v) for (u, a, v) in pic.plan}
     plan_nodes = {u for (u, _, _) in pic.plan} | {v for (_, _, v) in pic.plan}
+    ends = {pic.plan[0][0]: "start", pic.plan[-1][2]: "goal"} if pic.plan else {}
     labels = graph.n_edges <= MAX_EDGE_LABELS
     rad = 0.15  # one sign for all: the two directions between two nodes bend apart
     edges = sorted(graph.edges)
@@ -230,15 +231,17 @@ def draw_graph(pic: GraphPicture):
                                             else "round,pad=0.15"})
             box.set_gid(f"node-{u}")
             ax.add_artist(box)
-            ax.text(x, y - 0.42, f"{u} ({len(graph.members[u])})", fontsize=7, ha="center",
-                    va="top", zorder=6)
+            end = f" {ends[u]}" if u in ends else ""
+            ax.text(x, y - 0.42, f"{u} ({len(graph.members[u])}){end}", fontsize=7,
+                    ha="center", va="top", zorder=6, color=PLAN_COLOUR if end else "black")
         else:
             dot = ax.scatter([x], [y], s=40 if n <= 200 else 16, marker="s" if role == "pick"
                              else "o", color=colour, zorder=5,
                              edgecolors="black", linewidths=0.5)
             dot.set_gid(f"node-{u}")
-            if n <= 200:
-                ax.text(x, y - 0.18, str(u), fontsize=5, ha="center", va="top", zorder=6)
+            if n <= 200 or u in ends:
+                ax.text(x, y - 0.18, f"{u} {ends.get(u, '')}".strip(), fontsize=5,
+                        ha="center", va="top", zorder=6)
     title = pic.title or f"{n} nodes, {graph.n_edges} edges"
     ax.set_title(f"{title}\nupper band: pick nodes (square frames), lower band: place nodes "
                  f"(round frames)", fontsize=9)

@@ -48,18 +48,21 @@ def path_figure(rows: list[dict]) -> bytes:
     plt = pyplot()
     t = [r["threshold"] for r in rows]
     fig, ax = plt.subplots(figsize=(6, 2.8), constrained_layout=True)
-    ax.plot(t, [r["nodes"] for r in rows], "o-", color="#1f77b4", ms=3, label="nodes")
+    handles = ax.plot(t, [r["nodes"] for r in rows], "o-", color="#1f77b4", ms=4,
+                      label="nodes", zorder=3)
     ax.set_xscale("log")
     ax.set_xlabel("merge threshold")
     ax.set_ylabel("nodes", color="#1f77b4")
     dl = [r.get("description_length") for r in rows]
     if all(isinstance(x, (int, float)) for x in dl):
         ax2 = ax.twinx()
-        ax2.plot(t, dl, "s-", color="#2ca02c", ms=3)
+        handles += ax2.plot(t, dl, "s--", color="#2ca02c", ms=3, label="description length")
         ax2.set_ylabel("description length (nats)", color="#2ca02c")
     for r in rows:
         if r.get("selected"):
-            ax.axvline(r["threshold"], color="#d62728", ls="--", lw=1)
+            handles.append(ax.axvline(r["threshold"], color="#d62728", ls=":", lw=1,
+                                      label="selected"))
+    ax.legend(handles=handles, fontsize=7, loc="upper right")
     return figure_bytes(fig, "png")
 
 
@@ -114,7 +117,9 @@ def report_html(pic: GraphPicture, extra: dict, *, solution_name: str, trace_nam
                            ("plateau", "thresholds giving the same partition (plateau)"),
                            ("obs_per_node", "observations per node")):
             if key in conf:
-                parts.append(f"<li>{label}: {e(str(conf[key]))}</li>")
+                v = conf[key]
+                text = f"{v:.4g}" if isinstance(v, float) else str(v)
+                parts.append(f"<li>{label}: {e(text)}</li>")
         for key in ("predicted", "contradicted", "unseen"):
             if isinstance(held.get(key), (int, float)):
                 parts.append(f"<li>held-out transitions {key}: {100 * held[key]:.1f} %</li>")
