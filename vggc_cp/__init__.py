@@ -18,7 +18,7 @@ heavy)::
 import sys
 import types
 
-__version__ = "0.1.0"
+from vggc_cp.version import __version__
 
 #: The names of :mod:`vggc_cp.api` the package re-exports.
 FACE = ("LearnConfig", "Learned", "Solution", "Trace", "evaluate", "learn_graph",
