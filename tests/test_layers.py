@@ -13,17 +13,23 @@ ROOT = Path(vggc_cp.__file__).parent
 
 #: Floors, low to high; a module's floor is that of its longest listed prefix.
 FLOORS = (
-    ("vggc_cp", "vggc_cp.errors", "vggc_cp.atomic", "vggc_cp.safeio", "vggc_cp.score",
+    ("vggc_cp", "vggc_cp.version", "vggc_cp.errors", "vggc_cp.atomic", "vggc_cp.safeio", "vggc_cp.score",
      "vggc_cp.trace", "vggc_cp.graph", "vggc_cp.solution"),
     ("vggc_cp.vision", "vggc_cp.sim", "vggc_cp.solvers", "vggc_cp.baselines",
-     "vggc_cp.importers"),
+     "vggc_cp.importers", "vggc_cp.export"),
     ("vggc_cp.pipeline",),
     ("vggc_cp.localize",),
     ("vggc_cp.evaluate",),
     ("vggc_cp.experiments",),
-    ("vggc_cp.plots", "vggc_cp.notebooks"),
+    ("vggc_cp.plots", "vggc_cp.notebooks", "vggc_cp.graph_plots", "vggc_cp.report",
+     "vggc_cp.api"),
     ("vggc_cp.cli", "vggc_cp.__main__"),
 )
+
+
+#: The one import from a lower floor to a higher one: the package's ``__getattr__`` (PEP 562)
+#: loads its face, :mod:`vggc_cp.api`, when one of its names is first used.
+FACE_IMPORTS = {("vggc_cp", "vggc_cp.api")}
 
 
 def module_name(path: Path) -> str:
@@ -68,7 +74,7 @@ def test_every_module_is_on_a_floor():
 
 def test_no_module_imports_from_a_higher_floor():
     upward = sorted((m, i) for m, imps in all_imports().items() for i in imps
-                    if floor_of(i) > floor_of(m))
+                    if floor_of(i) > floor_of(m) and (m, i) not in FACE_IMPORTS)
     assert upward == [], "imports from a higher floor:\n" + "\n".join(
         f"  {m} -> {i}" for m, i in upward)
 

@@ -114,6 +114,29 @@ def solution_dict(labels, roles, graph: TaskGraph, *, k_pick: int, k_place: int,
     return out
 
 
+def jsonable(obj):
+    """``obj`` with numpy scalars made Python numbers and tuples lists, dict keys made strings
+    (what :func:`json.dumps` needs)."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if hasattr(obj, "item"):
+        return obj.item()
+    return obj
+
+
+def settings_record(cfg) -> dict | str:
+    """A settings dataclass as the solution file's ``distances`` field: plain values kept,
+    anything else written as its ``repr``."""
+    import dataclasses
+
+    if dataclasses.is_dataclass(cfg):
+        return {k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)
+                for k, v in dataclasses.asdict(cfg).items()}
+    return repr(cfg)
+
+
 #: keys of wall-clock timings, left out of solution files unless asked for
 TIMING_KEY = re.compile(r"(^|_)seconds$|^(wall|user)_time$")
 

@@ -41,6 +41,7 @@ def register(sub) -> None:
     from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
     from vggc_cp.solvers.merge import PATH_SELECTIONS
     from vggc_cp.solvers.sweep import SELECTIONS
+    from vggc_cp.vision.evidence import evidence_names
 
     p = sub.add_parser("solve", help="learn a task graph: distances, (k_pick, k_place) sweep, "
                                      "selection; writes the solution JSON")
@@ -70,8 +71,9 @@ def register(sub) -> None:
     p.add_argument("--evidence", default="auto", metavar="NAME",
                    help="merge solver: the visual evidence; auto (action footprints; when "
                         "their graph is suspect or they do not apply, the keypoint attention "
-                        "distances, kept only if their graph passes its checks), footprints, "
-                        "or attention (the Sinkhorn distances of --attention)")
+                        "distances, kept only if their graph passes its checks), attention "
+                        "(the Sinkhorn distances of --attention), or a registered evidence: "
+                        f"{', '.join(evidence_names())}")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
@@ -305,27 +307,22 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
 
 
 def _learn_options(args):
-    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options."""
-    from vggc_cp.errors import lookup
-    from vggc_cp.pipeline import EVIDENCES, LearnConfig
-    from vggc_cp.solvers.merge import PATH_SELECTIONS
+    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options (it refuses an
+    unknown evidence or rule, naming the known ones)."""
+    from vggc_cp.pipeline import LearnConfig
 
-    rule = args.select or "mdl"
-    lookup(PATH_SELECTIONS, rule, "path selection rule")
-    lookup({e: e for e in EVIDENCES}, args.evidence, "evidence")
     thresholds = _parse_thresholds(args.thresholds)
-    cfg = config_from_args(args)
-    evidence = cfg.backend if args.evidence == "attention" else args.evidence
-    return LearnConfig(evidence=evidence, distance=cfg, rule=rule,
-                        thresholds=None if thresholds is None else tuple(thresholds)), cfg
+    return LearnConfig(evidence=args.evidence, distance=config_from_args(args),
+                       rule=args.select or "mdl",
+                       thresholds=None if thresholds is None else tuple(thresholds))
 
 
 def _solve_merge(args) -> int:
     """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
-    from vggc_cp.pipeline import FOOTPRINTS, learn_graph
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.trace import load_trace
 
-    options, cfg = _learn_options(args)
+    options = _learn_options(args)
     trace = load_trace(args.trace)
     learned = learn_graph(trace, options, progress=not args.quiet)
     chosen = learned.chosen
@@ -360,14 +357,13 @@ def _solve_merge(args) -> int:
                            "cannot_link": exact.cannot_link,
                            "seconds": round(exact.seconds, 3)}}
     conf = learned.confidence
-    # the settings of the evidence that was chosen (the fallback's backend, not --attention's)
-    settings = (options.footprint if chosen.evidence == FOOTPRINTS
-                else dataclasses.replace(cfg, backend=chosen.evidence))
-    _write_chosen(args, trace, settings,
-                  problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
-                  **_jsonable(learned.solution_fields()),
-                  seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
-                  **extra)
+    learned.save(args.output, timings=getattr(args, "timings", False), **extra)
+    graph = learned.graph
+    counts = graph.count_by_role()
+    print(f"chosen         threshold {learned.threshold:.4f} ({path.rule}): {graph.n_nodes} "
+          f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
+          f"J {best.J:.4f}, {best.status}")
+    print(f"wrote          {args.output}")
     print(f"confidence     {conf.summary()}")
     if conf.suspect:
         print("vggc-cp: warning: the learned graph is suspect (" + "; ".join(conf.reasons)

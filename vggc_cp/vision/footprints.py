@@ -69,7 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from vggc_cp.errors import VggcError
+from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.occupancy import refine_presence
 
@@ -425,18 +425,18 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
 
     Raises
     ------
-    VggcError
+    EvidenceNotApplicable
         When the trace has no transition, or no action changes the images in one place.
     """
     params = params or FootprintConfig()
     src, act, dst = trace.transitions()
     if len(act) == 0:
-        raise VggcError("footprint evidence needs at least one transition")
+        raise EvidenceNotApplicable("footprint evidence needs at least one transition")
     x = normalise_frames(trace.observations)
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():
-        raise VggcError("no action changes the images in one place of its own (every pixel "
+        raise EvidenceNotApplicable("no action changes the images in one place of its own (every pixel "
                         "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
