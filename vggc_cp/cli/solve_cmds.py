@@ -279,11 +279,11 @@ def _problem(args, executor=None):
 def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
     """Write the chosen result as the solution JSON and print its summary line."""
     from vggc_cp.pipeline import solution_record
-    from vggc_cp.solution import write_solution
+    from vggc_cp.solution import jsonable, write_solution
 
     graph = problem.graph(best.labels)
     data = solution_record(problem, best, distances=_config_record(cfg), trace=str(args.trace),
-                           trace_sha256=trace.content_hash(), stats=_jsonable(best.stats),
+                           trace_sha256=trace.content_hash(), stats=jsonable(best.stats),
                            **extra)
     write_solution(args.output, data, timings=getattr(args, "timings", False))
     counts = graph.count_by_role()
@@ -323,6 +323,7 @@ def _learn_options(args):
 def _solve_merge(args) -> int:
     """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
     from vggc_cp.pipeline import FOOTPRINTS, learn_graph
+    from vggc_cp.solution import jsonable
     from vggc_cp.trace import load_trace
 
     options, cfg = _learn_options(args)
@@ -365,7 +366,7 @@ def _solve_merge(args) -> int:
                 else dataclasses.replace(cfg, backend=chosen.evidence))
     _write_chosen(args, trace, settings,
                   problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
-                  **_jsonable(learned.solution_fields()),
+                  **jsonable(learned.solution_fields()),
                   seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
                   **extra)
     print(f"confidence     {conf.summary()}")
@@ -374,15 +375,6 @@ def _solve_merge(args) -> int:
               + "); check it before planning on it", file=sys.stderr)
     return 0
 
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if hasattr(obj, "item"):
-        return obj.item()
-    return obj
 
 
 # ------------------------------------------------------------------ plan
@@ -470,11 +462,8 @@ def _bench_trace(args):
     path = root / f"{BENCH_NAME}-d{args.transitions}-s{args.seed}.npz"
     if path.is_file():
         return load_trace(path), path, 0.0
-    try:
-        from vggc_cp.sim.explore import generate
-    except ImportError:
-        raise VggcError("bench sweep needs the simulator (vggc_cp.sim) to generate "
-                        f"{BENCH_NAME}") from None
+    from vggc_cp.sim.explore import generate
+
     t0 = time.perf_counter()
     trace = generate(BENCH_NAME, args.transitions, args.seed).trace
     save_trace(trace, path)

@@ -24,7 +24,6 @@ and :func:`write_tables` writes ``robustness.csv`` and ``robustness.md``.
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import math
 import os
@@ -34,20 +33,22 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
+from vggc_cp.evaluate.metrics import MIN_EXEC
 from vggc_cp.experiments.table1 import (
     BACKENDS,
     _cached,
-    _jsonable,
     _spread,
     exploration_of,
     split_cached,
     trace_is_current,
 )
 from vggc_cp.sim import benchmark_names, get_spec
+from vggc_cp.sim.looks import LOOKS
+from vggc_cp.solution import jsonable
 
 CELL_FORMAT = "vggc-robustness-cell/1"
-#: The acceptance rule of one run (fractions; nodes as a multiple of |V*|).
-MIN_EXEC = 0.90
+#: The acceptance rule of one run (fractions; nodes as a multiple of |V*|); the Exec bar is
+#: :data:`vggc_cp.evaluate.metrics.MIN_EXEC`.
 NODES_LOW = 0.9
 NODES_HIGH = 1.1
 MIN_OPT_PATH = 0.95
@@ -76,15 +77,6 @@ ROW_FIELDS = ("benchmark", "look", "seed", "split", "transitions", "observations
               "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
               "obs_per_state", "seconds_learn", "seconds_evaluate", "dynamics")
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
-
-
-def looks_available() -> tuple[str, ...]:
-    """The looks this checkout's renderer knows (``clean`` only before the looks were added)."""
-    try:
-        from vggc_cp.sim.looks import LOOKS
-    except ImportError:
-        return (CLEAN,)
-    return tuple(LOOKS)
 
 
 # ---------------------------------------------------------------- configuration
@@ -153,12 +145,8 @@ class RobustnessConfig:
         if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
             raise VggcError(f"--seeds must be distinct non-negative integers, got "
                             f"{list(self.seeds)}")
-        known = looks_available()
         for look in self.looks:
-            if look not in known:
-                hint = ("" if look not in DEFAULT_LOOKS else
-                        " (this checkout's renderer has no such look yet)")
-                raise VggcError(f"unknown look {look!r}; known: {', '.join(known)}{hint}")
+            lookup(LOOKS, look, "look")
         if self.jobs < 1:
             raise VggcError(f"--jobs must be at least 1, got {self.jobs}")
         if self.n_queries < 1:
@@ -218,17 +206,22 @@ def i2p_key(cfg: RobustnessConfig) -> dict:
     """The settings of a cell's I2P figures (novel renders, queries, localizer training)."""
     from vggc_cp.localize import TrainConfig
 
-    return _jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
+    return jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
                       "train": TrainConfig().as_dict()})
+
+
+def _source_path(name: str) -> Path:
+    """The source file of the package's module ``name`` (read, not imported)."""
+    parts = name.split(".")
+    path = Path(__file__).parents[1].joinpath(*parts[1:])
+    return path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
 
 
 def code_digest() -> str:
     """SHA-256 (12 hex digits) of the source of :data:`CODE_MODULES`."""
     h = hashlib.sha256()
     for name in CODE_MODULES:
-        spec = importlib.util.find_spec(name)
-        if spec is not None and spec.origin and Path(spec.origin).is_file():
-            h.update(name.encode() + b"\0" + Path(spec.origin).read_bytes())
+        h.update(name.encode() + b"\0" + _source_path(name).read_bytes())
     return h.hexdigest()[:12]
 
 
@@ -239,7 +232,7 @@ def learn_key() -> dict:
     opts = LearnConfig()
     out = {k: v for k, v in asdict(opts).items() if k != "distance"}
     out["distance"] = opts.distance.key()
-    return _jsonable(out)
+    return jsonable(out)
 
 
 def cell_jobs(cfg: RobustnessConfig) -> list[RobustCell]:
@@ -359,10 +352,10 @@ def run_cell(job: RobustCell) -> dict:
                    labels_solution(trace, learned.labels, solver="learn_graph",
                                    status="feasible", evidence=learned.chosen.evidence,
                                    threshold=_finite(learned.threshold),
-                                   confidence=_jsonable(conf.as_dict())))
+                                   confidence=jsonable(conf.as_dict())))
     if job.i2p:
         row |= run_i2p(job, trace)
-    row = _jsonable(row)
+    row = jsonable(row)
     record = {"key": job.key, "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {})
     write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
     return row
