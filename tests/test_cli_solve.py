@@ -226,3 +226,18 @@ def test_options_the_solver_would_ignore_are_refused(toy_path, tmp_path, capsys,
     assert main(["solve", str(path), "-o", str(out), "--quiet", *extra, *FAST]) == 2
     err = capsys.readouterr().err
     assert word in err and len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+@pytest.mark.parametrize("extra", [["--eps", "0.1"], ["--attention", "keypoints"],
+                                   ["--sinkhorn-device", "numpy"], ["--no-cache"],
+                                   ["--distance-rows", "4"], ["--cache-dir", "c"]])
+def test_distance_options_are_refused_under_footprints(toy_path, tmp_path, capsys, extra):
+    """Footprints read no Sinkhorn distance: its options are refused like a grid option under
+    merge (exit 2, one line naming the flag, nothing written)."""
+    path, _ = toy_path
+    out = tmp_path / "s.json"
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--evidence", "footprints",
+                 *extra]) == 2
+    err = capsys.readouterr().err
+    assert f"{extra[0]} applies to the attention distances" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()

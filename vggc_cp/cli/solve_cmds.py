@@ -85,11 +85,11 @@ def register(sub) -> None:
     p.add_argument("--timings", action="store_true",
                    help="record wall-clock seconds in the solution file (off by default, so "
                         "the same inputs give the same bytes)")
-    add_distance_arguments(p)
+    distance = add_distance_arguments(p)
     add_cpsat_arguments(p)
     add_backend_arguments(p, "the grid solvers' distance blocks and cells")
-    p.set_defaults(func=cmd_solve, option_defaults={
-        d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
+    p.set_defaults(func=cmd_solve, distance_options=distance, option_defaults={
+        d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, *distance, "cpsat_params")})
 
     q = sub.add_parser("plan", help="shortest pick/place plan on a solution's graph between the "
                                     "nodes of two trace observations (or two images)")
@@ -150,12 +150,12 @@ def _make_solver(name: str, tau: float | None):
         raise VggcError(f"solver {name!r}: {exc}") from None
 
 
-def _grid(problem, k_pick: str | None, k_place: str | None):
-    from vggc_cp.solvers.sweep import default_grid, parse_range
+def _grid_ranges(k_pick: str | None, k_place: str | None) -> tuple[range | None, range | None]:
+    """``--k-pick`` / ``--k-place`` as ranges (None: the default grid of the problem)."""
+    from vggc_cp.solvers.sweep import parse_range
 
-    dp, dq = default_grid(problem)
-    return (parse_range(k_pick, "--k-pick") if k_pick else dp,
-            parse_range(k_place, "--k-place") if k_place else dq)
+    return (parse_range(k_pick, "--k-pick") if k_pick else None,
+            parse_range(k_place, "--k-place") if k_place else None)
 
 
 def check_solver_name(name: str) -> None:
@@ -183,6 +183,12 @@ def _refuse_inapplicable(args) -> None:
                                 f"cpsat, both, brute), not to --solver merge")
         if given("cpsat_params") and not args.exact:
             raise VggcError("--cpsat-params applies to --solver merge only with --exact")
+        if args.evidence == "footprints":
+            for dest in getattr(args, "distance_options", ()):
+                if given(dest):
+                    raise VggcError(f"{flag(dest)} applies to the attention distances "
+                                    f"(--evidence auto or attention), not to --evidence "
+                                    f"footprints")
     else:
         for dest in MERGE_ONLY:
             if given(dest):
@@ -191,7 +197,8 @@ def _refuse_inapplicable(args) -> None:
 
 
 def cmd_solve(args) -> int:
-    from vggc_cp.solvers.sweep import get_selection, run_sweep
+    from vggc_cp.pipeline import grid_sweep
+    from vggc_cp.solvers.sweep import get_selection
 
     check_solver_name(args.solver)
     _refuse_inapplicable(args)
@@ -204,20 +211,14 @@ def cmd_solve(args) -> int:
         cpsat_solver_from_args(args, args.tau)  # bad --cpsat-params fail before any work
     else:
         solver = _make_solver(args.solver, args.tau)
+    k_pick, k_place = _grid_ranges(args.k_pick, args.k_place)
     with cluster_from_args(args) as cluster:
         trace, cfg, problem, t_dist = _problem(args, cluster)
-        kp, kq = _grid(problem, args.k_pick, args.k_place)
         if exact:
-            from vggc_cp.pipeline import greedy_then_exact
-
             solver = cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs)
-            sweeps = greedy_then_exact(problem, kp, kq, solver, jobs=args.jobs,
-                                       select=args.select, optimize=args.optimize,
-                                       progress=not args.quiet, executor=cluster)
-            greedy, sweep = sweeps.greedy, sweeps.exact
-        else:
-            sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
-                              progress=not args.quiet, executor=cluster)
+        grid = grid_sweep(problem, solver, k_pick, k_place, jobs=args.jobs, select=args.select,
+                          optimize=args.optimize, progress=not args.quiet, executor=cluster)
+    greedy, sweep, kp, kq = grid.greedy, grid.sweep, grid.k_pick, grid.k_place
     if exact and args.solver == "both" and greedy.best is not None:
         g = greedy.best
         print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "

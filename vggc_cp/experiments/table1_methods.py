@@ -125,28 +125,21 @@ def _solved(problem, best: SolveResult, seconds: dict, **extra) -> MethodRun:
 def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
     import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
     import vggc_cp.solvers.greedy  # noqa: F401
-    from vggc_cp.pipeline import greedy_then_exact
+    from vggc_cp.pipeline import grid_sweep
     from vggc_cp.solvers import get_solver
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
 
     problem, t_dist, cached = _visual_problem(trace, job)
     try:
         solver = get_solver(solver_name, **job.options)
     except TypeError as exc:
         raise VggcError(f"method {solver_name}: bad option ({exc})") from None
-    kp, kq = default_grid(problem)
-    if solver_name == "cpsat":
-        sweeps = greedy_then_exact(problem, kp, kq, solver)
-        sweep, search_seconds = sweeps.exact, sweeps.seconds
-    else:
-        sweep = run_sweep(problem, solver, kp, kq, jobs=1, select="fewest")
-        search_seconds = sweep.seconds
-    seconds = {"distances": round(t_dist, 3), "method": round(search_seconds, 3),
+    grid = grid_sweep(problem, solver, select="fewest")
+    seconds = {"distances": round(t_dist, 3), "method": round(grid.seconds, 3),
                "distances_cached": cached}
-    best = sweep.best
+    best = grid.best
     if best is None:
         return MethodRun(None, None, seconds)
-    return _solved(problem, best, seconds, select="fewest", grid=sweep.records())
+    return _solved(problem, best, seconds, select="fewest", grid=grid.sweep.records())
 
 
 @register_method("greedy")
