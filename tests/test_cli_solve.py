@@ -102,6 +102,26 @@ def test_plan_between_two_observations(toy_path, tmp_path, capsys):
     assert "2 actions" in text and "pick_L" in text and "place_R" in text
     assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "0"]) == 0
     assert "0 actions" in capsys.readouterr().out
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "1"]) == 0
+    assert "plan           1 action\n" in capsys.readouterr().out  # not "1 actions"
+
+
+def test_plan_json_between_two_observations(toy_path, tmp_path, capsys):
+    """--json is honoured with --start-obs/--goal-obs: one JSON object, the text's plan."""
+    path, _ = toy_path
+    out = tmp_path / "sol.json"
+    assert solve(path, out) == 0
+    capsys.readouterr()
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "2", "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["found"] is True and plan["length"] == 2 == len(plan["steps"])
+    assert plan["actions"] == ["pick_L", "place_R"]
+    assert (plan["start_obs"], plan["goal_obs"]) == (0, 2) and plan["start_role"] == "pick"
+    sol = json.loads(out.read_text())
+    assert (plan["start"], plan["goal"]) == (sol["labels"][0], sol["labels"][2])
+    assert plan["steps"][0].startswith(f"{plan['start']} --pick_L--> ")
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "0", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["length"] == 0
 
 
 @pytest.mark.parametrize("args, needle", [

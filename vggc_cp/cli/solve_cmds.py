@@ -42,8 +42,17 @@ def register(sub) -> None:
     from vggc_cp.solvers.merge import PATH_SELECTIONS
     from vggc_cp.solvers.sweep import SELECTIONS
 
-    p = sub.add_parser("solve", help="learn a task graph: distances, (k_pick, k_place) sweep, "
-                                     "selection; writes the solution JSON")
+    p = sub.add_parser("solve", help="learn a task graph with the default pipeline (visual "
+                                     "evidence, merging over thresholds, least description "
+                                     "length, confidence; --solver greedy|cpsat for the "
+                                     "paper's (k_pick, k_place) grid); writes the solution JSON",
+                       description="Learn the task graph of a trace and write its solution "
+                                   "JSON. By default the pipeline of vggc_cp.pipeline: action "
+                                   "footprints (or attention distances) as visual evidence, "
+                                   "congruence-closure merging over a grid of thresholds, "
+                                   "least description length, and a confidence check. "
+                                   "--solver greedy, cpsat, both or brute sweep the paper's "
+                                   "(k_pick, k_place) grid instead.")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("-o", "--output", required=True, help="solution .json to write")
     p.add_argument("--solver", default=DEFAULT_SOLVER,
@@ -99,7 +108,9 @@ def register(sub) -> None:
     q.add_argument("--goal-obs", type=int, default=None, metavar="J",
                    help="index of the goal observation in the solved trace")
     add_image_plan_options(q)
-    q.add_argument("--json", action="store_true", help="print JSON (image planning)")
+    q.add_argument("--json", action="store_true",
+                   help="print the plan as one JSON object (nodes, found, length, actions, "
+                        "steps) instead of text")
     q.set_defaults(func=cmd_plan)
 
 
@@ -228,7 +239,8 @@ def cmd_solve(args) -> int:
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
     print(f"distances      {t_dist:.1f} s")
     print(f"sweep          {sweep.solver}, k_pick {kp.start}..{kp.stop - 1} x k_place "
-          f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cells, {n_found} with a colouring, "
+          f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cell{'' if len(sweep.results) == 1 else 's'}, "
+          f"{n_found} with a colouring, "
           f"{sweep.seconds:.1f} s (jobs {args.jobs})")
     if not args.quiet and args.table == "cells":
         table = sweep.table()[["k_pick", "k_place", "feasible", "status", "J", "seconds",
@@ -341,7 +353,8 @@ def _solve_merge(args) -> int:
         print(f"evidence     {mark} {cand.evidence:<11} {cand.best.n_nodes} nodes, description "
               f"length {cand.description_length:.1f}, "
               f"{'suspect' if cand.confidence.suspect else 'no warning'} ({cand.seconds:.1f} s)")
-    print(f"merge path     {len(path.results)} thresholds, {path.seconds:.1f} s")
+    n = len(path.results)
+    print(f"merge path     {n} threshold{'' if n == 1 else 's'}, {path.seconds:.1f} s")
     if not args.quiet and args.table != "none":
         import pandas as pd
 
@@ -403,13 +416,21 @@ def cmd_plan(args) -> int:
     graph = solution.edge_graph()
     start, goal = int(solution.labels[args.start_obs]), int(solution.labels[args.goal_obs])
     role = {u: ROLE_NAMES[r] if r >= 0 else "mixed" for u, r in graph.node_role.items()}
+    plan = shortest_plan(graph, start, goal)
+    if args.json:
+        found = plan is not None
+        print(json.dumps({"start_obs": args.start_obs, "start": start, "start_role": role[start],
+                          "goal_obs": args.goal_obs, "goal": goal, "goal_role": role[goal],
+                          "found": found, "length": len(plan) if found else None,
+                          "actions": [graph.action_names[a] for _, a, _ in plan or ()],
+                          "steps": format_plan(graph, plan) if found else []}, indent=2))
+        return 0 if found else 1
     print(f"start          observation {args.start_obs} -> node {start} ({role[start]})")
     print(f"goal           observation {args.goal_obs} -> node {goal} ({role[goal]})")
-    plan = shortest_plan(graph, start, goal)
     if plan is None:
         print(f"plan           none: node {goal} is unreachable from node {start}")
         return 1
-    print(f"plan           {len(plan)} actions")
+    print(f"plan           {len(plan)} action{'' if len(plan) == 1 else 's'}")
     for i, step in enumerate(format_plan(graph, plan), 1):
         print(f"  {i:>3}. {step}")
     return 0
@@ -444,7 +465,8 @@ def cmd_image_plan(args) -> int:
     if not result.found:
         print(f"plan           none: node {result.goal} is unreachable from node {result.start}")
         return 1
-    print(f"plan           {len(result.actions)} actions")
+    n = len(result.actions)
+    print(f"plan           {n} action{'' if n == 1 else 's'}")
     for i, step in enumerate(result.steps, 1):
         print(f"  {i:>3}. {step}")
     return 0
