@@ -79,6 +79,11 @@ ROW_FIELDS = ("benchmark", "look", "seed", "split", "transitions", "observations
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
 
 
+def looks_available() -> tuple[str, ...]:
+    """The looks this checkout's renderer knows (:data:`vggc_cp.sim.looks.LOOKS`)."""
+    return tuple(LOOKS)
+
+
 # ---------------------------------------------------------------- configuration
 
 
@@ -145,8 +150,12 @@ class RobustnessConfig:
         if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
             raise VggcError(f"--seeds must be distinct non-negative integers, got "
                             f"{list(self.seeds)}")
+        known = looks_available()
         for look in self.looks:
-            lookup(LOOKS, look, "look")
+            if look not in known:
+                hint = ("" if look not in DEFAULT_LOOKS else
+                        " (this checkout's renderer has no such look yet)")
+                raise VggcError(f"unknown look {look!r}; known: {', '.join(known)}{hint}")
         if self.jobs < 1:
             raise VggcError(f"--jobs must be at least 1, got {self.jobs}")
         if self.n_queries < 1:
@@ -207,7 +216,7 @@ def i2p_key(cfg: RobustnessConfig) -> dict:
     from vggc_cp.localize import TrainConfig
 
     return jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
-                      "train": TrainConfig().as_dict()})
+                     "train": TrainConfig().as_dict()})
 
 
 def _source_path(name: str) -> Path:
