@@ -553,6 +553,74 @@ def greedy_then_exact(problem: Problem, k_pick, k_place, solver, *, greedy=None,
     return GridSweeps(greedy, exact)
 
 
+@dataclass(frozen=True, eq=False)
+class GridRun:
+    """What :func:`grid_sweep` did: the grid, the sweep that selects, and the greedy sweep
+    that warm-started it (CP-SAT only).
+
+    Attributes
+    ----------
+    k_pick, k_place : range
+        Grid values.
+    sweep : Sweep
+        The solver's sweep (:class:`~vggc_cp.solvers.sweep.Sweep`); its ``best`` is selected.
+    greedy : Sweep or None
+        CP-SAT's greedy warm start; None for the other solvers.
+    """
+
+    k_pick: range
+    k_place: range
+    sweep: object
+    greedy: object | None = None
+
+    @property
+    def best(self) -> SolveResult | None:
+        return self.sweep.best
+
+    @property
+    def seconds(self) -> float:
+        """Seconds of the whole search (CP-SAT's include its greedy warm start)."""
+        return self.sweep.seconds + (self.greedy.seconds if self.greedy is not None else 0.0)
+
+
+def grid_sweep(problem: Problem, solver, k_pick: range | None = None,
+               k_place: range | None = None, *, jobs: int = 1, select: str = "fewest",
+               optimize: str = "minimal", progress: bool = False, executor=None) -> GridRun:
+    """The grid solvers' path: sweep ``solver`` over the (k_pick, k_place) grid and select.
+
+    Parameters
+    ----------
+    problem : Problem
+    solver : Solver
+        A grid solver (``greedy``, ``brute``, ...); a CP-SAT solver runs the greedy sweep first
+        and warm-starts :func:`~vggc_cp.solvers.cpsat.exact_sweep` with it
+        (:func:`greedy_then_exact`).
+    k_pick, k_place : range, optional
+        Grid values; None: :func:`~vggc_cp.solvers.sweep.default_grid`.
+    jobs, select, progress, executor
+        As :func:`~vggc_cp.solvers.sweep.run_sweep`.
+    optimize : str
+        CP-SAT only: the cells whose J is minimized (``minimal`` or ``all``).
+
+    Returns
+    -------
+    GridRun
+    """
+    from vggc_cp.solvers.sweep import default_grid, run_sweep
+
+    if k_pick is None or k_place is None:
+        dp, dq = default_grid(problem)
+        k_pick = dp if k_pick is None else k_pick
+        k_place = dq if k_place is None else k_place
+    if getattr(solver, "name", None) == "cpsat":
+        sweeps = greedy_then_exact(problem, k_pick, k_place, solver, jobs=jobs, select=select,
+                                   optimize=optimize, progress=progress, executor=executor)
+        return GridRun(k_pick, k_place, sweeps.exact, sweeps.greedy)
+    sweep = run_sweep(problem, solver, k_pick, k_place, jobs=jobs, select=select,
+                      progress=progress, executor=executor)
+    return GridRun(k_pick, k_place, sweep)
+
+
 def node_frontiers(problem: Problem, sweeps: GridSweeps) -> tuple:
     """``(greedy, CP-SAT)`` :class:`~vggc_cp.solvers.cpsat.NodeFrontier`: the fewest nodes each
     found and whether that is proved minimal (CP-SAT's proofs serve both; cells with fewer

@@ -89,6 +89,26 @@ class Solution:
         return TaskGraph(node_role, members, edges, names, out, inn)
 
 
+def jsonable(obj):
+    """``obj`` as plain JSON values: dict keys as strings, tuples as lists, numpy scalars as
+    Python numbers, paths as strings and NaN as None (``null``), all the way down.
+
+    The one converter of every JSON file the package writes from computed values (solution
+    fields, benchmark and study rows, cache keys).
+    """
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, float) and math.isnan(obj):
+        return None
+    if hasattr(obj, "item"):
+        return jsonable(obj.item())
+    return obj
+
+
 def _num(x):
     if x is None:
         return None
@@ -112,18 +132,6 @@ def solution_dict(labels, roles, graph: TaskGraph, *, k_pick: int, k_place: int,
     }
     out.update(extra)
     return out
-
-
-def jsonable(obj):
-    """``obj`` with numpy scalars made Python numbers and tuples lists, dict keys made strings
-    (what :func:`json.dumps` needs)."""
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if hasattr(obj, "item"):
-        return obj.item()
-    return obj
 
 
 def settings_record(cfg) -> dict | str:

@@ -1,4 +1,5 @@
-"""``vggc-cp baseline`` (run one baseline on a trace) and ``vggc-cp benchmark`` (Table 1)."""
+"""``vggc-cp baseline`` (run one baseline on a trace), ``vggc-cp benchmark`` (Table 1) and
+``vggc-cp bench startup`` (how fast the command line starts)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,34 @@ def register(sub) -> None:
     register_benchmark(sub)
 
 
+def register_bench(bench_sub) -> None:
+    p = bench_sub.add_parser(
+        "startup", help="time `vggc-cp --help` and `vggc-cp plan --help` against `python -c "
+                        "pass` in one run, and list the heavy modules they import (none)")
+    p.add_argument("--repeats", type=int, default=5,
+                   help="timed runs of each command; the fastest counts")
+    p.add_argument("--limit", type=float, default=1.0,
+                   help="the start-up, in seconds, that a command must stay within")
+    p.set_defaults(func=cmd_bench_startup)
+
+
+def cmd_bench_startup(args) -> int:
+    from vggc_cp.errors import VggcError
+    from vggc_cp.experiments.perf import STARTUP_COMMANDS, time_startup
+
+    if args.repeats < 1:
+        raise VggcError(f"--repeats must be at least 1, got {args.repeats}")
+    for argv in STARTUP_COMMANDS:
+        t = time_startup(argv, args.repeats)
+        verdict = "within" if t.seconds <= args.limit else "OVER"
+        print(f"startup        python -m vggc_cp {' '.join(argv)}: {t.seconds:.3f} s (fastest of "
+              f"{args.repeats}; CPU {t.cpu_seconds:.3f} s), {t.modules} modules imported, "
+              f"heavy modules: {', '.join(t.heavy) or 'none'}")
+        print(f"  baseline, python -c pass: {t.baseline_seconds:.3f} s; ratio {t.ratio:.1f}x; "
+              f"{verdict} the {args.limit:g} s target")
+    return 0
+
+
 def cmd_baseline(args) -> int:
     cls = lookup(BASELINES, args.name, "baseline")
     options = parse_params(cls.config_class, args.param)
@@ -33,7 +62,8 @@ def cmd_baseline(args) -> int:
     write_solution(args.output, baseline_solution(trace, result))
     v = result.stats["violations"]
     print(f"{result.solver}: {v['nodes']} nodes ({v['pick_nodes']} pick, {v['place_nodes']} "
-          f"place), {v['edges']} edges, {v['exactly_one']} Exactly-One violations "
+          f"place), {v['edges']} edges, {v['exactly_one']} Exactly-One "
+          f"violation{'' if v['exactly_one'] == 1 else 's'} "
           f"({v['exactly_one_transitions']} transitions), {result.seconds:.1f} s")
     print(f"selected  {result.stats['params']}")
     print(f"sweep     {len(result.stats['grid'])} points, rule: {result.stats['selection']}")

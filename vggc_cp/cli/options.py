@@ -16,8 +16,9 @@ from vggc_cp.vision.distances import COLOUR_MODES, DistanceConfig
 from vggc_cp.vision.sinkhorn import DEVICES
 
 
-def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the distance options (``--attention``, ``--weights``, ``--eps``, ``--grid``, ...)."""
+def add_distance_arguments(parser: argparse.ArgumentParser) -> tuple[str, ...]:
+    """Add the distance options (``--attention``, ``--weights``, ``--eps``, ``--grid``, ...);
+    returns their ``dest`` names."""
     d = DistanceConfig()
     g = parser.add_argument_group("visual distances")
     g.add_argument("--attention", default=d.backend, metavar="NAME",
@@ -52,6 +53,7 @@ def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
                    help="distance cache directory (default $VGGC_CP_CACHE/distances or "
                         "./.cache/vggc-cp/distances)")
     g.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    return tuple(a.dest for a in g._group_actions)
 
 
 def config_from_args(args: argparse.Namespace) -> DistanceConfig:

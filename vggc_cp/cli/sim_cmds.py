@@ -180,7 +180,7 @@ def cmd_render(args) -> int:
 
     count = contact_sheet(load_trace(args.trace), args.output, args.max,
                           show_states=not args.no_states)
-    print(f"wrote {args.output} ({count} observations)")
+    print(f"wrote {args.output} ({count} observation{'' if count == 1 else 's'})")
     return 0
 
 

@@ -85,7 +85,8 @@ def cmd_evaluate(args) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    print(f"learned graph  {metrics.nodes} nodes, {metrics.edges} edges ({solution.solver}, "
+    print(f"learned graph  {metrics.nodes} node{'' if metrics.nodes == 1 else 's'}, "
+          f"{metrics.edges} edge{'' if metrics.edges == 1 else 's'} ({solution.solver}, "
           f"k = ({solution.k_pick}, {solution.k_place}), J = {solution.J:.4g})")
     print(f"true graph G*  {metrics.true_states} states, {metrics.true_edges} transitions")
     print(f"queries        Q = {metrics.queries} (seed {args.seed}); Exec on {used} dynamics")

@@ -136,7 +136,7 @@ def cmd_show_attention(args) -> int:
     roles = trace.roles()
     titles = [f"o{i} ({ROLE_NAMES[roles[i]]})" for i in idx]
     draw_attention(trace.observations[idx], maps, titles, args.output)
-    print(f"wrote {args.output} ({len(idx)} images, {args.attention} on a "
+    print(f"wrote {args.output} ({len(idx)} image{'' if len(idx) == 1 else 's'}, {args.attention} on a "
           f"{args.grid}x{args.grid} grid)")
     return 0
 
