@@ -117,3 +117,21 @@ def test_grid_sweep_is_the_one_grid_path(toy_trace):
     assert len(exact.sweep.results) == len(exact.greedy.results) == 4
     assert exact.seconds == exact.sweep.seconds + exact.greedy.seconds
     assert exact.best.n_nodes == 3  # L, R and H: the toy's true states
+
+
+@pytest.mark.slow
+def test_the_fallback_runs_only_where_the_policy_says(shipped):
+    """A trace whose images say nothing: the footprint graph is suspect. By default (refused)
+    the keypoint evidence does not run for it; with ``fallback="suspect"`` it does; with
+    ``never`` a trace the footprints refuse is refused."""
+    noise = shuffled_within_roles(shipped, 0, keep_states=False)
+    default = learn_graph(noise)
+    assert [c.evidence for c in default.candidates] == ["footprints"]
+    assert default.confidence.suspect
+    again = learn_graph(noise, LearnConfig(fallback="suspect"))
+    assert [c.evidence for c in again.candidates] == ["footprints", "keypoints"]
+    with pytest.raises(VggcError, match="fallback"):
+        LearnConfig(fallback="sometimes")
+    flat = Trace(np.zeros_like(shipped.observations), shipped.actions, shipped.action_names)
+    with pytest.raises(VggcError, match="no visual evidence"):
+        learn_graph(flat, LearnConfig(fallback="never"))

@@ -50,8 +50,20 @@ AUTO = "auto"
 #: ``evidence="attention"`` (``vggc-cp solve --evidence attention``): the attention backend
 #: of ``LearnConfig.distance`` (``--attention``).
 ATTENTION = "attention"
-#: Evidences that ``auto`` tries after the footprints when their graph is suspect.
+#: Evidences that ``auto`` tries after the footprints (when :data:`FALLBACKS` says so).
 AUTO_FALLBACK = ("keypoints",)
+#: When ``auto`` runs its fallback evidences (``LearnConfig.fallback``, ``solve --fallback``).
+#: A fallback can change the answer only by passing its own checks where the footprints fail
+#: theirs; measured on the robustness suite, where its graph differed from a suspect footprint
+#: graph it was wrong, and its Sinkhorn distances cost 10-70 times the footprints' (fruit-6x8,
+#: |D| = 1500: 187 s against 8 s). So by default it runs only where the footprints cannot read
+#: the trace at all.
+FALLBACKS = {
+    "refused": "the fallback evidences run only when the footprints cannot read the trace",
+    "suspect": "also when the footprint graph is suspect (kept only if their graph passes its "
+               "checks; any size disagreement flags the graph); costs their Sinkhorn distances",
+    "never": "footprints only; a trace they cannot read is refused",
+}
 
 
 def evidence_choices() -> tuple[str, ...]:
@@ -76,7 +88,7 @@ class LearnConfig:
     Attributes
     ----------
     evidence : str
-        ``auto`` (footprints, then the :data:`AUTO_FALLBACK` evidences when suspect), a
+        ``auto`` (footprints, then the :data:`AUTO_FALLBACK` evidences as ``fallback`` says), a
         registered evidence (:func:`~vggc_cp.vision.evidence.evidence_names`: ``footprints``,
         ``saliency``, ``keypoints``, ``dinov2``, ...), or ``attention``: the backend of
         ``distance`` (replaced by that name when the object is built).
@@ -92,6 +104,10 @@ class LearnConfig:
     folds : int
         Episode folds of the held-out prediction (0: skip it; else at least 2).
     warning : WarningRule
+    fallback : str
+        When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``
+        (default: only where the footprints cannot read the trace), ``suspect`` (also where
+        their graph is suspect), ``never``.
 
     Raises
     ------
@@ -118,6 +134,7 @@ class LearnConfig:
     steps: int = 24
     folds: int = 5
     warning: WarningRule = field(default_factory=WarningRule)
+    fallback: str = "refused"
 
     def __post_init__(self) -> None:
         for name, kind in (("distance", DistanceConfig), ("footprint", FootprintConfig),
@@ -129,6 +146,7 @@ class LearnConfig:
             raise VggcError(f"LearnConfig field 'evidence' must be a name, got "
                             f"{self.evidence!r}")
         lookup({e: e for e in evidence_choices()}, self.evidence, "evidence")
+        lookup(FALLBACKS, self.fallback, "fallback")
         if self.evidence == ATTENTION:
             object.__setattr__(self, "evidence", self.distance.backend)
         if not isinstance(self.rule, str):
@@ -395,13 +413,14 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         skipped = []
     else:
         candidates, skipped = [], []
-        for evidence in (FOOTPRINTS, *AUTO_FALLBACK):
+        order = (FOOTPRINTS,) if options.fallback == "never" else (FOOTPRINTS, *AUTO_FALLBACK)
+        for evidence in order:
             try:
                 candidates.append(run_candidate(trace, evidence, options, progress))
             except EvidenceNotApplicable as exc:  # no localized change; images below a grid
                 skipped.append(f"{evidence}: {exc}")
                 continue
-            if not candidates[-1].confidence.suspect:
+            if options.fallback != "suspect" or not candidates[-1].confidence.suspect:
                 break
         if not candidates:
             raise VggcError("no visual evidence applies to this trace (" + "; ".join(skipped)

@@ -30,7 +30,7 @@ GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_a
              "codeterministic", "cannot_link", "objective", "hint", "optimize", "backend",
              "scheduler")
 #: ``solve`` options that only the merge solver reads: refused under the grid solvers.
-MERGE_ONLY = ("evidence", "thresholds", "exact")
+MERGE_ONLY = ("evidence", "thresholds", "exact", "fallback")
 BENCH_NAME = "fruit-4x6"
 BENCH_TRANSITIONS = 700
 BENCH_LIMIT_S = 120.0
@@ -78,11 +78,15 @@ def register(sub) -> None:
                         "grid from the noise scale of nearest-neighbour distances to the 90th "
                         "percentile of all distances)")
     p.add_argument("--evidence", default="auto", metavar="NAME",
-                   help="merge solver: the visual evidence; auto (action footprints; when "
-                        "their graph is suspect or they do not apply, the keypoint attention "
-                        "distances, kept only if their graph passes its checks), attention "
-                        "(the Sinkhorn distances of --attention), or a registered evidence: "
-                        f"{', '.join(evidence_names())}")
+                   help="merge solver: the visual evidence; auto (action footprints; where "
+                        "they cannot read the trace, the keypoint attention distances: see "
+                        "--fallback), attention (the Sinkhorn distances of --attention), or a "
+                        f"registered evidence: {', '.join(evidence_names())}")
+    p.add_argument("--fallback", default=None, choices=("refused", "suspect", "never"),
+                   help="merge solver, --evidence auto: when the keypoint evidence runs after "
+                        "the footprints: refused (default: only where the footprints cannot "
+                        "read the trace), suspect (also where their graph is suspect; costs "
+                        "the keypoint Sinkhorn distances), never")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
@@ -196,6 +200,9 @@ def _refuse_inapplicable(args) -> None:
                                 f"cpsat, both, brute), not to --solver merge")
         if given("cpsat_params") and not args.exact:
             raise VggcError("--cpsat-params applies to --solver merge only with --exact")
+        if given("fallback") and args.evidence != "auto":
+            raise VggcError(f"--fallback applies to --evidence auto, not to --evidence "
+                            f"{args.evidence}")
         if args.evidence == "footprints":
             for dest in getattr(args, "distance_options", ()):
                 if given(dest):
@@ -327,7 +334,8 @@ def _learn_options(args):
     thresholds = _parse_thresholds(args.thresholds)
     return LearnConfig(evidence=args.evidence, distance=config_from_args(args),
                        rule=args.select or "mdl",
-                       thresholds=None if thresholds is None else tuple(thresholds))
+                       thresholds=None if thresholds is None else tuple(thresholds),
+                       fallback=getattr(args, "fallback", None) or "refused")
 
 
 def _solve_merge(args) -> int:
