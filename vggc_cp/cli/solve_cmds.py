@@ -130,6 +130,9 @@ def register_bench(bench_sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the generated trace")
     p.add_argument("--limit", type=float, default=2.0,
                    help="the largest acceptable ratio of the default to the previous default")
+    p.add_argument("--fallback-limit", type=float, default=1.5,
+                   help="the largest acceptable ratio of the default to the footprint "
+                        "evidence alone")
     p.set_defaults(func=cmd_bench_solve)
 
     p = bench_sub.add_parser(
@@ -511,10 +514,15 @@ def cmd_bench_solve(args) -> int:
     print(f"solve          {name}: {trace.n_obs} observations")
     print(f"  default (pipeline, evidence {t.default_evidence}): {t.default_seconds:.1f} s, "
           f"{t.default_nodes} nodes{', suspect' if t.default_suspect else ''}")
+    print(f"  footprints alone (--evidence footprints): {t.footprints_seconds:.1f} s, "
+          f"{t.footprints_nodes} nodes")
     print(f"  baseline, previous default (saliency Sinkhorn, uncached, + cascade): "
           f"{t.previous_seconds:.1f} s, {t.previous_nodes} nodes")
     verdict = "within" if t.ratio <= args.limit else "OVER"
     print(f"  ratio {t.ratio:.2f}x: {verdict} the {args.limit:g}x target")
+    fp_verdict = "within" if t.footprints_ratio <= args.fallback_limit else "OVER"
+    print(f"  default / footprints alone {t.footprints_ratio:.2f}x: {fp_verdict} the "
+          f"{args.fallback_limit:g}x target (what the fallback costs)")
     return 0
 
 

@@ -37,10 +37,18 @@ class SolveTiming:
     default_suspect: bool
     previous_seconds: float
     previous_nodes: int
+    footprints_seconds: float = float("nan")
+    footprints_nodes: int = 0
 
     @property
     def ratio(self) -> float:
         return self.default_seconds / self.previous_seconds
+
+    @property
+    def footprints_ratio(self) -> float:
+        """The default's time over the footprint evidence's alone (``--evidence footprints``):
+        what the default's fallback costs beyond it."""
+        return self.default_seconds / self.footprints_seconds
 
 
 def time_previous_default(trace: Trace, threads: int | None = None) -> tuple[float, int]:
@@ -53,8 +61,8 @@ def time_previous_default(trace: Trace, threads: int | None = None) -> tuple[flo
 
 
 def bench_solve(trace: Trace, threads: int | None = None) -> SolveTiming:
-    """Time the current default (:func:`learn_graph`, its keypoint fallback uncached) and the
-    previous one on ``trace``."""
+    """Time the current default (:func:`learn_graph`, its keypoint fallback uncached where it
+    runs), the footprint evidence alone and the previous default on ``trace``."""
     from dataclasses import replace
 
     from vggc_cp.pipeline import LearnConfig
@@ -65,9 +73,13 @@ def bench_solve(trace: Trace, threads: int | None = None) -> SolveTiming:
     t0 = time.perf_counter()
     learned = learn_graph(trace, options)
     seconds = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    alone = learn_graph(trace, replace(options, evidence="footprints"))
+    fp_seconds = time.perf_counter() - t0
     prev_s, prev_n = time_previous_default(trace, threads)
     return SolveTiming(seconds, learned.graph.n_nodes, learned.chosen.evidence,
-                       learned.confidence.suspect, prev_s, prev_n)
+                       learned.confidence.suspect, prev_s, prev_n, fp_seconds,
+                       alone.graph.n_nodes)
 
 
 # ---------------------------------------------------------------- bench startup
