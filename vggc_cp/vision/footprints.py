@@ -429,6 +429,29 @@ def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
     return mag, chroma
 
 
+def run_ends(actions: np.ndarray, starts: np.ndarray, touches: np.ndarray) -> np.ndarray:
+    """For every observation of ``starts``, the last observation of its run: the episode goes
+    on while its actions do not touch the place (``touches``, bool of shape (A,)), so what the
+    place holds stays the same and whatever acted there last (a hand at rest) has moved on.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+    starts : ndarray of int
+    touches : ndarray of bool, shape (A,)
+
+    Returns
+    -------
+    ndarray of int, the same shape as ``starts``.
+    """
+    out = np.asarray(starts, dtype=np.int64).copy()
+    for i, t in enumerate(out):
+        while t < len(actions) and actions[t] >= 0 and not touches[actions[t]]:
+            t += 1
+        out[i] = t
+    return out
+
+
 def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
 
@@ -449,15 +472,17 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
                         "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
+    ov = overlaps(maps)
     empty_of, occupied_of = {}, {}
     for a in np.flatnonzero(counts):
         sel = act == a
-        before, after = src[sel], dst[sel]
+        # right after an action the hand is still at its place: the site is read where the
+        # run of observations it begins ends (no action at the place in between)
+        before, after = src[sel], run_ends(trace.actions, dst[sel], ov[a] > 0)
         empty_of[int(a)], occupied_of[int(a)] = ((after, before) if kinds[a] == PICK
                                                  else (before, after))
     _, own_chroma = describe(x, maps, empty_of)
     colour = action_colours(own_chroma, counts, action_classes(trace), occupied_of, params)
-    ov = overlaps(maps)
     sites = site_maps(maps, ov, colour)
     mag, chroma = describe(x, sites, empty_of)
     presence = np.zeros((trace.n_obs, n_act))
