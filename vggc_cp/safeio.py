@@ -56,19 +56,33 @@ TEMP_MARK = ".vggctmp-"
 _TEMP_RE = re.compile(r"^\..+\.vggctmp-[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
 
 
-def cap(name: str) -> int:
-    """The cap ``name`` (:data:`CAPS`): its environment variable if set, else the default."""
-    default, env, _ = CAPS[name]
+#: largest value an environment cap may hold (a C ``int64``: numpy and the OS take it)
+ENV_INT_MAX = (1 << 63) - 1
+
+
+def env_int(env: str, default: int, minimum: int = 1) -> int:
+    """The integer of environment variable ``env`` (``default`` when unset or blank).
+
+    The one parser of every integer the environment sets: a value that is not a plain decimal
+    integer (``1.5``, ``1e9``, ``inf``, ``nan``, ``-3``, ``abc``), below ``minimum`` or above
+    :data:`ENV_INT_MAX` is refused with one line naming the variable.
+    """
     text = os.environ.get(env)
     if text is None or not text.strip():
         return default
-    try:
-        value = int(float(text))
-    except ValueError:
-        raise VggcError(f"${env} = {text!r}: expected a positive integer") from None
-    if value < 1:
-        raise VggcError(f"${env} = {text!r}: expected a positive integer")
-    return value
+    t = text.strip().replace("_", "")
+    if not re.fullmatch(r"\+?[0-9]{1,19}", t) or not minimum <= int(t) <= ENV_INT_MAX:
+        shown = text if len(text) <= 40 else text[:40] + "..."
+        raise VggcError(f"${env} = {shown!r}: expected an integer from {minimum:,} to "
+                        f"{ENV_INT_MAX:,} (unset it for the default, {default:,})")
+    return int(t)
+
+
+def cap(name: str) -> int:
+    """The cap ``name`` (:data:`CAPS`): its environment variable if set, else the default
+    (parsed by :func:`env_int`)."""
+    default, env, _ = CAPS[name]
+    return env_int(env, default)
 
 
 def fail(source, msg: str) -> VggcError:
@@ -159,7 +173,10 @@ def check_output(path, opt: str, inputs: dict[str, str] = {}) -> None:  # noqa: 
 
 
 def preflight(args) -> None:
-    """Check the input and output paths of a parsed command line before any work."""
+    """Check the environment's caps and the input and output paths of a parsed command line
+    before any work."""
+    for name in CAPS:
+        cap(name)  # a bad $VGGC_CP_* cap fails here, whatever the command reads later
     inputs: dict[str, str] = {}
     for attr in INPUT_ATTRS:
         value = getattr(args, attr, None)
