@@ -46,7 +46,8 @@ CAPS: dict[str, tuple[int, str, str]] = {
 }
 
 #: attributes of a parsed command line that name files the command reads
-INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "weights")
+INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "weights",
+               "notebook")
 #: attributes that name files the command writes
 OUTPUT_ATTRS = ("output", "csv", "plot")
 #: suffixes matplotlib can write (``--plot``)
