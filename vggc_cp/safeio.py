@@ -18,15 +18,17 @@ and refusals"): :data:`CAPS` maps each name to its default and variable.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
 import re
+import secrets
 import stat
 import sys
-import tempfile
 import time
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -54,7 +56,11 @@ OUTPUT_ATTRS = ("output", "csv", "plot")
 PLOT_FORMATS = frozenset({"png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif",
                           "tiff", "webp", "pgf", "raw", "rgba"})
 TEMP_MARK = ".vggctmp-"
-_TEMP_RE = re.compile(r"^\..+\.vggctmp-[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
+PROBE_PREFIX = ".vggc-probe-"
+_TEMP_RE = re.compile(r"^(\..+\.vggctmp-|\.vggc-probe-)[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
+#: temporary files that may exist now: registered *before* they are created, removed by
+#: :func:`cleanup_temps` when a signal ends the run
+_LIVE: set[Path] = set()
 
 
 #: largest value an environment cap may hold (a C ``int64``: numpy and the OS take it)
@@ -163,14 +169,94 @@ def check_output(path, opt: str, inputs: dict[str, str] = {}) -> None:  # noqa: 
         raise fail(src, f"{opt}: {probe} is a file, not a folder")
     if probe == parent:
         try:
-            fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=parent)
+            with temp_file(parent, PROBE_PREFIX):
+                pass
         except OSError as exc:
             raise fail(src, f"{opt}: cannot write in {parent} "
                             f"({exc.strerror or type(exc).__name__})") from None
-        os.close(fd)
-        os.unlink(tmp)
     elif not os.access(probe, os.W_OK | os.X_OK):
         raise fail(src, f"{opt}: cannot create folders in {probe} (not writable)")
+
+
+def check_output_dir(path, opt: str = "--out", folders: tuple[str, ...] = (),
+                     files: tuple[str, ...] = (),
+                     file_suffixes: tuple[str, ...] = (".json", ".npz", ".pt", ".csv", ".md")
+                     ) -> None:
+    """Refuse an output *folder* the command could not write into, before any work.
+
+    ``path`` must be a folder (or not exist yet, under a writable existing folder): not a
+    file, a fifo, a device, a symbolic-link loop, under ``/proc``/``/sys``, or read-only
+    (checked by creating a probe file there). Inside it, each of ``folders`` must be a folder
+    where it exists, each of ``files`` a regular file where it exists, and every entry of those
+    folders whose name ends in one of ``file_suffixes`` a regular file (a directory or fifo
+    named ``cells/x.json`` would fail the run later). Stale temporary files are swept from the
+    folder and its ``folders``.
+    """
+    src = str(path)
+    if "\x00" in src:
+        raise fail(repr(src), f"{opt}: a path holding NUL")
+    if _name_too_long(src):
+        raise fail(src[:80] + "...", f"{opt}: a path component is longer than 255 bytes")
+    real = os.path.realpath(src)
+    if real == "/proc" or real.startswith(("/proc/", "/sys/", "/dev/")) or real == "/sys":
+        raise fail(src, f"{opt}: a folder under /proc, /sys or /dev; refused")
+    try:
+        st = os.stat(src)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise fail(src, f"{opt}: cannot use this path ({oserror_text(exc)})") from None
+    if st is not None and not stat.S_ISDIR(st.st_mode):
+        kind = "a file" if stat.S_ISREG(st.st_mode) else "a device, fifo or socket"
+        raise fail(src, f"{opt} is {kind}, not a folder")
+    probe = Path(os.path.abspath(src))
+    while not (probe.exists() or probe.is_symlink()):
+        probe = probe.parent
+    if probe.is_symlink() and not probe.exists():
+        raise fail(src, f"{opt}: {probe} is a broken link")
+    if not probe.is_dir():
+        raise fail(src, f"{opt}: {probe} is a file, not a folder")
+    try:
+        with temp_file(probe, PROBE_PREFIX):
+            pass
+    except OSError as exc:
+        raise fail(src, f"{opt}: cannot write in {probe} ({oserror_text(exc)})") from None
+    if st is None:
+        return
+    root = Path(src)
+    for name in files:
+        p = root / name
+        if (p.exists() or p.is_symlink()) and not p.is_file():
+            raise fail(p, f"{opt}: {name} is not a regular file (a folder, fifo or broken "
+                          f"link); refused")
+    sweep_stale_temps(root)
+    for name in folders:
+        sub = root / name
+        if not (sub.exists() or sub.is_symlink()):
+            continue
+        if not sub.is_dir():
+            raise fail(sub, f"{opt}: {name} is not a folder")
+        try:
+            entries = list(os.scandir(sub))
+        except OSError as exc:
+            raise fail(sub, f"{opt}: cannot read the folder ({oserror_text(exc)})") from None
+        for e in entries:
+            if e.name.endswith(file_suffixes) and not is_temp_name(e.name) \
+                    and not e.is_file(follow_symlinks=True):
+                raise fail(e.path, f"{opt}: not a regular file (a folder, fifo or broken "
+                                   f"link); refused")
+        sweep_stale_temps(sub)
+
+
+def check_size(value: int | None, option: str, low: int, high: int, cap_text: str) -> None:
+    """Refuse a size from the command line outside ``low..high``; ``cap_text`` names the cap
+    (``"the cap of 10,000 seeds"``, ``"VGGC_CP_MAX_BYTES"``)."""
+    if value is None:
+        return
+    if value < low:
+        raise VggcError(f"{option} {value}: expected at least {low:,}")
+    if value > high:
+        raise VggcError(f"{option} {value:,}: above {cap_text} ({high:,})")
 
 
 def preflight(args) -> None:
@@ -201,7 +287,7 @@ def preflight(args) -> None:
                 raise fail(value, f"--plot: {suffix!r} is not an image format "
                                   f"({', '.join(sorted(PLOT_FORMATS))})")
         outputs[opt] = str(value)
-        sweep_stale_temps(Path(os.path.abspath(value)).parent, Path(value).name)
+        sweep_stale_temps(Path(os.path.abspath(value)).parent)
     cache = getattr(args, "cache_dir", None)
     if isinstance(cache, str) and not getattr(args, "no_cache", False):
         if os.path.exists(cache) and not os.path.isdir(cache):
@@ -349,12 +435,57 @@ def read_json(path, source: str | None = None, *, allow_nan: bool = True):
 
 
 def is_temp_name(name: str) -> bool:
-    """True for the names :func:`vggc_cp.atomic.atomic_path` gives its temporary files."""
+    """True for the names :func:`temp_file` gives: ``.NAME.vggctmp-*`` of
+    :func:`vggc_cp.atomic.atomic_path` and ``.vggc-probe-*`` of the writability probes."""
     return bool(_TEMP_RE.match(name))
 
 
+@contextlib.contextmanager
+def temp_file(folder, prefix: str, suffix: str = "") -> Iterator[Path]:
+    """An empty new file ``folder/<prefix><random><suffix>`` for the ``with`` block.
+
+    The path is registered for :func:`cleanup_temps` *before* the file is created (``O_EXCL``,
+    mode ``0666 & ~umask``), so a signal at any moment leaves nothing behind; the file is
+    removed on exit unless the block renamed it away.
+    """
+    folder = Path(folder)
+    for _ in range(100):
+        path = folder / f"{prefix}{secrets.token_hex(6)}{suffix}"
+        _LIVE.add(path)
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0),
+                         0o666)
+        except FileExistsError:
+            _LIVE.discard(path)
+            continue
+        except BaseException:
+            _LIVE.discard(path)
+            raise
+        os.close(fd)
+        break
+    else:  # pragma: no cover - 100 collisions of 48 random bits
+        raise FileExistsError(errno.EEXIST, "no free temporary name", str(folder))
+    try:
+        yield path
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+        _LIVE.discard(path)
+
+
+def cleanup_temps() -> None:
+    """Remove every temporary file of :func:`temp_file` still in progress (signal handlers)."""
+    for tmp in list(_LIVE):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        _LIVE.discard(tmp)
+
+
 def sweep_stale_temps(folder, target_name: str | None = None) -> int:
-    """Remove our temporary files in ``folder`` older than ``stale_temp_minutes``.
+    """Remove the tool's temporary files in ``folder`` (:func:`is_temp_name`: any target's
+    ``.NAME.vggctmp-*`` and ``.vggc-probe-*``) older than ``stale_temp_minutes``.
 
     With ``target_name``, only those of that target (``.<name>.vggctmp-*``). Returns the count.
     """
@@ -385,9 +516,8 @@ def cache_writable(path) -> bool:
     folder = Path(path).parent
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=folder)
-        os.close(fd)
-        os.unlink(tmp)
+        with temp_file(folder, PROBE_PREFIX):
+            pass
     except OSError as exc:
         warn(f"{folder}: cannot write the distance cache ({oserror_text(exc)}); going on "
              f"without caching")

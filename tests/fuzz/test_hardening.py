@@ -54,9 +54,9 @@ def test_subprocess_refusals_have_no_traceback(tmp_path):
 def test_sigterm_removes_temporary_files(tmp_path):
     code = (
         "import os, signal, sys\n"
-        "from vggc_cp.cli import _signal_handlers\n"
+        "from vggc_cp.interrupts import guard\n"
         "from vggc_cp.atomic import atomic_path\n"
-        "with _signal_handlers():\n"
+        "with guard():\n"
         f"    with atomic_path({str(tmp_path / 'out.json')!r}) as tmp:\n"
         "        tmp.write_text('partial')\n"
         "        os.kill(os.getpid(), signal.SIGTERM)\n"
