@@ -7,6 +7,11 @@ import os
 
 from vggc_cp.errors import VggcError
 
+#: most seeds one study takes (every seed is a trace per benchmark and look)
+MAX_SEEDS = 10_000
+#: largest seed (numpy's seeds are 32-bit here)
+MAX_SEED = 2**32 - 1
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -47,18 +52,30 @@ def _split(text: str) -> list[str]:
 
 def parse_seeds(text: str, option: str = "--seeds") -> tuple[int, ...]:
     """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds."""
+    if len(text) > 20 * MAX_SEEDS:
+        raise VggcError(f"{option}: {len(text):,} characters; at most {MAX_SEEDS:,} seeds "
+                        f"(robustness_cmds.MAX_SEEDS)")
     try:
         if ":" in text:
             a, b = (int(x) for x in text.split(":"))
             if b < a:
                 raise ValueError
-            return tuple(range(a, b + 1))
-        seeds = tuple(int(s) for s in _split(text))
+            if b - a + 1 > MAX_SEEDS:
+                raise VggcError(f"{option} {text!r}: {b - a + 1:,} seeds, above the cap of "
+                                f"{MAX_SEEDS:,} (robustness_cmds.MAX_SEEDS)")
+            seeds = tuple(range(a, b + 1))
+        else:
+            seeds = tuple(int(s) for s in _split(text))
     except ValueError:
         raise VggcError(f"{option} {text!r}: expected an inclusive range A:B (A <= B) or "
                         "comma-separated integers") from None
     if not seeds:
         raise VggcError(f"{option} {text!r}: no seed")
+    if len(seeds) > MAX_SEEDS:
+        raise VggcError(f"{option}: {len(seeds):,} seeds, above the cap of {MAX_SEEDS:,} "
+                        f"(robustness_cmds.MAX_SEEDS)")
+    if any(not 0 <= s <= MAX_SEED for s in seeds):
+        raise VggcError(f"{option} {text[:60]!r}: seeds are integers from 0 to {MAX_SEED:,}")
     return seeds
 
 
@@ -66,7 +83,11 @@ def cmd_robustness(args) -> int:
     from pathlib import Path
 
     from vggc_cp.experiments.robustness import RobustnessConfig, run_robustness, write_tables
+    from vggc_cp.safeio import check_output_dir, check_trace_budget
     from vggc_cp.sim import benchmark_names
+
+    check_output_dir(args.out, "--out", ("cells", "traces", "solutions", "models"),
+                     ("robustness.csv", "robustness.md"))
 
     benches = (tuple(benchmark_names()) if args.benchmarks == "all"
                else tuple(_split(args.benchmarks)))
@@ -75,6 +96,10 @@ def cmd_robustness(args) -> int:
                            jobs=args.jobs, i2p=args.i2p,
                            i2p_seeds=parse_seeds(args.i2p_seeds, "--i2p-seeds"),
                            novel=args.novel, i2p_queries=args.i2p_queries, force=args.force)
+    for bench in cfg.benchmarks:
+        check_trace_budget(cfg.n_transitions(bench), cfg.size, "--transitions")
+        if cfg.i2p:
+            check_trace_budget(cfg.novel, cfg.size, "--novel")
     run = run_robustness(cfg, progress=not args.quiet)
     csv, md = write_tables(run.rows, cfg.out, run.seconds)
     print(md.read_text(encoding="utf-8"), end="")
