@@ -52,6 +52,8 @@ INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "
                "notebook")
 #: attributes that name files the command writes
 OUTPUT_ATTRS = ("output", "csv", "plot")
+#: attributes that name folders the command writes into (checked by :func:`check_output_dir`)
+OUTPUT_DIR_ATTRS = ("out", "workdir")
 #: suffixes matplotlib can write (``--plot``)
 PLOT_FORMATS = frozenset({"png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif",
                           "tiff", "webp", "pgf", "raw", "rgba"})
@@ -304,6 +306,10 @@ def preflight(args) -> None:
                                   f"({', '.join(sorted(PLOT_FORMATS))})")
         outputs[opt] = str(value)
         sweep_stale_temps(Path(os.path.abspath(value)).parent)
+    for attr in OUTPUT_DIR_ATTRS:
+        value = getattr(args, attr, None)
+        if isinstance(value, (str, os.PathLike)):
+            check_output_dir(value, "--" + attr.replace("_", "-"))
     cache = getattr(args, "cache_dir", None)
     if isinstance(cache, str) and not getattr(args, "no_cache", False):
         if os.path.exists(cache) and not os.path.isdir(cache):
