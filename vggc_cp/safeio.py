@@ -79,7 +79,7 @@ def env_int(env: str, default: int, minimum: int = 1) -> int:
     text = os.environ.get(env)
     if text is None or not text.strip():
         return default
-    t = text.strip().replace("_", "")
+    t = text.strip()
     if not re.fullmatch(r"\+?[0-9]{1,19}", t) or not minimum <= int(t) <= ENV_INT_MAX:
         shown = text if len(text) <= 40 else text[:40] + "..."
         raise VggcError(f"${env} = {shown!r}: expected an integer from {minimum:,} to "
@@ -480,7 +480,9 @@ def temp_file(folder, prefix: str, suffix: str = "") -> Iterator[Path]:
         except FileExistsError:
             _LIVE.discard(path)
             continue
-        except BaseException:
+        except BaseException:  # e.g. a signal's exception: the file may exist already
+            with contextlib.suppress(OSError):
+                path.unlink()
             _LIVE.discard(path)
             raise
         os.close(fd)
