@@ -102,7 +102,7 @@ def _watch(sock: socket.socket) -> None:
         sock.settimeout(timeout)
         try:
             data = sock.recv(64)
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             _finish(_state["received"] or signal.SIGTERM)
             return
         except OSError:

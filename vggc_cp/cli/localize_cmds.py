@@ -7,7 +7,6 @@ import sys
 
 from vggc_cp.errors import VggcError
 
-
 #: most torch threads
 MAX_THREADS = 1024
 #: most values of a --lr or --epochs grid (each is a cross-validation run)

@@ -23,7 +23,6 @@ from vggc_cp.localize.model import Augment, LocalizerNet, to_unit_tensor
 from vggc_cp.solution import Solution
 from vggc_cp.trace import ROLE_NAMES, Trace
 
-
 #: caps of the training settings (a NaN or absurd value is refused, not trained)
 MAX_LR = 10.0
 MAX_GAMMA = 1e4
