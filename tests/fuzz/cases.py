@@ -168,6 +168,15 @@ CASES: list[Case] = [
                                                     t / "out" / "s.json", "--cache-dir",
                                                     w["solution"]],
          ("--cache-dir",), ("--cache-dir",)),
+    *[Case(cmd, f"{opt.lstrip('-')}-{value}", lambda w, t, cmd=cmd, opt=opt, value=value: [
+        cmd, w["trace"], *(["-o", t / "out" / "s.json", "--solver", "greedy"]
+                           if cmd == "solve" else []), f"{opt}={value}", "--quiet"],
+        must=(opt,))
+      for cmd in ("solve", "compare", "distances")
+      for opt, value in (("--tau", "nan"), ("--tau", "inf"), ("--k-pick", "1:100000000"),
+                         ("--eps", "inf"), ("--eps", "nan"), ("--sinkhorn-tol", "inf"),
+                         ("--sinkhorn-threads", "100000"), ("--floor", "nan"))
+      if cmd != "distances" or opt not in ("--tau", "--k-pick")],
     *files("compare", T, "in", lambda w, t, p: ["compare", p, "--quiet"]),
     *files("compare", "--csv", "out", lambda w, t, p: ["compare", w["trace"], "--csv", p]),
     *files("compare", "--plot", "out", lambda w, t, p: ["compare", w["trace"], "--plot", p]),
