@@ -54,6 +54,22 @@ INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "
 OUTPUT_ATTRS = ("output", "csv", "plot")
 #: attributes that name folders the command writes into (checked by :func:`check_output_dir`)
 OUTPUT_DIR_ATTRS = ("out", "workdir")
+#: integer options bounded for every command that has them: attribute -> (lowest, highest);
+#: a new command's option of the same name is checked without touching this module
+ARG_BOUNDS: dict[str, tuple[int, int]] = {
+    "seed": (0, 2**32 - 1),
+    "queries": (1, 1_000_000),
+    "i2p_queries": (1, 1_000_000),
+    "reference_queries": (1, 1_000_000),
+    "jobs": (1, 1024),
+    "threads": (1, 1024),
+    "sinkhorn_threads": (1, 1024),
+    "pairs": (1, 10_000_000),
+    "naive_pairs": (1, 10_000_000),
+    "batch_pairs": (1, 1_000_000),
+    "batch_size": (1, 1_000_000),
+    "maps": (1, 1_000_000),
+}
 #: suffixes matplotlib can write (``--plot``)
 PLOT_FORMATS = frozenset({"png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif",
                           "tiff", "webp", "pgf", "raw", "rgba"})
@@ -277,11 +293,24 @@ def check_trace_budget(n: int | None, side: int, option: str) -> None:
                         f"({CAPS['max_bytes'][1]}); at most {limit // per - 1:,}")
 
 
+def check_numbers(args) -> None:
+    """Refuse a NaN in any float option and an integer option of :data:`ARG_BOUNDS` outside
+    its bounds (``--seed -1``, ``-Q 100000000000``), naming the option and the cap."""
+    for attr, value in sorted(vars(args).items()):
+        opt = "--" + attr.replace("_", "-")
+        if isinstance(value, float) and value != value:
+            raise VggcError(f"{opt} nan: not a number")
+        if attr in ARG_BOUNDS and isinstance(value, int) and not isinstance(value, bool):
+            lo, hi = ARG_BOUNDS[attr]
+            check_size(value, opt, lo, hi, "the cap in safeio.ARG_BOUNDS")
+
+
 def preflight(args) -> None:
     """Check the environment's caps and the input and output paths of a parsed command line
     before any work."""
     for name in CAPS:
         cap(name)  # a bad $VGGC_CP_* cap fails here, whatever the command reads later
+    check_numbers(args)
     inputs: dict[str, str] = {}
     for attr in INPUT_ATTRS:
         value = getattr(args, attr, None)

@@ -177,6 +177,22 @@ CASES: list[Case] = [
                          ("--eps", "inf"), ("--eps", "nan"), ("--sinkhorn-tol", "inf"),
                          ("--sinkhorn-threads", "100000"), ("--floor", "nan"))
       if cmd != "distances" or opt not in ("--tau", "--k-pick")],
+    *[Case(cmd, f"{opt.lstrip('-')}-{value}", lambda w, t, argv=argv: argv(w, t),
+           must=(opt,))
+      for cmd, opt, value, argv in (
+          ("evaluate", "--seed", "-1", lambda w, t: ["evaluate", w["trace"], w["solution"],
+                                                     "--seed=-1"]),
+          ("generate", "--seed", "-1", lambda w, t: ["generate", "fruit-2x3", "-o",
+                                                     t / "out" / "g.npz", "--seed=-1"]),
+          ("train-localizer", "--seed", "-5", lambda w, t: [
+              "train-localizer", w["trace"], w["solution"], "-o", t / "out" / "m.pt",
+              "--seed=-5"]),
+          ("robustness", "--queries", "1e11", lambda w, t: [
+              "robustness", "--out", t / "out" / "r", "-Q", "100000000000"]),
+          ("bench distance", "--pairs", "-1", lambda w, t: ["bench", "distance", "--pairs=-1"]),
+          ("bench solve", "--limit", "nan", lambda w, t: ["bench", "solve", "--limit=nan"]),
+          ("solve", "--jobs", "5000", lambda w, t: ["solve", w["trace"], "-o",
+                                                    t / "out" / "s.json", "--jobs", "5000"]))],
     *files("compare", T, "in", lambda w, t, p: ["compare", p, "--quiet"]),
     *files("compare", "--csv", "out", lambda w, t, p: ["compare", w["trace"], "--csv", p]),
     *files("compare", "--plot", "out", lambda w, t, p: ["compare", w["trace"], "--plot", p]),

@@ -62,17 +62,9 @@ def register_evaluate(sub) -> None:
     p.set_defaults(func=cmd_evaluate)
 
 
-#: most evaluation queries (-Q, --i2p-queries) one run draws
-MAX_QUERIES = 1_000_000
-
-
 def cmd_evaluate(args) -> int:
     if args.queries < 1:
         raise VggcError(f"--queries must be positive, got {args.queries}")
-    for opt, value in (("--queries", args.queries), ("--i2p-queries", args.i2p_queries)):
-        if value > MAX_QUERIES:
-            raise VggcError(f"{opt} {value:,}: above the cap of {MAX_QUERIES:,} "
-                            f"(trace_cmds.MAX_QUERIES)")
     if args.consistency is not None and args.reading != "paper":  # before any work
         raise VggcError("--consistency applies to --reading paper only")
     trace = load_trace(args.trace)
