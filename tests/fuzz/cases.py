@@ -191,6 +191,11 @@ CASES: list[Case] = [
               "robustness", "--out", t / "out" / "r", "-Q", "100000000000"]),
           ("bench distance", "--pairs", "-1", lambda w, t: ["bench", "distance", "--pairs=-1"]),
           ("bench solve", "--limit", "nan", lambda w, t: ["bench", "solve", "--limit=nan"]),
+          ("bench sweep", "--transitions", "1e9", lambda w, t: [
+              "bench", "sweep", "--transitions", "1000000000"]),
+          ("benchmark", "--novel", "1e8", lambda w, t: [
+              "benchmark", "--out", t / "out" / "b", "--i2p", "greedy", "--novel",
+              "100000000"]),
           ("solve", "--jobs", "5000", lambda w, t: ["solve", w["trace"], "-o",
                                                     t / "out" / "s.json", "--jobs", "5000"]))],
     *files("compare", T, "in", lambda w, t, p: ["compare", p, "--quiet"]),

@@ -147,6 +147,8 @@ def cmd_benchmark(args) -> int:
     if any(not 0 <= s < 2**32 for s in seeds):
         raise VggcError(f"--seeds {args.seeds[:60]!r}: seeds are integers from 0 to 2^32 - 1")
     check_trace_budget(args.transitions, 64, "--transitions")
+    if args.i2p:
+        check_trace_budget(args.novel, 64, "--novel")
     cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
                           args.transitions, args.queries, args.jobs, args.backend,
                           args.scheduler, method_options(args.param), args.force,
