@@ -114,6 +114,25 @@ def files(command: str, option: str, kind: str, argv: Callable, skip: tuple[str,
     return out
 
 
+def _import_cases(layout: str, positionals: tuple[str, ...], extra: tuple = ()) -> list[Case]:
+    """``import LAYOUT``: each positional file, ``--output`` and ``--map`` (the other
+    positionals given a readable file; ``extra``: its required options)."""
+    cmd = f"import {layout}"
+
+    def argv(w, t, bad=None, which=None, out=None, map_=None):
+        files_ = [bad if p == which else w["solution"] for p in positionals]
+        return ["import", layout, *files_, *extra, "-o", out or t / "out" / "i.npz",
+                *(["--map", map_] if map_ else [])]
+
+    out = []
+    for p in positionals:
+        out += files(cmd, p, "in", lambda w, t, x, p=p: argv(w, t, bad=x, which=p))
+    out += files(cmd, "--output", "out", lambda w, t, x: argv(w, t, out=x),
+                 skip=("is-the-trace",))
+    out += files(cmd, "--map", "in", lambda w, t, x: argv(w, t, map_=x))
+    return out
+
+
 def _nb(w, t, p):
     return ["notebook", p]
 
@@ -316,6 +335,58 @@ CASES: list[Case] = [
       for i, value in enumerate(("garbage!!", "tcp://[::1", "http://", "udp://x:1", "://",
                                  "inproc://x", "tcp://h:0", "tcp://h:99999", "tcp://a b:1",
                                  "tcp://h:1/path", "x" * 400))],
+]
+
+
+# ---------------------------------------------------------------- commands of other branches
+# (show, report, export, import, generate --task, bench startup): run where the checkout has
+# them, skipped elsewhere
+OUT = lambda t, name: t / "out" / name  # noqa: E731
+CASES += [
+    *files("show", "solution", "in", lambda w, t, p: ["show", p, w["trace"], "-o",
+                                                      OUT(t, "g.png")]),
+    *files("show", T, "in", lambda w, t, p: ["show", w["solution"], p, "-o", OUT(t, "g.png")]),
+    *files("show", "--output", "out", lambda w, t, p: ["show", w["solution"], w["trace"],
+                                                       "-o", p]),
+    *files("report", "solution", "in", lambda w, t, p: ["report", p, w["trace"], "-o",
+                                                        OUT(t, "r.html")]),
+    *files("report", T, "in", lambda w, t, p: ["report", w["solution"], p, "-o",
+                                               OUT(t, "r.html")]),
+    *files("report", "--output", "out", lambda w, t, p: ["report", w["solution"], w["trace"],
+                                                         "-o", p]),
+    *files("export", "solution", "in", lambda w, t, p: ["export", p, "--to", "dot", "-o",
+                                                        OUT(t, "g.dot")]),
+    *files("export", "--output", "out", lambda w, t, p: ["export", w["solution"], "--to", "dot",
+                                                         "-o", p], skip=("is-the-trace",)),
+    Case("export", "output-is-the-solution", lambda w, t: ["export", w["solution"], "--to",
+                                                           "dot", "-o", w["solution"]],
+         ("--output",), ("same file",)),
+    *[c for layout, positionals, extra in (
+        ("images", ("log",), ()), ("video", ("video", "log"), ()),
+        ("robomimic", ("file",), ("--camera", "c", "--labels", "l")))
+      for c in _import_cases(layout, positionals, extra)],
+    *[Case("import lerobot", f"folder-{bad}",
+           lambda w, t, make=make: ["import", "lerobot", make(w, t), "--camera", "c",
+                                    "--labels", "l", "-o", OUT(t, "i.npz")],
+           ("folder",), (phrase,))
+      for bad, make, phrase in (("missing", lambda w, t: t / "nope", "not a folder"),
+                                ("a-file", lambda w, t: w["solution"], "not a folder"),
+                                ("no-meta", lambda w, t: t, "meta/info.json"))],
+    *files("import lerobot", "--output", "out",
+           lambda w, t, p: ["import", "lerobot", t, "--camera", "c", "--labels", "l", "-o", p],
+           skip=("is-the-trace",)),
+    *files("import lerobot", "--map", "in",
+           lambda w, t, p: ["import", "lerobot", t, "--camera", "c", "--labels", "l", "-o",
+                            OUT(t, "i.npz"), "--map", p]),
+    *files("generate", "--task", "in", lambda w, t, p: ["generate", "--task", f"{p}.json", "-o",
+                                                        OUT(t, "g.npz")],
+           skip=("directory", "fifo")),
+    Case("generate", "task-json-without-spec", lambda w, t: ["generate", "--task",
+                                                             w["solution"], "-o",
+                                                             OUT(t, "g.npz")],
+         ("--task",), ("spec",)),
+    Case("bench startup", "limit-nan", lambda w, t: ["bench", "startup", "--limit=nan"],
+         must=("--limit",)),
 ]
 
 

@@ -8,6 +8,7 @@ there is one), no traceback, and every input byte-identical afterwards.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 from pathlib import Path
@@ -487,6 +488,11 @@ def _leaf_parsers():
             yield name.removeprefix("vggc-cp "), p
 
 
+@functools.lru_cache(maxsize=1)
+def _leaf_commands() -> frozenset:
+    return frozenset(cmd for cmd, _ in _leaf_parsers())
+
+
 def _file_options(parser) -> list[str]:
     out = []
     for a in parser._actions:
@@ -538,6 +544,8 @@ def _quick_first(cases) -> list:
 
 @pytest.mark.parametrize("case", _quick_first(ALL_CASES))
 def test_registry_case(corpus_world, capsys, tmp_path, monkeypatch, case):
+    if case.command not in _leaf_commands():
+        pytest.skip(f"vggc-cp {case.command}: not a command of this checkout")
     w = corpus_world
     (tmp_path / "out").mkdir()
     for k in [k for k in os.environ if k.startswith("VGGC_CP_")]:
