@@ -35,7 +35,7 @@ from vggc_cp.safeio import cleanup_temps
 SIGNALS = tuple(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
                 if s is not None)
 #: seconds the command has to unwind after a signal before the watchdog ends the process
-GRACE_SECONDS = 1.0
+GRACE_SECONDS = 0.5
 
 _state = {"received": None, "said": False, "pid": os.getpid()}
 _lock = threading.Lock()
