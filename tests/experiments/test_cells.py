@@ -100,3 +100,22 @@ def test_row_problem_accepts_unmeasured_fields(cell):
     row = {**record["row"], "exec": None, "threshold": None, "heldout_predicted": None}
     assert row_problem(row, job.key) is None
     assert validate_cell("not a dict", job.key, "x") is None
+
+
+@pytest.mark.slow
+def test_a_benchmark_cell_is_reused_only_when_tied_to_its_trace(tmp_path, capsys):
+    from vggc_cp.experiments.table1 import BenchmarkConfig, run_benchmark
+
+    cfg = BenchmarkConfig(tmp_path, ("fruit-2x3",), ("merge",), (0,), transitions=16, queries=20)
+    first = run_benchmark(cfg, progress=False)
+    again = run_benchmark(cfg, progress=False)
+    assert (first.computed, again.computed) == (1, 0) and again.rows == first.rows
+    cell = next((tmp_path / "cells").glob("*.json"))
+    record = json.loads(cell.read_text())
+    assert record["trace_sha256"] == file_sha256(next((tmp_path / "traces").glob("*.npz")))
+    record["row"]["exec"] = 1.0
+    record.pop("trace_sha256")  # a row written by hand
+    cell.write_text(json.dumps(record))
+    capsys.readouterr()
+    assert run_benchmark(cfg, progress=False).computed == 1
+    assert "trace_sha256" in capsys.readouterr().err

@@ -1,4 +1,5 @@
-"""Cached study rows checked before they are trusted (the robustness study's cell files).
+"""Cached study rows checked before they are trusted (the cell files of ``vggc-cp robustness``
+and ``vggc-cp benchmark``).
 
 A cell file ``OUT/cells/<cell>.json`` holds ``{"key": ..., "trace_sha256": ..., "row": ...}``.
 :func:`validate_cell` returns its row only when the file was made under the same settings
@@ -30,12 +31,15 @@ FINITE = ("threshold", "margin")
 COUNTS = ("transitions", "observations", "true_states", "nodes", "plateau")
 #: fields that are strings
 TEXTS = ("benchmark", "look", "evidence", "reasons", "dynamics")
-#: fields every row has (the I2P ones only when measured)
+#: fields every robustness row has (the I2P ones only when measured)
 REQUIRED = ("benchmark", "look", "seed", "transitions", "observations", "true_states", "nodes",
             "nodes_ratio", "exec", "opt_path", "any_path", "trans_prec", "trans_cov",
             "suspect")
-#: fields of the row that must equal the key's
-FROM_KEY = ("benchmark", "look", "seed", "transitions")
+#: fields of the row that must equal the key's (where the key has them)
+FROM_KEY = ("benchmark", "look", "seed", "transitions", "method")
+#: fields every Table-1 (``vggc-cp benchmark``) row has
+TABLE1_REQUIRED = ("benchmark", "method", "seed", "transitions", "observations", "true_states",
+                   "nodes", "status")
 
 
 def file_sha256(path) -> str | None:
@@ -59,11 +63,12 @@ def _is_number(x) -> bool:
             and math.isfinite(float(x)))
 
 
-def row_problem(row: dict, key: dict) -> str | None:
-    """What is wrong with ``row`` (naming the field), or None when it can be trusted."""
+def row_problem(row: dict, key: dict, required: tuple[str, ...] = REQUIRED) -> str | None:
+    """What is wrong with ``row`` (naming the field), or None when it can be trusted;
+    ``required``: the fields it must have (:data:`REQUIRED`, :data:`TABLE1_REQUIRED`)."""
     if not isinstance(row, dict):
         return "field 'row' is not an object"
-    for f in REQUIRED:
+    for f in required:
         if f not in row:
             return f"field 'row.{f}' is missing"
     for f in TEXTS:
@@ -86,12 +91,12 @@ def row_problem(row: dict, key: dict) -> str | None:
         v = row.get(f)
         if v is not None and not _is_number(v):
             return f"field 'row.{f}' = {v!r} is not a finite number or null"
-    if not isinstance(row["suspect"], bool):
+    if "suspect" in row and not isinstance(row["suspect"], bool):
         return "field 'row.suspect' is not true or false"
     for f in FROM_KEY:
-        if f in key and row[f] != key[f]:
-            return f"field 'row.{f}' = {row[f]!r} is not the cell's {key[f]!r}"
-    if row["nodes_ratio"] is not None and row["true_states"] > 0 and not math.isclose(
+        if f in key and row.get(f) != key[f]:
+            return f"field 'row.{f}' = {row.get(f)!r} is not the cell's {key[f]!r}"
+    if row.get("nodes_ratio") is not None and row["true_states"] > 0 and not math.isclose(
             float(row["nodes_ratio"]), row["nodes"] / row["true_states"], rel_tol=1e-6):
         return "field 'row.nodes_ratio' is not nodes / true_states"
     if row["observations"] < 1 or row["true_states"] < 1:
@@ -99,8 +104,8 @@ def row_problem(row: dict, key: dict) -> str | None:
     return None
 
 
-def validate_cell(record, key: dict, trace_sha: str | None, source: str = "cell"
-                  ) -> dict | None:
+def validate_cell(record, key: dict, trace_sha: str | None, source: str = "cell",
+                  required: tuple[str, ...] = REQUIRED) -> dict | None:
     """The row of the cell file ``record`` (parsed JSON) when it can be trusted, else None.
 
     Parameters
@@ -113,6 +118,8 @@ def validate_cell(record, key: dict, trace_sha: str | None, source: str = "cell"
         SHA-256 of the cell's trace file now (None: no trace; the row cannot be trusted).
     source : str
         The file's name, for the warning.
+    required : tuple of str
+        The fields the row must have.
 
     Returns
     -------
@@ -133,14 +140,15 @@ def validate_cell(record, key: dict, trace_sha: str | None, source: str = "cell"
         warn(f"{source}: field 'trace_sha256' does not match the cell's trace (a row of another "
              f"trace, or written by hand); ignored, recomputing")
         return None
-    problem = row_problem(record.get("row"), key)
+    problem = row_problem(record.get("row"), key, required)
     if problem is not None:
         warn(f"{source}: {problem}; ignored, recomputing")
         return None
     return record["row"]
 
 
-def read_cell(path: Path, key: dict, trace_path: Path) -> dict | None:
+def read_cell(path: Path, key: dict, trace_path: Path, required: tuple[str, ...] = REQUIRED
+              ) -> dict | None:
     """The trusted row of the cell file at ``path`` (:func:`validate_cell`), reading it with
     the JSON caps and refusing ``NaN``/``Infinity``; None when missing or untrusted."""
     from vggc_cp.safeio import NonFinite, read_json, warn
@@ -157,4 +165,4 @@ def read_cell(path: Path, key: dict, trace_path: Path) -> dict | None:
         bad = next(k for k, v in row.items() if isinstance(v, NonFinite))
         warn(f"{path}: field 'row.{bad}' is {row[bad].text}; ignored, recomputing")
         return None
-    return validate_cell(record, key, file_sha256(trace_path), str(path))
+    return validate_cell(record, key, file_sha256(trace_path), str(path), required)
