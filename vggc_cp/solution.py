@@ -297,7 +297,14 @@ def verify_standalone(solution: Solution, source: str = "<solution>") -> TaskGra
     the graph is bipartite and Exactly-One (unless ``constraints`` is ``"none"``)."""
     from vggc_cp.trace import action_kind
 
-    graph = solution.edge_graph()
+    try:
+        graph = solution.edge_graph()
+    except SolutionError as exc:  # an edge to a node no observation has: name the file
+        index = next((i for i, (u, _a, v) in enumerate(solution.edges)
+                      if u not in set(solution.labels.tolist())
+                      or v not in set(solution.labels.tolist())), None)
+        where = f"field 'edges[{index}]': " if index is not None else ""
+        raise SolutionError(f"{source}: {where}{exc}") from None
     for u, r in graph.node_role.items():
         if r < 0:
             raise SolutionError(f"{source}: node {u} holds both pick and place observations")

@@ -8,7 +8,6 @@ Each module in :data:`COMMAND_MODULES` contributes sub-commands through
 from __future__ import annotations
 
 import argparse
-import contextlib
 import difflib
 import importlib
 import re
@@ -148,50 +147,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _on_signal(signum, _frame):
-    """SIGTERM (and SIGHUP): remove the temporary files of writes in progress, then exit."""
-    from vggc_cp.atomic import cleanup_temps
-
-    cleanup_temps()
-    print(f"vggc-cp: terminated by signal {signum}", file=sys.stderr)
-    raise SystemExit(128 + signum)
-
-
-@contextlib.contextmanager
-def _signal_handlers():
-    """Install :func:`_on_signal` for SIGTERM/SIGHUP while a command runs (main thread only)."""
-    saved = {}
-    try:
-        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
-            if sig is not None:
-                saved[sig] = signal.signal(sig, _on_signal)
-    except ValueError:  # not the main thread: leave signals alone
-        pass
-    try:
-        yield
-    finally:
-        for sig, handler in saved.items():
-            signal.signal(sig, handler)
-
-
 def main(argv: list[str] | None = None) -> int:
-    from vggc_cp.atomic import cleanup_temps
+    """Run one command; bad input: one line, exit 2; SIGINT/SIGTERM/SIGHUP: exit 130/143/129
+    within about a second, temporary files removed (:mod:`vggc_cp.interrupts`)."""
+    from vggc_cp.interrupts import exit_code, guard, received
 
     try:
-        with _signal_handlers():
-            parser = build_parser()
-            args = parser.parse_args(argv)
-            from vggc_cp.safeio import preflight
+        with guard():
+            try:
+                parser = build_parser()
+                args = parser.parse_args(argv)
+                from vggc_cp.safeio import preflight
 
-            preflight(args)  # inputs and outputs checked before any work
-            return int(args.func(args) or 0)
-    except VggcError as exc:
-        print(f"vggc-cp: error: {_one_line(str(exc))}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        cleanup_temps()
-        print("vggc-cp: interrupted", file=sys.stderr)
-        return 130
+                preflight(args)  # inputs and outputs checked before any work
+                code = int(args.func(args) or 0)
+            except VggcError as exc:
+                if received() is None:
+                    print(f"vggc-cp: error: {_one_line(str(exc))}", file=sys.stderr)
+                code = 2
+            except KeyboardInterrupt:  # a SIGINT before the handler was installed, or ours
+                code = exit_code(received() or signal.SIGINT)
+            except SystemExit:
+                if received() is None:
+                    raise  # argparse's --help / usage errors
+                code = exit_code(received())
+            if received() is not None:  # never swallowed, whoever caught it on the way
+                from vggc_cp.interrupts import announce
+                from vggc_cp.safeio import cleanup_temps
+
+                cleanup_temps()
+                announce(received())
+                code = exit_code(received())
+            return code
+    except KeyboardInterrupt:  # a second Ctrl-C while unwinding
+        return exit_code(received() or signal.SIGINT)
 
 
 def _one_line(text: str) -> str:

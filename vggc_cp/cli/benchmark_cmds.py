@@ -154,6 +154,10 @@ def register_benchmark(sub) -> None:
     p.set_defaults(func=cmd_benchmark)
 
 
+#: most seeds one benchmark run takes
+MAX_SEEDS = 10_000
+
+
 def cmd_benchmark(args) -> int:
     from pathlib import Path
 
@@ -167,6 +171,14 @@ def cmd_benchmark(args) -> int:
         seeds = tuple(int(s) for s in _split(args.seeds))
     except ValueError:
         raise VggcError(f"--seeds {args.seeds!r}: expected comma-separated integers") from None
+    from vggc_cp.safeio import check_size, check_trace_budget
+
+    check_size(len(seeds), "--seeds (count)", 1, MAX_SEEDS, f"the cap of {MAX_SEEDS:,} seeds")
+    if any(not 0 <= s < 2**32 for s in seeds):
+        raise VggcError(f"--seeds {args.seeds[:60]!r}: seeds are integers from 0 to 2^32 - 1")
+    check_trace_budget(args.transitions, 64, "--transitions")
+    if args.i2p:
+        check_trace_budget(args.novel, 64, "--novel")
     cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
                           args.transitions, args.queries, args.jobs, args.backend,
                           args.scheduler, method_options(args.param), args.force,

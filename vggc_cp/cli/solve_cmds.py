@@ -534,6 +534,9 @@ def cmd_bench_sweep(args) -> int:
 
     if args.jobs < 1:
         raise VggcError(f"--jobs must be at least 1, got {args.jobs}")
+    from vggc_cp.safeio import check_trace_budget
+
+    check_trace_budget(args.transitions, 64, "--transitions")
     trace, path, t_gen = _bench_trace(args)
     how = f"generated in {t_gen:.1f} s" if t_gen else "cached"
     print(f"trace          {path} ({how})", file=sys.stderr)

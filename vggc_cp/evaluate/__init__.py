@@ -36,7 +36,7 @@ def simulator_step(trace: Trace, gt: GroundTruth) -> StepFn | None:
 
     try:
         bench = get_benchmark(name)
-    except VggcError:  # not a benchmark the simulator knows
+    except (TypeError, VggcError):  # not a benchmark the simulator knows
         return None
     return gt.step_from_names(bench.step, trace.action_names)
 
@@ -50,8 +50,8 @@ def _sim_mismatch(trace: Trace, gt: GroundTruth) -> str | None:
 
     try:
         bench = get_benchmark(name)
-    except VggcError:
-        return f"{src}: meta names benchmark {name!r}, which the simulator does not know"
+    except (TypeError, VggcError):
+        return f"{src}: meta names benchmark {str(name)[:60]!r}, which the simulator does not know"
     known = set(getattr(bench, "action_names", ()))
     for i, a in enumerate(trace.action_names):
         if known and a not in known:
@@ -89,6 +89,10 @@ def resolve_dynamics(trace: Trace, gt: GroundTruth, dynamics: str) -> tuple[Step
         return None, "trace"
     if dynamics == "sim":
         raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    name = trace.meta.get("benchmark") if trace.meta else None
+    if name:  # a benchmark the simulator does not know: say so, as for foreign states
+        print(f"vggc-cp: note: {_sim_mismatch(trace, gt)}; Exec uses the trace's own "
+              f"transitions (--dynamics trace)", file=sys.stderr)
     return None, "trace"
 
 

@@ -40,6 +40,7 @@ from pathlib import Path
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
 from vggc_cp.evaluate.metrics import MIN_EXEC
+from vggc_cp.experiments.cells import file_sha256, read_cell
 from vggc_cp.experiments.table1 import (
     BACKENDS,
     _cached,
@@ -329,7 +330,7 @@ def cached_row(job: RobustCell) -> dict | None:
     """The cached row of ``job`` when it was made with the same settings (and, when the cell
     measures I2P, holds I2P figures made with the same I2P settings), else None. A row with
     I2P figures also serves a run that does not measure them."""
-    row = _cached(job.cell_path, job.key, "row")
+    row = read_cell(job.cell_path, job.key, job.trace_path)  # validated, tied to its trace
     if row is None or not job.i2p:
         return row
     return row if _cached(job.cell_path, job.key, "i2p_key") == job.i2p_key else None
@@ -422,7 +423,7 @@ def run_cell(job: RobustCell) -> dict:
     if job.i2p:
         row |= run_i2p(job, trace)
     row = jsonable(row)
-    record = {"key": job.key, "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {})
+    record = ({"key": job.key, "trace_sha256": file_sha256(job.trace_path), "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {}))
     write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
     return row
 

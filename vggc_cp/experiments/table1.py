@@ -253,8 +253,11 @@ def _cached(path: Path, key: dict, member: str) -> dict | None:
 
 
 def cached_row(job: CellJob) -> dict | None:
-    """The cached row of ``job`` when it was made with the same settings, else None."""
-    return _cached(job.cell_path, job.key, "row")
+    """The cached row of ``job`` when it was made with the same settings from the trace now on
+    disk and its fields can be trusted (:mod:`vggc_cp.experiments.cells`), else None."""
+    from vggc_cp.experiments.cells import TABLE1_REQUIRED, read_cell
+
+    return read_cell(job.cell_path, job.key, job.trace_path, TABLE1_REQUIRED)
 
 
 def exploration_of(benchmark: str) -> dict:

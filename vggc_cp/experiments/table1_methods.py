@@ -272,8 +272,10 @@ def run_cell(job: CellJob) -> dict:
                 row[k] = run.solution[k]
     row["seconds_evaluate"] = round(time.perf_counter() - t0, 3)
     row["seconds"] = round(row["seconds_distances"] + row["seconds_method"], 3)
-    write_text(job.cell_path, json.dumps({"key": job.key, "row": jsonable(row)}, indent=1)
-               + "\n")
+    from vggc_cp.experiments.cells import file_sha256
+
+    record = {"key": job.key, "trace_sha256": file_sha256(job.trace_path), "row": jsonable(row)}
+    write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
     return jsonable(row)
 
 
