@@ -38,9 +38,15 @@ from vggc_cp.solvers.confidence import (
 )
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
+from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
 from vggc_cp.trace import Trace
 from vggc_cp.vision.distances import DistanceConfig, compute_distances
-from vggc_cp.vision.footprints import FootprintConfig, footprint_distances
+from vggc_cp.vision.footprints import (
+    FootprintConfig,
+    action_footprints,
+    footprint_codes,
+    footprint_distances,
+)
 
 #: Evidence names: ``footprints``, or an attention backend of the Sinkhorn distances.
 FOOTPRINTS = "footprints"
@@ -49,6 +55,8 @@ AUTO = "auto"
 EVIDENCES = (AUTO, FOOTPRINTS, "attention")
 #: Attention backends that ``auto`` tries when the footprint graph is suspect.
 AUTO_FALLBACK = ("keypoints",)
+#: How the merge path meets candidate pairs (:attr:`LearnConfig.candidates`).
+CANDIDATES = ("codes", "dense")
 
 
 @dataclass(frozen=True)
@@ -72,6 +80,11 @@ class LearnConfig:
     folds : int
         Episode folds of the held-out prediction (0: skip it).
     warning : WarningRule
+    candidates : str
+        ``codes`` (default): an evidence that describes observations by discrete descriptors
+        (footprints) is merged on candidate pairs of descriptor codes, without N x N matrices
+        (:mod:`vggc_cp.solvers.pairs`; the same partitions); ``dense``: every evidence
+        through the ``(n, n)`` distance matrices.
     """
 
     evidence: str = AUTO
@@ -82,6 +95,12 @@ class LearnConfig:
     steps: int = 24
     folds: int = 5
     warning: WarningRule = field(default_factory=WarningRule)
+    candidates: str = "codes"
+
+    def __post_init__(self) -> None:
+        if self.candidates not in CANDIDATES:
+            raise VggcError(f"candidates must be one of {', '.join(CANDIDATES)}, got "
+                            f"{self.candidates!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,15 +196,39 @@ def evidence_distances(trace: Trace, evidence: str, options: LearnConfig,
     return compute_distances(trace, cfg, progress=progress)
 
 
+def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
+                     progress: bool = False) -> Problem | CodedProblem:
+    """The problem of ``trace`` under ``evidence``: a :class:`CodedProblem` (descriptor
+    codes, no N x N matrix) for the footprints unless ``options.candidates`` is ``dense``,
+    else a :class:`Problem` of the distance matrices."""
+    if evidence == FOOTPRINTS and options.candidates == "codes":
+        fp = action_footprints(trace, options.footprint)
+        codes, tables = footprint_codes(fp, trace.roles())
+        return CodedProblem.from_trace(trace, codes, tables)
+    dp, dq = evidence_distances(trace, evidence, options, progress)
+    return Problem.from_trace(trace, dp, dq)
+
+
+def merge_path(problem: Problem | CodedProblem, options: LearnConfig,
+               progress: bool = False) -> ThresholdPath:
+    """The threshold grid (:func:`threshold_grid`, or ``options.thresholds``) and the merge
+    path along it, on candidate pairs for a :class:`CodedProblem`."""
+    coded = isinstance(problem, CodedProblem)
+    if options.thresholds is not None:
+        ts = np.asarray(options.thresholds, dtype=np.float64)
+    else:
+        ts = (coded_threshold_grid if coded else threshold_grid)(problem, options.steps)
+    if coded:
+        return coded_threshold_path(problem, ts, options.rule, progress=progress)
+    return threshold_path(problem, ts, options.rule, progress=progress)
+
+
 def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
                   progress: bool = False) -> Candidate:
     """Distances, merge path, selection and confidence under one evidence."""
     t0 = time.perf_counter()
-    dp, dq = evidence_distances(trace, evidence, options, progress)
-    problem = Problem.from_trace(trace, dp, dq)
-    ts = (np.asarray(options.thresholds, dtype=np.float64) if options.thresholds is not None
-          else threshold_grid(problem, options.steps))
-    path = threshold_path(problem, ts, options.rule, progress=progress)
+    problem = evidence_problem(trace, evidence, options, progress)
+    path = merge_path(problem, options, progress)
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]

@@ -545,3 +545,40 @@ def footprint_distances(trace: Trace, params: FootprintConfig | None = None
     return tuple(footprint_distance_matrix(fp.presence[roles == role], fp.posterior[roles == role],
                                            fp.taken, fp.nuisance)
                  for role in (PICK, PLACE))
+
+
+def footprint_codes(fp: Footprints, roles: np.ndarray
+                    ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Descriptor codes and code distance tables of both roles (issue 27).
+
+    Observations of one role whose descriptors (presence and colour posterior in every taken
+    site) are identical to the bit get one code; the distance of two observations is a
+    function of their descriptors, so ``footprint_distances(...)[role][o, o'] ==
+    table[code(o), code(o')]`` exactly, with tables of the codes' representatives.
+
+    Parameters
+    ----------
+    fp : Footprints
+    roles : ndarray, shape (N,)
+
+    Returns
+    -------
+    codes : (ndarray of int64 (n_pick,), ndarray of int64 (n_place,))
+    tables : (ndarray of float64 (G_pick, G_pick), ndarray of float64 (G_place, G_place))
+    """
+    taken = fp.taken
+    codes, tables = [], []
+    for role in (PICK, PLACE):
+        sel = np.flatnonzero(roles == role)
+        desc = np.concatenate([fp.presence[sel][:, taken],
+                               fp.posterior[sel][:, taken].reshape(len(sel), -1)], axis=1)
+        if len(sel) == 0:
+            codes.append(np.zeros(0, dtype=np.int64))
+            tables.append(np.zeros((0, 0)))
+            continue
+        _, first, inv = np.unique(desc, axis=0, return_index=True, return_inverse=True)
+        rep = sel[first]
+        codes.append(np.asarray(inv, dtype=np.int64).ravel())
+        tables.append(footprint_distance_matrix(fp.presence[rep], fp.posterior[rep], taken,
+                                                fp.nuisance))
+    return (codes[0], codes[1]), (tables[0], tables[1])
