@@ -229,6 +229,14 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
     t0 = time.perf_counter()
     problem = evidence_problem(trace, evidence, options, progress)
     path = merge_path(problem, options, progress)
+    dls, conf = assess_path(trace, problem, path, options)
+    return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
+
+
+def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
+                options: LearnConfig) -> tuple[tuple[float, ...], Confidence]:
+    """Description length of every graph of ``path`` and the :class:`Confidence` of the
+    selected one (margin, plateau, held-out prediction)."""
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
@@ -240,7 +248,7 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
                                   options.folds) if options.folds >= 2 else None)
     conf = assess(margin, plateau, heldout, problem.n_obs / max(best.n_nodes, 1),
                   options.warning, criterion=options.rule)
-    return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
+    return dls, conf
 
 
 def learn_graph(trace: Trace, options: LearnConfig | None = None,

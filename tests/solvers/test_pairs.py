@@ -47,7 +47,10 @@ def coded_problem(trace, n_codes, levels, seed):
     return CodedProblem.from_trace(trace.without_states(), tuple(codes), tuple(tables))
 
 
-@pytest.mark.parametrize("seed,levels", [(0, 0), (1, 8), (2, 16), (3, 0), (4, 4)])
+@pytest.mark.parametrize("seed,levels", [(0, 0), (2, 16),
+                                         pytest.param(1, 8, marks=pytest.mark.slow),
+                                         pytest.param(3, 0, marks=pytest.mark.slow),
+                                         pytest.param(4, 4, marks=pytest.mark.slow)])
 def test_coded_path_equals_dense_path(seed, levels):
     rng = np.random.default_rng(seed)
     trace = make_trace([fruit_episode(rng, 8) for _ in range(6)], NAMES)

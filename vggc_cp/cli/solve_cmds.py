@@ -352,7 +352,9 @@ def _solve_merge(args) -> int:
     if args.exact:
         from vggc_cp.solvers.merge_exact import DEFAULT_PARAMS, exact_counterpart
 
-        exact = exact_counterpart(problem, best, params=args.cpsat_params or DEFAULT_PARAMS,
+        # CP-SAT reads the (n, n) matrices: a problem of descriptor codes builds them here
+        dense = problem.dense() if hasattr(problem, "dense") else problem
+        exact = exact_counterpart(dense, best, params=args.cpsat_params or DEFAULT_PARAMS,
                                   progress=not args.quiet)
         print(f"exact          CP-SAT under merge's constraints: {exact.summary()} "
               f"({exact.seconds:.1f} s)")

@@ -164,20 +164,47 @@ class Footprints:
         return np.flatnonzero(self.counts > 0)
 
 
-def normalise_frames(observations: np.ndarray, chunk: int = 512) -> np.ndarray:
-    """Divide each frame by its per-channel median (cancels a per-frame gain and tint).
+#: Image side the footprint defaults were tuned at; larger frames are averaged down to about
+#: it (:func:`working_factor`).
+WORK_SIDE = 64
+#: Bytes of float frames converted at once (:func:`normalise_frames`).
+CHUNK_BYTES = 64 << 20
+
+
+def working_factor(height: int, width: int, side: int = WORK_SIDE) -> int:
+    """Integer factor by which frames of ``height x width`` are averaged down for the
+    footprints: the largest that keeps the short side at ``side`` pixels or more (1 for the
+    64 px renders the defaults were tuned on; 7 for a 640x480 camera)."""
+    return max(1, min(int(height), int(width)) // int(side))
+
+
+def normalise_frames(observations: np.ndarray, factor: int = 1,
+                     chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
+    """Frames averaged down by ``factor`` (blocks of ``factor x factor`` pixels; edges that do
+    not fill a block are cropped), each divided by its per-channel median (cancels a
+    per-frame gain and tint). Frames are read in chunks of about ``chunk_bytes`` of float
+    pixels, so only the working-resolution copy of all of them is ever held.
 
     Parameters
     ----------
     observations : ndarray of uint8, shape (N, H, W, 3)
+        Any array-like that slices along its first axis (a memory map too).
+    factor : int
 
     Returns
     -------
-    ndarray of float32, shape (N, H, W, 3)
+    ndarray of float32, shape (N, H // factor, W // factor, 3)
     """
-    out = np.empty(observations.shape, dtype=np.float32)
-    for s in range(0, len(observations), chunk):
-        x = observations[s:s + chunk].astype(np.float32) / 255.0
+    n, h, w = observations.shape[:3]
+    f = max(1, int(factor))
+    hh, ww = h // f, w // f
+    out = np.empty((n, hh, ww, 3), dtype=np.float32)
+    chunk = max(1, int(chunk_bytes) // (h * w * 3 * 4))  # a float32 copy of a chunk
+    for s in range(0, n, chunk):
+        block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
+        if f > 1:  # block sums in integers (exact), one division: the block means
+            block = block.reshape(len(block), hh, f, ww, f, 3).sum(axis=(2, 4), dtype=np.uint32)
+        x = block.astype(np.float32) / (255.0 * f * f)
         med = np.median(x.reshape(len(x), -1, 3), axis=1)
         out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
     return out
@@ -432,7 +459,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise VggcError("footprint evidence needs at least one transition")
-    x = normalise_frames(trace.observations)
+    x = normalise_frames(trace.observations, working_factor(*trace.image_shape))
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():
