@@ -200,21 +200,23 @@ def cmd_bench_scale(args) -> int:
     gib = float(1 << 30)
     print(f"scale          {cfg.bench}, seed {cfg.seed}, traces in {cache}")
     print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'evidence':>15} {'merge path':>15} "
-          f"{'confidence':>15} {'total':>8} {'peak':>8} nodes")
+          f"{'confidence':>15} {'total':>8} {'cpu':>8} {'peak':>8} nodes")
 
     def show(rec) -> None:
         cells = " ".join(f"{s.seconds:7.1f} s {s.peak_bytes / gib:4.2f} G"
                          for s in rec.stages)
         gen = f"{rec.generate_seconds:7.1f} s" if rec.generate_seconds else "   cached"
         print(f"{rec.transitions:>7} {rec.observations:>7} {gen} {cells} {rec.seconds:6.1f} s "
-              f"{rec.peak_bytes / gib:6.2f} G {rec.nodes}{' suspect' if rec.suspect else ''}",
-              flush=True)
+              f"{rec.cpu_seconds:6.1f} s {rec.peak_bytes / gib:6.2f} G {rec.nodes}"
+              f"{' suspect' if rec.suspect else ''}", flush=True)
 
     records = run_scale(cfg, show)
     if len(records) >= 2:
         k = growth_exponent([r.transitions for r in records], [r.seconds for r in records])
-        print(f"growth         wall time ~ |D|^{k:.2f} ({records[0].transitions}.."
-              f"{records[-1].transitions}, least squares on log-log)")
+        kc = growth_exponent([r.transitions for r in records],
+                             [r.cpu_seconds for r in records])
+        print(f"growth         wall time ~ |D|^{k:.2f}, CPU time ~ |D|^{kc:.2f} "
+              f"({records[0].transitions}..{records[-1].transitions}, least squares on log-log)")
     if args.camera.lower() != "none":
         from vggc_cp.sim.explore import parse_image_size
 

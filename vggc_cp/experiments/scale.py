@@ -64,11 +64,13 @@ class ScaleConfig:
 
 @dataclass(frozen=True)
 class StageRecord:
-    """Wall seconds and peak resident memory (bytes) of one stage."""
+    """Wall seconds, CPU seconds of this process and peak resident memory (bytes) of one
+    stage (on a shared machine the CPU seconds say what the wall time would be alone)."""
 
     stage: str
     seconds: float
     peak_bytes: int
+    cpu_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,10 @@ class SizeRecord:
     def seconds(self) -> float:
         """Wall seconds of the learning (generation excluded)."""
         return sum(s.seconds for s in self.stages)
+
+    @property
+    def cpu_seconds(self) -> float:
+        return sum(s.cpu_seconds for s in self.stages)
 
     @property
     def peak_bytes(self) -> int:
@@ -160,10 +166,10 @@ def measure(trace, generate_seconds: float = 0.0) -> SizeRecord:
 
     def timed(name, fn):
         with PeakMemory() as mem:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             out = fn()
-            seconds = time.perf_counter() - t0
-        stages.append(StageRecord(name, seconds, mem.peak))
+            seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+        stages.append(StageRecord(name, seconds, mem.peak, cpu))
         return out
 
     problem = timed("evidence", lambda: evidence_problem(trace, FOOTPRINTS, options))
