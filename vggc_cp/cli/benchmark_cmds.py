@@ -178,6 +178,7 @@ def register_bench(bench_sub) -> None:
                         "(none: skip)")
     b.add_argument("--camera-transitions", type=int, default=1500,
                    help="|D| of the camera-sized trace")
+    b.add_argument("--csv", default=None, help="also write one row per size and stage here")
     b.set_defaults(func=cmd_bench_scale)
 
 
@@ -211,6 +212,7 @@ def cmd_bench_scale(args) -> int:
               f"{' suspect' if rec.suspect else ''}", flush=True)
 
     records = run_scale(cfg, show)
+    cam_records = []
     if len(records) >= 2:
         k = growth_exponent([r.transitions for r in records], [r.seconds for r in records])
         kc = growth_exponent([r.transitions for r in records],
@@ -223,10 +225,17 @@ def cmd_bench_scale(args) -> int:
         h, w = parse_image_size(args.camera)
         cam = run_scale(ScaleConfig((args.camera_transitions,), seed=args.seed, cache=cache,
                                     image=(h, w)), show)[0]
+        cam_records.append(cam)
         ref = next((r for r in records if r.transitions == args.camera_transitions), None)
         line = f"camera         {w}x{h} at |D| = {cam.transitions}: {cam.seconds:.1f} s, " \
                f"peak {cam.peak_bytes / gib:.2f} GiB"
         if ref is not None:
             line += f" ({cam.seconds / ref.seconds:.2f}x the {ref.image[1]} px time)"
         print(line)
+    if args.csv:
+        from vggc_cp.atomic import write_text
+        from vggc_cp.experiments.scale import record_rows, rows_csv
+
+        write_text(args.csv, rows_csv(record_rows([*records, *cam_records])))
+        print(f"wrote          {args.csv}")
     return 0

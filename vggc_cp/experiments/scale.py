@@ -198,3 +198,46 @@ def run_scale(cfg: ScaleConfig, on_record=None) -> list[SizeRecord]:
         if on_record is not None:
             on_record(rec)
     return out
+
+
+#: Columns of :func:`record_rows` (the CSV of ``bench scale --csv``).
+COLUMNS = ("transitions", "observations", "height", "width", "stage", "seconds",
+           "cpu_seconds", "peak_bytes", "nodes")
+
+
+def record_rows(records) -> list[dict]:
+    """One row per size and stage (:data:`COLUMNS`)."""
+    return [{"transitions": r.transitions, "observations": r.observations,
+             "height": r.image[0], "width": r.image[1], "stage": s.stage,
+             "seconds": round(s.seconds, 3), "cpu_seconds": round(s.cpu_seconds, 3),
+             "peak_bytes": int(s.peak_bytes), "nodes": r.nodes}
+            for r in records for s in r.stages]
+
+
+def rows_csv(rows: list[dict]) -> str:
+    """CSV text of :func:`record_rows`."""
+    lines = [",".join(COLUMNS)]
+    lines += [",".join(str(row[c]) for c in COLUMNS) for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def read_rows(path) -> list[dict]:
+    """Rows of a CSV written by ``bench scale --csv`` (errors name the file and line)."""
+    from vggc_cp.safeio import check_input
+
+    check_input(path, "scale CSV")
+    text = Path(path).read_text(encoding="utf-8").splitlines()
+    if not text or tuple(text[0].split(",")) != COLUMNS:
+        raise VggcError(f"{path}: expected the header {','.join(COLUMNS)}")
+    rows = []
+    for k, line in enumerate(text[1:], 2):
+        parts = line.split(",")
+        if len(parts) != len(COLUMNS):
+            raise VggcError(f"{path}: line {k} has {len(parts)} fields, expected {len(COLUMNS)}")
+        try:
+            row = {c: (v if c == "stage" else float(v) if c in ("seconds", "cpu_seconds")
+                       else int(v)) for c, v in zip(COLUMNS, parts)}
+        except ValueError:
+            raise VggcError(f"{path}: line {k} holds a value that is not a number") from None
+        rows.append(row)
+    return rows
