@@ -130,3 +130,27 @@ def test_greedy_solve_on_a_cluster_writes_the_same_bytes(cluster, tmp_path, caps
     assert main(["solve", str(DATA), "-o", str(paths[1]), *common, "--backend", "dask",
                  "--scheduler", cluster]) == 0
     assert paths[0].read_bytes() == paths[1].read_bytes()
+
+
+@pytest.mark.slow
+@needs_dask
+def test_default_learning_on_a_cluster_equals_local(cluster, monkeypatch):
+    """The footprint evidence converts its frames in blocks on the cluster's workers (issue
+    27): the same codes, tables and graph as in this process."""
+    from vggc_cp.pipeline import LearnConfig, evidence_problem, learn_graph
+    from vggc_cp.vision import footprints
+
+    trace = load_trace(DATA).without_states()
+    options = LearnConfig(evidence="footprints")
+    local = learn_graph(trace, options)
+    # blocks of 16 frames: the 56 frames of the shipped trace go out in 4 blocks
+    monkeypatch.setattr(footprints, "BLOCK_FRAMES", 16)
+    with open_executor(Backend("dask", scheduler=cluster)) as ex:
+        frames = footprints.working_frames(trace.observations, ex)
+        remote = learn_graph(trace, options, executor=ex)
+        coded = evidence_problem(trace, "footprints", options, executor=ex)
+    assert np.array_equal(frames, footprints.working_frames(trace.observations))
+    assert np.array_equal(local.labels, remote.labels)
+    assert local.confidence == remote.confidence
+    assert np.array_equal(coded.table_pick, local.problem.table_pick)
+    assert np.array_equal(coded.codes_place, local.problem.codes_place)

@@ -187,25 +187,32 @@ def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9)
 
 
 def evidence_distances(trace: Trace, evidence: str, options: LearnConfig,
-                       progress: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                       progress: bool = False, executor=None) -> tuple[np.ndarray, np.ndarray]:
     """Within-role distances of ``trace`` under ``evidence`` (``footprints`` or an attention
-    backend)."""
+    backend); ``executor`` runs their blocks."""
     if evidence == FOOTPRINTS:
         return footprint_distances(trace, options.footprint)
     cfg = replace(options.distance, backend=evidence)
+    if executor is not None:
+        from vggc_cp.vision.distances import compute_distances_full
+
+        res = compute_distances_full(trace, cfg, progress=progress, executor=executor)
+        return res.dist_pick, res.dist_place
     return compute_distances(trace, cfg, progress=progress)
 
 
 def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
-                     progress: bool = False) -> Problem | CodedProblem:
+                     progress: bool = False, executor=None) -> Problem | CodedProblem:
     """The problem of ``trace`` under ``evidence``: a :class:`CodedProblem` (descriptor
     codes, no N x N matrix) for the footprints unless ``options.candidates`` is ``dense``,
-    else a :class:`Problem` of the distance matrices."""
+    else a :class:`Problem` of the distance matrices. ``executor``
+    (:func:`vggc_cp.parallel.open_executor`, e.g. a dask cluster) converts the frames in
+    blocks (footprints) or computes the distance row blocks (attention); same numbers."""
     if evidence == FOOTPRINTS and options.candidates == "codes":
-        fp = action_footprints(trace, options.footprint)
+        fp = action_footprints(trace, options.footprint, executor)
         codes, tables = footprint_codes(fp, trace.roles())
         return CodedProblem.from_trace(trace, codes, tables)
-    dp, dq = evidence_distances(trace, evidence, options, progress)
+    dp, dq = evidence_distances(trace, evidence, options, progress, executor)
     return Problem.from_trace(trace, dp, dq)
 
 
@@ -224,10 +231,11 @@ def merge_path(problem: Problem | CodedProblem, options: LearnConfig,
 
 
 def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
-                  progress: bool = False) -> Candidate:
-    """Distances, merge path, selection and confidence under one evidence."""
+                  progress: bool = False, executor=None) -> Candidate:
+    """Distances, merge path, selection and confidence under one evidence (``executor``:
+    :func:`evidence_problem`)."""
     t0 = time.perf_counter()
-    problem = evidence_problem(trace, evidence, options, progress)
+    problem = evidence_problem(trace, evidence, options, progress, executor)
     path = merge_path(problem, options, progress)
     dls, conf = assess_path(trace, problem, path, options)
     return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
@@ -252,7 +260,7 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
 
 
 def learn_graph(trace: Trace, options: LearnConfig | None = None,
-                progress: bool = False) -> Learned:
+                progress: bool = False, executor=None) -> Learned:
     """Learn the task graph of ``trace`` (module docstring).
 
     Parameters
@@ -262,6 +270,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     options : LearnConfig, optional
     progress : bool
         Progress bars on stderr.
+    executor : Executor, optional
+        Where the evidence's blocks run (:func:`evidence_problem`); the same graph.
 
     Returns
     -------
@@ -277,13 +287,13 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         raise VggcError("the trace has no transition: nothing to learn")
     t0 = time.perf_counter()
     if options.evidence != AUTO:
-        candidates = [run_candidate(trace, options.evidence, options, progress)]
+        candidates = [run_candidate(trace, options.evidence, options, progress, executor)]
         skipped = []
     else:
         candidates, skipped = [], []
         for evidence in (FOOTPRINTS, *AUTO_FALLBACK):
             try:
-                candidates.append(run_candidate(trace, evidence, options, progress))
+                candidates.append(run_candidate(trace, evidence, options, progress, executor))
             except VggcError as exc:  # no localized change; images smaller than a grid
                 skipped.append(f"{evidence}: {exc}")
                 continue

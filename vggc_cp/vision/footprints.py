@@ -210,6 +210,34 @@ def normalise_frames(observations: np.ndarray, factor: int = 1,
     return out
 
 
+#: Frames of one block of :func:`working_frames` on an executor.
+BLOCK_FRAMES = 256
+
+
+def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
+    observations, factor = item
+    return normalise_frames(observations, factor)
+
+
+def working_frames(observations: np.ndarray, executor=None,
+                   block: int | None = None) -> np.ndarray:
+    """:func:`normalise_frames` at the :func:`working_factor` of the frames' size; with an
+    ``executor`` (e.g. a dask cluster), blocks of ``block`` (default :data:`BLOCK_FRAMES`)
+    frames are converted on its workers (each frame on its own: the same numbers as here).
+
+    Returns
+    -------
+    ndarray of float32, shape (N, H // f, W // f, 3)
+    """
+    factor = working_factor(*observations.shape[1:3])
+    block = int(block or BLOCK_FRAMES)
+    if executor is None or len(observations) <= block:
+        return normalise_frames(observations, factor)
+    items = [(np.ascontiguousarray(observations[s:s + block]), factor)
+             for s in range(0, len(observations), block)]
+    return np.concatenate(executor.map(_normalise_block, items), axis=0)
+
+
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
                    dst: np.ndarray, n_actions: int, params: FootprintConfig) -> np.ndarray:
     """``F_a`` of every action (module docstring), shape ``(A, H, W)``.
@@ -447,8 +475,12 @@ def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
     return mag, chroma
 
 
-def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Footprints:
+def action_footprints(trace: Trace, params: FootprintConfig | None = None,
+                      executor=None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
+
+    ``executor`` (:func:`vggc_cp.parallel.open_executor`) converts the frames in blocks
+    (:func:`working_frames`); the same numbers either way.
 
     Raises
     ------
@@ -459,7 +491,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise VggcError("footprint evidence needs at least one transition")
-    x = normalise_frames(trace.observations, working_factor(*trace.image_shape))
+    x = working_frames(trace.observations, executor)
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():
