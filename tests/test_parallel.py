@@ -80,13 +80,19 @@ def test_missing_ray_says_how_to_install(tmp_path, capsys):
     assert not any(tmp_path.iterdir())  # refused before any work
 
 
-def test_merge_solver_refuses_a_cluster_backend(tmp_path, capsys):
-    out = tmp_path / "s.json"
-    for flags in (["--backend", "dask"], ["--scheduler", "tcp://h:8786"]):
-        assert main(["solve", str(DATA), "-o", str(out), *flags]) == 2
-        err = capsys.readouterr().err
-        assert "applies to the grid solvers" in err and err.count("\n") == 1
-    assert not out.exists()
+@pytest.mark.slow
+@needs_dask
+def test_merge_solve_on_a_cluster_gives_the_local_graph(cluster, tmp_path):
+    """``solve --backend dask`` (the default merge path, issue 27): the evidence's blocks on the
+    cluster, the same labels and graph."""
+    import json
+
+    out = [tmp_path / "local.json", tmp_path / "dask.json"]
+    assert main(["solve", str(DATA), "-o", str(out[0]), "--quiet"]) == 0
+    assert main(["solve", str(DATA), "-o", str(out[1]), "--quiet", "--backend", "dask",
+                 "--scheduler", cluster]) == 0
+    a, b = (json.loads(p.read_text()) for p in out)
+    assert a["labels"] == b["labels"] and a["edges"] == b["edges"]
 
 
 @pytest.mark.slow

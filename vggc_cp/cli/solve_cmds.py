@@ -27,8 +27,7 @@ from vggc_cp.errors import VggcError
 DEFAULT_SOLVER = "merge"
 #: ``solve`` options that only the grid solvers read: refused under ``--solver merge``.
 GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_actions",
-             "codeterministic", "cannot_link", "objective", "hint", "optimize", "backend",
-             "scheduler")
+             "codeterministic", "cannot_link", "objective", "hint", "optimize")
 #: ``solve`` options that only the merge solver reads: refused under the grid solvers.
 MERGE_ONLY = ("evidence", "thresholds", "exact")
 BENCH_NAME = "fruit-4x6"
@@ -87,7 +86,8 @@ def register(sub) -> None:
                         "the same inputs give the same bytes)")
     add_distance_arguments(p)
     add_cpsat_arguments(p)
-    add_backend_arguments(p, "the grid solvers' distance blocks and cells")
+    add_backend_arguments(p, "the grid solvers' distance blocks and cells, and the merge "
+                             "path's evidence blocks")
     p.set_defaults(func=cmd_solve, option_defaults={
         d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
 
@@ -327,7 +327,8 @@ def _solve_merge(args) -> int:
 
     options, cfg = _learn_options(args)
     trace = load_trace(args.trace)
-    learned = learn_graph(trace, options, progress=not args.quiet)
+    with cluster_from_args(args) as executor:  # --backend dask: the evidence's blocks there
+        learned = learn_graph(trace, options, progress=not args.quiet, executor=executor)
     chosen = learned.chosen
     problem, path = chosen.problem, chosen.path
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
