@@ -45,6 +45,17 @@ def test_shipped_trace_same_graphs_on_both_paths():
     assert coded.best.n_nodes > 1
 
 
+def test_descriptors_that_do_not_repeat_take_the_dense_matrices(monkeypatch):
+    from vggc_cp import pipeline
+
+    trace = load_trace(DATA).without_states()
+    monkeypatch.setattr(pipeline, "CODES_SHARE", 0.0)
+    problem = evidence_problem(trace, FOOTPRINTS, LearnConfig())
+    assert not isinstance(problem, CodedProblem)
+    for a, b in zip((problem.dist_pick, problem.dist_place), footprint_distances(trace)):
+        assert np.array_equal(a, b)
+
+
 def test_candidates_setting_is_validated():
     with pytest.raises(VggcError, match="codes, dense"):
         LearnConfig(candidates="sparse")
@@ -57,8 +68,10 @@ def test_candidates_setting_is_validated():
 @pytest.mark.parametrize("bench,transitions,look", [
     ("fruit-4x6", 400, "clean"), ("blocks-2", 300, "clean"), ("multifruit-2x3", 300, "clean"),
     ("fruit-2x3", 300, "randomized"), ("fruit-4x6", 400, "randomized")])
-def test_generated_traces_same_graphs_on_both_paths(bench, transitions, look):
+def test_generated_traces_same_graphs_on_both_paths(bench, transitions, look, monkeypatch):
+    from vggc_cp import pipeline
     from vggc_cp.sim.explore import generate
 
+    monkeypatch.setattr(pipeline, "CODES_SHARE", 1.0)  # codes even where they barely repeat
     trace = generate(bench, transitions, seed=3, look=look).trace.without_states()
     same_candidate(trace)

@@ -57,6 +57,9 @@ EVIDENCES = (AUTO, FOOTPRINTS, "attention")
 AUTO_FALLBACK = ("keypoints",)
 #: How the merge path meets candidate pairs (:attr:`LearnConfig.candidates`).
 CANDIDATES = ("codes", "dense")
+#: Codes are used when each role has at most this share of codes per observation (renders of
+#: one situation repeat their descriptor); otherwise the dense matrices serve better.
+CODES_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -83,8 +86,9 @@ class LearnConfig:
     candidates : str
         ``codes`` (default): an evidence that describes observations by discrete descriptors
         (footprints) is merged on candidate pairs of descriptor codes, without N x N matrices
-        (:mod:`vggc_cp.solvers.pairs`; the same partitions); ``dense``: every evidence
-        through the ``(n, n)`` distance matrices.
+        (:mod:`vggc_cp.solvers.pairs`; the same partitions), when the descriptors repeat
+        (:data:`CODES_SHARE`); ``dense``: every evidence through the ``(n, n)`` distance
+        matrices.
     """
 
     evidence: str = AUTO
@@ -211,7 +215,12 @@ def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
     if evidence == FOOTPRINTS and options.candidates == "codes":
         fp = action_footprints(trace, options.footprint, executor)
         codes, tables = footprint_codes(fp, trace.roles())
-        return CodedProblem.from_trace(trace, codes, tables)
+        coded = CodedProblem.from_trace(trace, codes, tables)
+        if all(len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
+            return coded
+        # descriptors that do not repeat (continuous presence): the dense matrices, the
+        # same numbers (table[code, code] is the distance bit for bit)
+        return coded.dense()
     dp, dq = evidence_distances(trace, evidence, options, progress, executor)
     return Problem.from_trace(trace, dp, dq)
 
