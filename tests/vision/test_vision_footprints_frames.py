@@ -44,3 +44,14 @@ def test_a_large_trace_is_read_in_chunks_and_gives_the_small_traces_distances():
     assert peak < float_copy / 3, (peak, float_copy)
     for a, b in zip(dist, footprint_distances(trace)):
         assert np.array_equal(a, b)
+
+
+def test_block_sums_are_exact_in_both_integer_widths():
+    from vggc_cp.vision.footprints import _block_sums
+
+    rng = np.random.default_rng(0)
+    for f, shape in ((16, (2, 32, 48, 3)), (17, (2, 34, 51, 3)), (3, (4, 9, 6, 3))):
+        x = rng.integers(0, 256, shape, dtype=np.uint8)
+        h, w = shape[1] // f, shape[2] // f
+        plain = x.reshape(shape[0], h, f, w, f, 3).sum(axis=(2, 4), dtype=np.uint64)
+        assert np.array_equal(_block_sums(x, f), plain)

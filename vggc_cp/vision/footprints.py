@@ -203,10 +203,26 @@ def normalise_frames(observations: np.ndarray, factor: int = 1,
     for s in range(0, n, chunk):
         block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
         if f > 1:  # block sums in integers (exact), one division: the block means
-            block = block.reshape(len(block), hh, f, ww, f, 3).sum(axis=(2, 4), dtype=np.uint32)
+            block = _block_sums(block, f)
         x = block.astype(np.float32) / (255.0 * f * f)
         med = np.median(x.reshape(len(x), -1, 3), axis=1)
         out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
+    return out
+
+
+def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
+    """Sums of ``f x f`` pixel blocks of uint8 frames (N, f*h, f*w, 3), exact integers of
+    shape (N, h, w, 3): rows then columns added slice by slice (several times faster than a
+    reduction over strided axes)."""
+    n, hf, wf = frames.shape[:3]
+    v = frames.reshape(n, hf // f, f, wf // f, f, 3)
+    dtype = np.uint16 if f * f * 255 <= np.iinfo(np.uint16).max else np.uint32
+    rows = v[:, :, 0].astype(dtype)
+    for k in range(1, f):
+        rows += v[:, :, k]
+    out = rows[:, :, :, 0].copy()
+    for k in range(1, f):
+        out += rows[:, :, :, k]
     return out
 
 
