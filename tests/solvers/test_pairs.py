@@ -70,6 +70,31 @@ def test_coded_path_equals_dense_path(seed, levels):
     assert heldout_prediction(dense, t, episodes, 3) == heldout_prediction(coded, t, episodes, 3)
 
 
+def test_small_batches_split_levels_and_give_the_same_path(monkeypatch):
+    """Batches of 40 pairs: levels are split by ranges of first ids, many batches per pass."""
+    from vggc_cp.solvers import pairs
+
+    rng = np.random.default_rng(5)
+    trace = make_trace([fruit_episode(rng, 8) for _ in range(6)], NAMES)
+    coded = coded_problem(trace, 2, 4, 5)
+    ts = np.geomspace(0.01, 0.9, 10)
+    whole = coded_threshold_path(coded, ts, "mdl")
+    monkeypatch.setattr(pairs, "BATCH", 40)
+    stream = pairs._PairStream(coded, float(ts[-1]))
+    assert any(i0 > 0 for _, _, i0, _ in stream.bounds)  # a level was split
+    got = [stream.pairs(k) for k in range(len(stream.bounds))]
+    d, i, j = (np.concatenate(x) for x in zip(*got))
+    order = np.lexsort((j, i, d))
+    assert np.array_equal(order, np.arange(len(d)))  # batches in the dense order
+    dense = coded.dense()
+    n_pairs = sum(int((m[np.triu_indices(len(m), 1)] <= ts[-1]).sum())
+                  for m in (dense.dist_pick, dense.dist_place))
+    assert len(d) == n_pairs
+    split = coded_threshold_path(coded, ts, "mdl")
+    for x, y in zip(whole.results, split.results):
+        assert np.array_equal(x.labels, y.labels)
+
+
 def test_grid_statistics_equal_the_dense_ones():
     rng = np.random.default_rng(7)
     trace = make_trace([fruit_episode(rng, 6) for _ in range(5)], NAMES)

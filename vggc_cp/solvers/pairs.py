@@ -285,12 +285,27 @@ class _CodedClusters(_Clusters):
         super().commit(groups)
 
 
+def _after(rows: np.ndarray, others: np.ndarray, start: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(rows[k], others[m])`` for every ``m >= start[k]`` (``others`` sorted)."""
+    counts = len(others) - start
+    total = int(counts.sum())
+    if total == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    offsets = np.cumsum(counts) - counts
+    idx = np.arange(total) - np.repeat(offsets, counts) + np.repeat(start, counts)
+    return np.repeat(rows, counts), others[idx]
+
+
 class _PairStream:
     """The within-role pairs at distance <= ``top``, in the dense path's order (distance,
     then ids), generated batch by batch from pairs of codes (pairs inside one cluster are
-    dropped by the scan, :meth:`_Pass._scan`)."""
+    dropped by the scan, :meth:`_Pass._scan`). A batch is a run of whole distance levels, or
+    one level's pairs whose first id lies in a range (a level larger than a batch is split)."""
 
-    def __init__(self, problem: CodedProblem, top: float, batch: int = BATCH):
+    def __init__(self, problem: CodedProblem, top: float, batch: int | None = None):
+        batch = int(batch or BATCH)
         self.n = problem.n_obs
         self.members: dict[int, list[np.ndarray]] = {}
         vals, roles, gs, hs, ns = [], [], [], [], []
@@ -315,23 +330,44 @@ class _PairStream:
         self.role = np.concatenate(roles)[order]
         self.g = np.concatenate(gs)[order]
         self.h = np.concatenate(hs)[order]
-        cum = np.cumsum(np.concatenate(ns)[order])
-        # batches of code pairs [start, stop) that end at a distance level
-        self.bounds: list[tuple[int, int]] = []
-        start = 0
-        while start < len(self.v):
-            base = cum[start - 1] if start else 0
-            stop = int(np.searchsorted(cum, base + batch, side="left")) + 1
-            stop = min(stop, len(self.v))
-            stop = int(np.searchsorted(self.v, self.v[stop - 1], side="right"))
-            self.bounds.append((start, stop))
-            start = stop
-        self.first_level = np.array([self.v[a] for a, _ in self.bounds])
+        npairs = np.concatenate(ns)[order].astype(np.float64)
+        cum = np.cumsum(npairs)
+        # batches (code pairs [a, b), first ids [i0, i1)): whole levels up to about ``batch``
+        # pairs, or a level of more split into ranges of first ids of about ``batch`` pairs
+        # each (pairs thin out as the first id grows: the ranges follow sqrt)
+        self.bounds: list[tuple[int, int, int, int]] = []
+        a = 0
+        while a < len(self.v):
+            level_end = int(np.searchsorted(self.v, self.v[a], side="right"))
+            base = cum[a - 1] if a else 0.0
+            level_pairs = cum[level_end - 1] - base
+            if level_pairs > batch:
+                k = int(np.ceil(level_pairs / batch))
+                cuts = [int(round(self.n * (1 - np.sqrt(1 - q / k)))) for q in range(k + 1)]
+                cuts[-1] = self.n
+                for i0, i1 in zip(cuts, cuts[1:]):
+                    if i1 > i0:
+                        self.bounds.append((a, level_end, i0, i1))
+                a = level_end
+                continue
+            b = int(np.searchsorted(cum, base + batch, side="left")) + 1
+            b = min(max(b, level_end), len(self.v))
+            b = int(np.searchsorted(self.v, self.v[b - 1], side="right"))
+            if cum[b - 1] - base > batch and b > level_end:  # stop before a big level
+                b = int(np.searchsorted(self.v, self.v[b - 1], side="left"))
+            self.bounds.append((a, b, 0, self.n))
+            a = b
+        self.starts = [(float(self.v[a]), i0) for a, _, i0, _ in self.bounds]
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
-    def batch_of(self, d: float) -> int:
-        """Index of the batch holding distance level ``d`` (or the next one)."""
-        return max(int(np.searchsorted(self.first_level, d, side="right")) - 1, 0)
+    def batch_of(self, d: float, i: int) -> int:
+        """Index of the batch holding the pair key ``(d, i, .)`` (or the next one)."""
+        import bisect
+
+        return max(bisect.bisect_right(self.starts, (d, i)) - 1, 0)
+
+    def first_level(self, k: int) -> float:
+        return self.starts[k][0]
 
     def pairs(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Batch ``k`` as ``(d, i, j)`` sorted like the dense candidates (the last few
@@ -345,21 +381,26 @@ class _PairStream:
         return hit
 
     def _generate(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        a, b = self.bounds[k]
+        a, b, i0, i1 = self.bounds[k]
         ds, iis, jjs = [], [], []
         for v, role, g, h in zip(self.v[a:b].tolist(), self.role[a:b].tolist(),
                                  self.g[a:b].tolist(), self.h[a:b].tolist()):
             mg = self.members[role][g]
-            if g == h:
-                iu, ju = np.triu_indices(len(mg), 1)
-                i, j = mg[iu], mg[ju]
-            else:
+            lo, hi = np.searchsorted(mg, (i0, i1))
+            if g == h:  # (mg[r], mg[m]) for m > r, first ids in range
+                rows = np.arange(lo, hi)
+                parts = [(mg[rows], mg, rows + 1)]
+            else:  # the smaller id first, from either code
                 mh = self.members[role][h]
-                i = np.minimum.outer(mg, mh).ravel()
-                j = np.maximum.outer(mg, mh).ravel()
-            ds.append(np.full(len(i), v))
-            iis.append(i)
-            jjs.append(j)
+                lo2, hi2 = np.searchsorted(mh, (i0, i1))
+                parts = [(mg[lo:hi], mh, np.searchsorted(mh, mg[lo:hi], side="right")),
+                         (mh[lo2:hi2], mg, np.searchsorted(mg, mh[lo2:hi2], side="right"))]
+            for rows, others, start in parts:
+                i, j = _after(rows, others, start)
+                if len(i):
+                    ds.append(np.full(len(i), v))
+                    iis.append(i)
+                    jjs.append(j)
         if not ds:
             empty = np.zeros(0, dtype=np.int64)
             return np.zeros(0), empty, empty
@@ -406,10 +447,9 @@ class _Pass:
         late = [k for k, link in self.linkage_vetoes if link <= threshold]
         if late:
             self._rewind(min(late))
-        k = self.stream.batch_of(self.at[0])
+        k = self.stream.batch_of(self.at[0], self.at[1])
         while k < len(self.stream.bounds):
-            a, _ = self.stream.bounds[k]
-            if self.stream.v[a] > threshold:
+            if self.stream.first_level(k) > threshold:
                 break
             d, i, j = self.stream.pairs(k)
             lo = int(np.searchsorted(d, self.at[0], side="left"))
@@ -422,8 +462,8 @@ class _Pass:
                 self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
                 break
             k += 1
-            self.at = ((float(self.stream.first_level[k]), -1, -1)
-                       if k < len(self.stream.bounds) else (np.inf, -1, -1))
+            self.at = ((*self.stream.starts[k], -1) if k < len(self.stream.bounds)
+                       else (np.inf, -1, -1))
         cl = self.cl
         roots = cl.root_of
         p = self.problem
