@@ -198,6 +198,11 @@ def cmd_bench_scale(args) -> int:
     cache = Path(args.cache_dir) if args.cache_dir else \
         Path(env) / "bench" if env else Path(".cache") / "vggc-cp" / "bench"
     cfg = ScaleConfig(sizes, seed=args.seed, cache=cache)
+    camera = None
+    if args.camera.lower() != "none":  # checked before any measurement
+        from vggc_cp.sim.explore import parse_image_size
+
+        camera = parse_image_size(args.camera, "--camera")
     gib = float(1 << 30)
     print(f"scale          {cfg.bench}, seed {cfg.seed}, traces in {cache}")
     print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'evidence':>15} {'merge path':>15} "
@@ -219,10 +224,8 @@ def cmd_bench_scale(args) -> int:
                              [r.cpu_seconds for r in records])
         print(f"growth         wall time ~ |D|^{k:.2f}, CPU time ~ |D|^{kc:.2f} "
               f"({records[0].transitions}..{records[-1].transitions}, least squares on log-log)")
-    if args.camera.lower() != "none":
-        from vggc_cp.sim.explore import parse_image_size
-
-        h, w = parse_image_size(args.camera)
+    if camera is not None:
+        h, w = camera
         cam = run_scale(ScaleConfig((args.camera_transitions,), seed=args.seed, cache=cache,
                                     image=(h, w)), show)[0]
         cam_records.append(cam)

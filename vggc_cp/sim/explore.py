@@ -138,8 +138,8 @@ def novel_order(states: tuple[str, ...], k: int, rng: np.random.Generator) -> li
     return out[:k]
 
 
-def parse_image_size(text: str) -> tuple[int, int]:
-    """``(height, width)`` of ``--size``: one side (``64``) or ``WIDTHxHEIGHT``
+def parse_image_size(text: str, option: str = "--size") -> tuple[int, int]:
+    """``(height, width)`` of ``option``'s value: one side (``64``) or ``WIDTHxHEIGHT``
     (``640x480``, as cameras are named)."""
     parts = str(text).lower().split("x")
     try:
@@ -150,7 +150,8 @@ def parse_image_size(text: str) -> tuple[int, int]:
             return int(parts[1]), int(parts[0])
     except ValueError:
         pass
-    raise VggcError(f"--size {text!r}: expected a side in pixels (64) or WIDTHxHEIGHT (640x480)")
+    raise VggcError(f"{option} {text!r}: expected a side in pixels (64) or WIDTHxHEIGHT "
+                    f"(640x480)")
 
 
 def generate(name: str, n_transitions: int | None = None, seed: int = 0,
