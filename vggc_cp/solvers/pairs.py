@@ -21,14 +21,17 @@ Cluster distance sums are kept per code (an ``(n, G)`` row block and the code co
 cluster), not per observation.
 
 **One pass for all thresholds.** Within a run, a pair between two clusters is tried only at
-its first occurrence since the last accepted merge (later ones would be vetoed alike), so a
+its first occurrence since the last accepted merge (the dense loop skips the later ones), so a
 window of the sorted pairs is scanned with numpy and only those first occurrences reach the
 closure. Across thresholds the closure is kept: the run at the next threshold ``t'`` repeats
 the run at ``t`` exactly up to the first attempt whose veto was an average linkage in
 ``(t, t']`` (the only place a threshold enters a closure; :func:`_try_merge` reports it), so
 the pass continues from there, or from the end when there is none, replaying the accepted
-merges before it. The partitions are the dense path's (``tests/solvers/test_pairs.py``
-compares them on the suite's traces); the counters in ``stats`` count this pass's attempts.
+merges before it. The partitions are the dense path's (``tests/solvers/test_pairs.py`` on
+random code tables, ``tests/test_pipeline_pairs.py`` on rendered traces); the counters in
+``stats`` count this pass's attempts. What still grows faster than the trace is the closure
+work at thresholds below the noise, where most attempts cascade and are vetoed (README, *Long
+recordings*): the same work the dense path does there at each threshold, done once.
 """
 
 from __future__ import annotations
