@@ -24,7 +24,7 @@ def small(tmp_path, **extra) -> dict:
 CASES = {
     "feasibility_thresholds": {"SIZES": [30], "K_MAX": 5},
     "heuristic_vs_exact": {"BENCHMARKS": ["fruit-2x3"], "TRANSITIONS": 20, "QUERIES": 30},
-    "scalability": {"SIZES": [20, 30], "QUERIES": 30},
+    "scalability": {"SIZES": [20, 30], "QUERIES": 30, "SCALE_SIZES": [40, 80]},
     "robustness": {"BENCHMARKS": ["fruit-2x3"], "LOOKS": ["clean"], "TRANSITIONS": 50,
                    "QUERIES": 30, "JOBS": 1},
 }

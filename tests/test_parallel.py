@@ -80,13 +80,19 @@ def test_missing_ray_says_how_to_install(tmp_path, capsys):
     assert not any(tmp_path.iterdir())  # refused before any work
 
 
-def test_merge_solver_refuses_a_cluster_backend(tmp_path, capsys):
-    out = tmp_path / "s.json"
-    for flags in (["--backend", "dask"], ["--scheduler", "tcp://h:8786"]):
-        assert main(["solve", str(DATA), "-o", str(out), *flags]) == 2
-        err = capsys.readouterr().err
-        assert "applies to the grid solvers" in err and err.count("\n") == 1
-    assert not out.exists()
+@pytest.mark.slow
+@needs_dask
+def test_merge_solve_on_a_cluster_gives_the_local_graph(cluster, tmp_path):
+    """``solve --backend dask`` (the default merge path, issue 27): the evidence's blocks on the
+    cluster, the same labels and graph."""
+    import json
+
+    out = [tmp_path / "local.json", tmp_path / "dask.json"]
+    assert main(["solve", str(DATA), "-o", str(out[0]), "--quiet"]) == 0
+    assert main(["solve", str(DATA), "-o", str(out[1]), "--quiet", "--backend", "dask",
+                 "--scheduler", cluster]) == 0
+    a, b = (json.loads(p.read_text()) for p in out)
+    assert a["labels"] == b["labels"] and a["edges"] == b["edges"]
 
 
 @pytest.mark.slow
@@ -130,3 +136,27 @@ def test_greedy_solve_on_a_cluster_writes_the_same_bytes(cluster, tmp_path, caps
     assert main(["solve", str(DATA), "-o", str(paths[1]), *common, "--backend", "dask",
                  "--scheduler", cluster]) == 0
     assert paths[0].read_bytes() == paths[1].read_bytes()
+
+
+@pytest.mark.slow
+@needs_dask
+def test_default_learning_on_a_cluster_equals_local(cluster, monkeypatch):
+    """The footprint evidence converts its frames in blocks on the cluster's workers (issue
+    27): the same codes, tables and graph as in this process."""
+    from vggc_cp.pipeline import LearnConfig, evidence_problem, learn_graph
+    from vggc_cp.vision import footprints
+
+    trace = load_trace(DATA).without_states()
+    options = LearnConfig(evidence="footprints")
+    local = learn_graph(trace, options)
+    # blocks of 16 frames: the 56 frames of the shipped trace go out in 4 blocks
+    monkeypatch.setattr(footprints, "BLOCK_FRAMES", 16)
+    with open_executor(Backend("dask", scheduler=cluster)) as ex:
+        frames = footprints.working_frames(trace.observations, ex)
+        remote = learn_graph(trace, options, executor=ex)
+        coded = evidence_problem(trace, "footprints", options, executor=ex)
+    assert np.array_equal(frames, footprints.working_frames(trace.observations))
+    assert np.array_equal(local.labels, remote.labels)
+    assert local.confidence == remote.confidence
+    assert np.array_equal(coded.table_pick, local.problem.table_pick)
+    assert np.array_equal(coded.codes_place, local.problem.codes_place)

@@ -39,10 +39,12 @@ from vggc_cp.solvers.confidence import (
 )
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
+from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
 from vggc_cp.trace import Trace
+from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
 from vggc_cp.vision.evidence import evidence_names, get_evidence
-from vggc_cp.vision.footprints import FootprintConfig
+from vggc_cp.vision.footprints import FootprintConfig, action_footprints, footprint_codes
 
 #: The first evidence ``auto`` tries (the others only when its graph is suspect).
 FOOTPRINTS = "footprints"
@@ -64,6 +66,13 @@ FALLBACKS = {
                "checks; any size disagreement flags the graph); costs their Sinkhorn distances",
     "never": "footprints only; a trace they cannot read is refused",
 }
+
+
+#: How the merge path meets candidate pairs (:attr:`LearnConfig.candidates`).
+CANDIDATES = ("codes", "dense")
+#: Codes are used when each role has at most this share of codes per observation (renders of
+#: one situation repeat their descriptor); otherwise the dense matrices serve better.
+CODES_SHARE = 0.25
 
 
 def evidence_choices() -> tuple[str, ...]:
@@ -108,6 +117,12 @@ class LearnConfig:
         When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``
         (default: only where the footprints cannot read the trace), ``suspect`` (also where
         their graph is suspect), ``never``.
+    candidates : str
+        ``codes`` (default): an evidence that describes observations by discrete descriptors
+        (footprints) is merged on candidate pairs of descriptor codes, without N x N matrices
+        (:mod:`vggc_cp.solvers.pairs`; the same partitions), when the descriptors repeat
+        (:data:`CODES_SHARE`); ``dense``: every evidence through the ``(n, n)`` distance
+        matrices.
 
     Raises
     ------
@@ -135,6 +150,7 @@ class LearnConfig:
     folds: int = 5
     warning: WarningRule = field(default_factory=WarningRule)
     fallback: str = "refused"
+    candidates: str = "codes"
 
     def __post_init__(self) -> None:
         for name, kind in (("distance", DistanceConfig), ("footprint", FootprintConfig),
@@ -147,6 +163,7 @@ class LearnConfig:
                             f"{self.evidence!r}")
         lookup({e: e for e in evidence_choices()}, self.evidence, "evidence")
         lookup(FALLBACKS, self.fallback, "fallback")
+        lookup({c: c for c in CANDIDATES}, self.candidates, "candidates")
         if self.evidence == ATTENTION:
             object.__setattr__(self, "evidence", self.distance.backend)
         if not isinstance(self.rule, str):
@@ -349,21 +366,67 @@ def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9)
 
 
 def evidence_distances(trace: Trace, evidence: str, options: LearnConfig,
-                       progress: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                       progress: bool = False, executor=None) -> tuple[np.ndarray, np.ndarray]:
     """Within-role distances of ``trace`` under the registered ``evidence``
-    (:mod:`vggc_cp.vision.evidence`)."""
+    (:mod:`vggc_cp.vision.evidence`); ``executor`` runs an attention evidence's row blocks."""
+    if executor is not None and evidence in ATTENTION_BACKENDS:
+        from vggc_cp.vision.distances import compute_distances_full
+
+        cfg = replace(options.distance, backend=evidence)
+        res = compute_distances_full(trace, cfg, progress=progress, executor=executor)
+        return res.dist_pick, res.dist_place
     return get_evidence(evidence).distances(trace, options, progress)
 
 
+def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
+                     progress: bool = False, executor=None) -> Problem | CodedProblem:
+    """The problem of ``trace`` under ``evidence``: a :class:`CodedProblem` (descriptor
+    codes, no N x N matrix) for the footprints unless ``options.candidates`` is ``dense``,
+    else a :class:`Problem` of the distance matrices. ``executor``
+    (:func:`vggc_cp.parallel.open_executor`, e.g. a dask cluster) converts the frames in
+    blocks (footprints) or computes the distance row blocks (attention); same numbers."""
+    if evidence == FOOTPRINTS and options.candidates == "codes":
+        fp = action_footprints(trace, options.footprint, executor)
+        codes, tables = footprint_codes(fp, trace.roles())
+        coded = CodedProblem.from_trace(trace, codes, tables)
+        if all(len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
+            return coded
+        # descriptors that do not repeat (continuous presence): the dense matrices, the
+        # same numbers (table[code, code] is the distance bit for bit)
+        return coded.dense()
+    dp, dq = evidence_distances(trace, evidence, options, progress, executor)
+    return Problem.from_trace(trace, dp, dq)
+
+
+def merge_path(problem: Problem | CodedProblem, options: LearnConfig,
+               progress: bool = False) -> ThresholdPath:
+    """The threshold grid (:func:`threshold_grid`, or ``options.thresholds``) and the merge
+    path along it, on candidate pairs for a :class:`CodedProblem`."""
+    coded = isinstance(problem, CodedProblem)
+    if options.thresholds is not None:
+        ts = np.asarray(options.thresholds, dtype=np.float64)
+    else:
+        ts = (coded_threshold_grid if coded else threshold_grid)(problem, options.steps)
+    if coded:
+        return coded_threshold_path(problem, ts, options.rule, progress=progress)
+    return threshold_path(problem, ts, options.rule, progress=progress)
+
+
 def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
-                  progress: bool = False) -> Candidate:
-    """Distances, merge path, selection and confidence under one evidence."""
+                  progress: bool = False, executor=None) -> Candidate:
+    """Distances, merge path, selection and confidence under one evidence (``executor``:
+    :func:`evidence_problem`)."""
     t0 = time.perf_counter()
-    dp, dq = evidence_distances(trace, evidence, options, progress)
-    problem = Problem.from_trace(trace, dp, dq)
-    ts = (np.asarray(options.thresholds, dtype=np.float64) if options.thresholds is not None
-          else threshold_grid(problem, options.steps))
-    path = threshold_path(problem, ts, options.rule, progress=progress)
+    problem = evidence_problem(trace, evidence, options, progress, executor)
+    path = merge_path(problem, options, progress)
+    dls, conf = assess_path(trace, problem, path, options)
+    return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
+
+
+def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
+                options: LearnConfig) -> tuple[tuple[float, ...], Confidence]:
+    """Description length of every graph of ``path`` and the :class:`Confidence` of the
+    selected one (margin, plateau, held-out prediction)."""
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
@@ -375,11 +438,11 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
                                   options.folds) if options.folds >= 2 else None)
     conf = assess(margin, plateau, heldout, problem.n_obs / max(best.n_nodes, 1),
                   options.warning, criterion=options.rule)
-    return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
+    return dls, conf
 
 
 def learn_graph(trace: Trace, options: LearnConfig | None = None,
-                progress: bool = False) -> Learned:
+                progress: bool = False, executor=None) -> Learned:
     """Learn the task graph of ``trace`` (module docstring).
 
     Parameters
@@ -389,6 +452,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     options : LearnConfig, optional
     progress : bool
         Progress bars on stderr.
+    executor : Executor, optional
+        Where the evidence's blocks run (:func:`evidence_problem`); the same graph.
 
     Returns
     -------
@@ -409,14 +474,14 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         raise VggcError("the trace has no transition: nothing to learn")
     t0 = time.perf_counter()
     if options.evidence != AUTO:
-        candidates = [run_candidate(trace, options.evidence, options, progress)]
+        candidates = [run_candidate(trace, options.evidence, options, progress, executor)]
         skipped = []
     else:
         candidates, skipped = [], []
         order = (FOOTPRINTS,) if options.fallback == "never" else (FOOTPRINTS, *AUTO_FALLBACK)
         for evidence in order:
             try:
-                candidates.append(run_candidate(trace, evidence, options, progress))
+                candidates.append(run_candidate(trace, evidence, options, progress, executor))
             except EvidenceNotApplicable as exc:  # no localized change; images below a grid
                 skipped.append(f"{evidence}: {exc}")
                 continue

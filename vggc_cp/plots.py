@@ -408,3 +408,39 @@ def plot_exec(rows: list[dict], path: str | Path, *, title: str | None = None) -
     ax.legend(fontsize=7, loc="lower left")
     ax.set_title(title or "default solve: Exec per run", fontsize=10)
     _save(fig, path)
+
+
+def plot_scale(rows: list[dict], path: str | Path, *, title: str | None = None) -> None:
+    """Time per stage against |D| on log-log axes, with the fitted growth exponent of the
+    total (rows of :func:`vggc_cp.experiments.scale.record_rows`, square images only), and
+    the peak memory against |D|. CPU seconds when every row has them (a shared machine's
+    wall time says more about the other jobs), else wall seconds."""
+    from vggc_cp.experiments.scale import growth_exponent
+
+    plt = _pyplot()
+    rows = [r for r in rows if r["height"] == r["width"]]
+    sizes = sorted({r["transitions"] for r in rows})
+    stages = list(dict.fromkeys(r["stage"] for r in rows))
+    key = "cpu_seconds" if all(np.isfinite(r["cpu_seconds"]) for r in rows) else "seconds"
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.9), constrained_layout=True)
+    total = [sum(r[key] for r in rows if r["transitions"] == n) for n in sizes]
+    for i, stage in enumerate(stages):
+        secs = [sum(r[key] for r in rows if r["transitions"] == n and r["stage"] == stage)
+                for n in sizes]
+        axes[0].plot(sizes, secs, "-o", label=stage, color=f"C{i}", alpha=0.85)
+    k = growth_exponent(sizes, total)
+    axes[0].plot(sizes, total, "-s", color="k", label=f"total (~|D|^{k:.2f})")
+    peak = [max(r["peak_bytes"] for r in rows if r["transitions"] == n) / 2 ** 30 for n in sizes]
+    axes[1].plot(sizes, peak, "-o", color="C3")
+    for ax, label in ((axes[0], "CPU seconds" if key == "cpu_seconds" else "wall seconds"),
+                      (axes[1], "peak resident memory (GiB)")):
+        ax.set_xscale("log")
+        ax.set_xlabel("|D| (transitions)")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_yscale("log")
+    axes[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -34,6 +34,7 @@ def register_bench(bench_sub) -> None:
     p.add_argument("--limit", type=float, default=1.0,
                    help="the start-up, in seconds, that a command must stay within")
     p.set_defaults(func=cmd_bench_startup)
+    _register_bench_scale(bench_sub)
 
 
 def cmd_bench_startup(args) -> int:
@@ -198,4 +199,89 @@ def cmd_benchmark(args) -> int:
     print(f"cells          {run.computed} computed, {run.reused} reused from {cfg.out}/cells "
           f"({run.seconds:.1f} s, jobs {cfg.jobs}, {cfg.backend})")
     print(f"wrote          {csv}, {md}")
+    return 0
+
+
+def _register_bench_scale(bench_sub) -> None:
+    b = bench_sub.add_parser(
+        "scale", help="wall time and peak memory of the default solve as |D| grows",
+        description="Generate (once, into --cache-dir) fruit-6x8 traces of growing |D|, run "
+                    "the default learning (footprint evidence, candidate-pair merge path, "
+                    "confidence) on each and print wall time and peak resident memory per "
+                    "stage, and the fitted growth exponent of the wall time (log-log least "
+                    "squares). Generation is timed apart.")
+    b.add_argument("--sizes", default="1500,3000,6000,12000,20000",
+                   help="comma-separated |D| values")
+    b.add_argument("--seed", type=int, default=5, help="trace seed")
+    b.add_argument("--cache-dir", default=None,
+                   help="folder of the generated traces (default: $VGGC_CP_CACHE/bench or "
+                        ".cache/vggc-cp/bench)")
+    b.add_argument("--camera", default="640x480", metavar="WxH",
+                   help="also measure one trace of WxH images at --camera-transitions "
+                        "(none: skip)")
+    b.add_argument("--camera-transitions", type=int, default=1500,
+                   help="|D| of the camera-sized trace")
+    b.add_argument("--csv", default=None, help="also write one row per size and stage here")
+    b.set_defaults(func=cmd_bench_scale)
+
+
+def cmd_bench_scale(args) -> int:
+    import os
+    from pathlib import Path
+
+    from vggc_cp.errors import VggcError
+    from vggc_cp.experiments.scale import ScaleConfig, growth_exponent, run_scale
+    from vggc_cp.vision import CACHE_ENV
+
+    try:
+        sizes = tuple(int(s) for s in _split(args.sizes))
+    except ValueError:
+        raise VggcError(f"--sizes {args.sizes!r}: expected comma-separated integers") from None
+    env = os.environ.get(CACHE_ENV)
+    cache = Path(args.cache_dir) if args.cache_dir else \
+        Path(env) / "bench" if env else Path(".cache") / "vggc-cp" / "bench"
+    cfg = ScaleConfig(sizes, seed=args.seed, cache=cache)
+    camera = None
+    if args.camera.lower() != "none":  # checked before any measurement
+        from vggc_cp.sim.explore import parse_image_size
+
+        camera = parse_image_size(args.camera, "--camera")
+    gib = float(1 << 30)
+    print(f"scale          {cfg.bench}, seed {cfg.seed}, traces in {cache}")
+    print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'evidence':>15} {'merge path':>15} "
+          f"{'confidence':>15} {'total':>8} {'cpu':>8} {'peak':>8} nodes")
+
+    def show(rec) -> None:
+        cells = " ".join(f"{s.seconds:7.1f} s {s.peak_bytes / gib:4.2f} G"
+                         for s in rec.stages)
+        gen = f"{rec.generate_seconds:7.1f} s" if rec.generate_seconds else "   cached"
+        print(f"{rec.transitions:>7} {rec.observations:>7} {gen} {cells} {rec.seconds:6.1f} s "
+              f"{rec.cpu_seconds:6.1f} s {rec.peak_bytes / gib:6.2f} G {rec.nodes}"
+              f"{' suspect' if rec.suspect else ''}", flush=True)
+
+    records = run_scale(cfg, show)
+    cam_records = []
+    if len(records) >= 2:
+        k = growth_exponent([r.transitions for r in records], [r.seconds for r in records])
+        kc = growth_exponent([r.transitions for r in records],
+                             [r.cpu_seconds for r in records])
+        print(f"growth         wall time ~ |D|^{k:.2f}, CPU time ~ |D|^{kc:.2f} "
+              f"({records[0].transitions}..{records[-1].transitions}, least squares on log-log)")
+    if camera is not None:
+        h, w = camera
+        cam = run_scale(ScaleConfig((args.camera_transitions,), seed=args.seed, cache=cache,
+                                    image=(h, w)), show)[0]
+        cam_records.append(cam)
+        ref = next((r for r in records if r.transitions == args.camera_transitions), None)
+        line = f"camera         {w}x{h} at |D| = {cam.transitions}: {cam.seconds:.1f} s, " \
+               f"peak {cam.peak_bytes / gib:.2f} GiB"
+        if ref is not None:
+            line += f" ({cam.seconds / ref.seconds:.2f}x the {ref.image[1]} px time)"
+        print(line)
+    if args.csv:
+        from vggc_cp.atomic import write_text
+        from vggc_cp.experiments.scale import record_rows, rows_csv
+
+        write_text(args.csv, rows_csv(record_rows([*records, *cam_records])))
+        print(f"wrote          {args.csv}")
     return 0

@@ -33,7 +33,8 @@ def register(sub) -> None:
     p.add_argument("--transitions", type=int, default=None,
                    help="|D|, number of transitions (default: the paper's)")
     p.add_argument("--seed", type=int, default=0, help="random seed")
-    p.add_argument("--size", type=int, default=64, help="image side in pixels")
+    p.add_argument("--size", default="64", metavar="SIZE",
+                   help="image side in pixels, or WIDTHxHEIGHT (e.g. 640x480)")
     p.add_argument("--novel", type=int, default=0, metavar="K",
                    help="also write K fresh renders of visited states to <output stem>.novel.npz")
     p.add_argument("--look", default="clean", metavar="LOOK",
@@ -125,8 +126,11 @@ def cmd_generate(args) -> int:
             bars.append(tqdm(total=total, unit="frame", desc=args.bench[:40], leave=False))
         bars[0].update(1)
 
+    from vggc_cp.sim.explore import parse_image_size
+
+    height, width = parse_image_size(args.size)
     try:
-        generated = generate(args.bench, d, args.seed, args.size, args.novel,
+        generated = generate(args.bench, d, args.seed, (height, width), args.novel,
                              on_frame=None if args.quiet else on_frame, look=args.look)
     finally:
         for bar in bars:
@@ -136,7 +140,7 @@ def cmd_generate(args) -> int:
         tr = generated.trace
         print(f"{args.bench}: {tr.n_obs} observations, |D| = {tr.n_transitions}, "
               f"{len(set(tr.states.tolist()))} distinct states, {len(tr.episodes())} episodes, "
-              f"{args.size}x{args.size} px, seed {args.seed}, {args.look} look")
+              f"{width}x{height} px, seed {args.seed}, {args.look} look")
         for path in written:
             print(f"wrote {path}")
     return 0

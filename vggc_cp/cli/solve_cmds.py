@@ -27,8 +27,7 @@ from vggc_cp.errors import VggcError
 DEFAULT_SOLVER = "merge"
 #: ``solve`` options that only the grid solvers read: refused under ``--solver merge``.
 GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_actions",
-             "codeterministic", "cannot_link", "objective", "hint", "optimize", "backend",
-             "scheduler")
+             "codeterministic", "cannot_link", "objective", "hint", "optimize")
 #: ``solve`` options that only the merge solver reads: refused under the grid solvers.
 MERGE_ONLY = ("evidence", "thresholds", "exact", "fallback")
 BENCH_NAME = "fruit-4x6"
@@ -102,7 +101,8 @@ def register(sub) -> None:
                         "the same inputs give the same bytes)")
     distance = add_distance_arguments(p)
     add_cpsat_arguments(p)
-    add_backend_arguments(p, "the grid solvers' distance blocks and cells")
+    add_backend_arguments(p, "the grid solvers' distance blocks and cells, and the merge "
+                             "path's evidence blocks")
     p.set_defaults(func=cmd_solve, distance_options=distance, option_defaults={
         d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, *distance, "cpsat_params")})
 
@@ -348,7 +348,8 @@ def _solve_merge(args) -> int:
 
     options = _learn_options(args)
     trace = load_trace(args.trace)
-    learned = learn_graph(trace, options, progress=not args.quiet)
+    with cluster_from_args(args) as executor:  # --backend dask: the evidence's blocks there
+        learned = learn_graph(trace, options, progress=not args.quiet, executor=executor)
     chosen = learned.chosen
     problem, path = chosen.problem, chosen.path
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
@@ -374,7 +375,9 @@ def _solve_merge(args) -> int:
     if args.exact:
         from vggc_cp.solvers.merge_exact import DEFAULT_PARAMS, exact_counterpart
 
-        exact = exact_counterpart(problem, best, params=args.cpsat_params or DEFAULT_PARAMS,
+        # CP-SAT reads the (n, n) matrices: a problem of descriptor codes builds them here
+        dense = problem.dense() if hasattr(problem, "dense") else problem
+        exact = exact_counterpart(dense, best, params=args.cpsat_params or DEFAULT_PARAMS,
                                   progress=not args.quiet)
         print(f"exact          CP-SAT under merge's constraints: {exact.summary()} "
               f"({exact.seconds:.1f} s)")

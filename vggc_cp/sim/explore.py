@@ -143,7 +143,24 @@ def novel_order(states: tuple[str, ...], k: int, rng: np.random.Generator) -> li
     return out[:k]
 
 
-def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: int = 64,
+def parse_image_size(text: str, option: str = "--size") -> tuple[int, int]:
+    """``(height, width)`` of ``option``'s value: one side (``64``) or ``WIDTHxHEIGHT``
+    (``640x480``, as cameras are named)."""
+    parts = str(text).lower().split("x")
+    try:
+        if len(parts) == 1:
+            side = int(parts[0])
+            return side, side
+        if len(parts) == 2:
+            return int(parts[1]), int(parts[0])
+    except ValueError:
+        pass
+    raise VggcError(f"{option} {text!r}: expected a side in pixels (64) or WIDTHxHEIGHT "
+                    f"(640x480)")
+
+
+def generate(name: str, n_transitions: int | None = None, seed: int = 0,
+             size: int | tuple[int, int] = 64,
              novel: int = 0, on_frame: Callable[[int], None] | None = None,
              look: str = CLEAN) -> Generated:
     """Explore benchmark ``name`` and render the trace (and ``novel`` fresh renders).
@@ -156,8 +173,8 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         ``|D|``; the paper's value when None.
     seed : int
         Drives the walk and all noise (same seed, same observations).
-    size : int
-        Image side in pixels.
+    size : int or (int, int)
+        Image side in pixels, or ``(height, width)``.
     novel : int
         Number of novel renders ``K``.
     on_frame : callable, optional
@@ -184,7 +201,10 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
     d = spec.default_transitions if n_transitions is None else int(n_transitions)
     if d < 1:
         raise VggcError(f"--transitions must be at least 1, got {d}")
-    if not MIN_SIZE <= int(size) <= MAX_SIZE:
+    from vggc_cp.sim.render import image_shape
+
+    height, width = image_shape(size)
+    if not (MIN_SIZE <= height <= MAX_SIZE and MIN_SIZE <= width <= MAX_SIZE):
         raise VggcError(f"--size must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {size}")
     if novel < 0:
         raise VggcError(f"--novel must be at least 0, got {novel}")
@@ -203,7 +223,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
 
     from vggc_cp.sim.render import Scene
 
-    frames = np.empty((len(walk.states), size, size, 3), dtype=np.uint8)
+    frames = np.empty((len(walk.states), height, width, 3), dtype=np.uint8)
     moves: list[list[float]] = []  # the distractor's spots: [frame, x, y, yaw]
     starts: list[list[int]] = []  # [frame, region the arm rests above] at episode starts
     with Scene(bench, size, the_look) as scene:
@@ -220,7 +240,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
             frames[t] = finish_frame(scene.render(arr), the_look, frame_rng, t)
             tick()
         novel_states = novel_order(walk.states, novel, novel_rng)
-        novel_frames = np.empty((novel, size, size, 3), dtype=np.uint8)
+        novel_frames = np.empty((novel, height, width, 3), dtype=np.uint8)
         for k, state in enumerate(novel_states):
             scene.distractor_step(novel_frame_rng, first=True)
             novel_frames[k] = finish_frame(
@@ -242,7 +262,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0, size: i
         "episode_length": list(spec.episode_length),
         "start_states": spec.start_states,
         "seed": int(seed),
-        "image_size": [int(size), int(size)],
+        "image_size": [height, width],
         "renderer": "pybullet ER_TINY_RENDERER (DIRECT)",
         "camera": camera,
         "look": the_look.name,

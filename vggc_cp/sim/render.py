@@ -241,14 +241,23 @@ def _strawberry(radius: float, top: float, bottom: float, nu: int = 14, nv: int 
     return verts, idx
 
 
+def image_shape(size) -> tuple[int, int]:
+    """``(height, width)`` of an image size: one side (square) or ``(height, width)``."""
+    if isinstance(size, (tuple, list)):
+        h, w = size
+        return int(h), int(w)
+    return int(size), int(size)
+
+
 class Scene:
     """One benchmark's PyBullet scene; renders :class:`Arrangement` values to RGB arrays.
 
     Parameters
     ----------
     bench : Benchmark
-    size : int
-        Image side in pixels (square images).
+    size : int or (int, int)
+        Image side in pixels (square images), or ``(height, width)``: a wider image sees
+        more of the table's sides at the same vertical field of view.
     look : Look, optional
         Colours, texture, camera, light and object shapes (:mod:`vggc_cp.sim.looks`); the
         clean look when None. Per-frame effects are not applied here
@@ -266,7 +275,8 @@ class Scene:
         p = import_pybullet()
         self._p = p
         self.bench = bench
-        self.size = int(size)
+        self.height, self.width = image_shape(size)
+        self.size = self.height
         self.layout = scene_layout(bench)
         self.look = clean_look(bench) if look is None else look
         if len(self.look.objects) != bench.spec.m:
@@ -281,7 +291,8 @@ class Scene:
             raise
         cam = self.camera
         self._view = p.computeViewMatrix(cam.eye, cam.target, cam.up)
-        self._proj = p.computeProjectionMatrixFOV(cam.fov, 1.0, cam.near, cam.far)
+        self._proj = p.computeProjectionMatrixFOV(cam.fov, self.width / self.height, cam.near,
+                                                  cam.far)
 
     # --------------------------------------------------------------- building
     def _visual(self, shape, rgba, **kw) -> int:
@@ -666,13 +677,13 @@ class Scene:
         return False
 
     def snapshot(self) -> np.ndarray:
-        """Render the current scene: uint8 array of shape (size, size, 3)."""
+        """Render the current scene: uint8 array of shape (height, width, 3)."""
         p = self._p
         _, _, rgba, _, _ = p.getCameraImage(
-            self.size, self.size, self._view, self._proj, renderer=p.ER_TINY_RENDERER,
+            self.width, self.height, self._view, self._proj, renderer=p.ER_TINY_RENDERER,
             flags=p.ER_NO_SEGMENTATION_MASK, shadow=1,
             lightDirection=list(self.camera.light_direction), physicsClientId=self._cid)
-        img = np.asarray(rgba, dtype=np.uint8).reshape(self.size, self.size, 4)
+        img = np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)
         return np.ascontiguousarray(img[:, :, :3])
 
     def render(self, arr: Arrangement) -> np.ndarray:

@@ -28,6 +28,7 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.merge import congruence_merge
+from vggc_cp.solvers.pairs import CodedProblem, coded_merge
 from vggc_cp.trace import PICK, PLACE
 
 
@@ -157,7 +158,8 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
 
     Parameters
     ----------
-    problem : Problem
+    problem : Problem or CodedProblem
+        A :class:`~vggc_cp.solvers.pairs.CodedProblem` is merged on its candidate pairs.
     threshold : float
     episode_of : ndarray of int, shape (N,)
         Episode of every observation; episode ``e`` is held out in fold ``e % folds``.
@@ -172,12 +174,13 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
         return None
     fold_of = episode_of % folds
     predicted = contradicted = total = 0
+    coded = isinstance(problem, CodedProblem)
     for f in range(folds):
         train = fold_of != f
-        sub, kept = subproblem(problem, train)
+        sub, kept = problem.restricted(train) if coded else subproblem(problem, train)
         if len(sub.act) == 0:
             continue
-        labels, _ = congruence_merge(sub, threshold)
+        labels, _ = (coded_merge if coded else congruence_merge)(sub, threshold)
         edges = {(int(u), int(a)): int(v)
                  for u, a, v in zip(labels[sub.src], sub.act, labels[sub.dst])}
         node_of = _localize(problem, kept, labels, ~train)
@@ -202,17 +205,26 @@ def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray,
     """Node of every held-out observation: the node (of its role) of least mean distance."""
     out: dict[int, int] = {}
     kept_roles = problem.roles[kept]
-    for role, dist in ((PICK, problem.dist_pick), (PLACE, problem.dist_place)):
+    coded = isinstance(problem, CodedProblem)
+    for role in (PICK, PLACE):
         members = kept[kept_roles == role]
         queries = np.flatnonzero(held & (problem.roles == role))
         if len(members) == 0 or len(queries) == 0:
             continue
         node = labels[kept_roles == role]
         ids, inv = np.unique(node, return_inverse=True)
-        onehot = np.zeros((len(members), len(ids)))
-        onehot[np.arange(len(members)), inv] = 1.0
-        mean = dist[np.ix_(problem.local[queries], problem.local[members])] @ onehot
-        mean /= onehot.sum(axis=0)
+        if coded:  # the members' code counts per node: no (queries, members) block
+            codes, table = problem.codes(role), problem.table(role)
+            counts = np.zeros((len(table), len(ids)))
+            np.add.at(counts, (codes[problem.local[members]], inv), 1.0)
+            mean = table[codes[problem.local[queries]]] @ counts
+            mean /= counts.sum(axis=0)
+        else:
+            dist = problem.dist_pick if role == PICK else problem.dist_place
+            onehot = np.zeros((len(members), len(ids)))
+            onehot[np.arange(len(members)), inv] = 1.0
+            mean = dist[np.ix_(problem.local[queries], problem.local[members])] @ onehot
+            mean /= onehot.sum(axis=0)
         for q, k in zip(queries, np.argmin(mean, axis=1)):
             out[int(q)] = int(ids[k])
     return out

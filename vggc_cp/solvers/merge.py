@@ -94,8 +94,20 @@ class _Clusters:
         for k in (0, 1):
             self.sig[k][:] = [self._compress(lst) for lst in self.sig[k]]
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
-        # distance sums between clusters, per role, indexed by the local index of the root
-        self.sums = (problem.dist_pick.copy(), problem.dist_place.copy())
+        self.sums = self._distance_sums(problem)
+
+    def _distance_sums(self, problem: Problem):
+        """Distance sums between clusters, per role, indexed by the local index of the root
+        (here the dense ``(n, n)`` matrices; :mod:`vggc_cp.solvers.pairs` keeps them per
+        descriptor code instead)."""
+        return (problem.dist_pick.copy(), problem.dist_place.copy())
+
+    def _absorb_sums(self, head: int, r: int) -> None:
+        """Add root ``r``'s distance sums to root ``head``'s."""
+        s = self.sums[self.roles[head]]
+        h, lr = self.local[head], self.local[r]
+        s[h, :] += s[lr, :]
+        s[:, h] += s[:, lr]
 
     def find(self, x: int) -> int:
         parent = self.parent
@@ -126,12 +138,8 @@ class _Clusters:
     def commit(self, groups: dict[int, list[int]]) -> None:
         """Make each tentative group (head root -> absorbed roots) one cluster."""
         for head, absorbed in groups.items():
-            s = self.sums[self.roles[head]]
-            h = self.local[head]
             for r in absorbed:
-                lr = self.local[r]
-                s[h, :] += s[lr, :]
-                s[:, h] += s[:, lr]
+                self._absorb_sums(head, r)
                 self.parent[r] = head
                 self.size[head] += self.size[r]
                 self.members[head].extend(self.members.pop(r))
@@ -150,7 +158,8 @@ class _Clusters:
 
 
 def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
-               read: set[int] | None = None) -> tuple[dict[int, list[int]] | None, str]:
+               read: set[int] | None = None, linkage: list[float] | None = None
+               ) -> tuple[dict[int, list[int]] | None, str]:
     """Close the merge of the clusters of ``i`` and ``j`` under congruence; return the groups
     to commit (head root -> absorbed roots) or None with the reason of the veto.
 
@@ -161,7 +170,10 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     (:class:`_Clusters`) yield exactly those.
 
     ``read``, when given, collects every committed root the closure looked at: the outcome
-    depends on nothing else, so it repeats exactly while none of them changes.
+    depends on nothing else, so it repeats exactly while none of them changes. ``linkage``,
+    when given, receives the average linkage that a ``distance`` veto exceeded (``inf`` for
+    two roles): the only place where ``threshold`` enters, so the same attempt under a
+    larger threshold goes the same way unless that value is within it.
     """
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
@@ -191,12 +203,17 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
         if work > max_work:
             return None, "work"
         if roles[ha] != roles[hb]:
+            if linkage is not None:
+                linkage.append(float("inf"))
             return None, "distance"
         ra = groups.get(ha) or [ha]
         rb = groups.get(hb) or [hb]
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
-        if cl.link_sum(ra, rb) / (na * nb) > threshold:  # average linkage
+        average = cl.link_sum(ra, rb) / (na * nb)
+        if average > threshold:  # average linkage
+            if linkage is not None:
+                linkage.append(average)
             return None, "distance"
         groups[ha] = ra + rb
         groups.pop(hb, None)

@@ -173,23 +173,94 @@ class Footprints:
         return np.flatnonzero(self.counts > 0)
 
 
-def normalise_frames(observations: np.ndarray, chunk: int = 512) -> np.ndarray:
-    """Divide each frame by its per-channel median (cancels a per-frame gain and tint).
+#: Image side the footprint defaults were tuned at; larger frames are averaged down to about
+#: it (:func:`working_factor`).
+WORK_SIDE = 64
+#: Bytes of float frames converted at once (:func:`normalise_frames`).
+CHUNK_BYTES = 64 << 20
+
+
+def working_factor(height: int, width: int, side: int = WORK_SIDE) -> int:
+    """Integer factor by which frames of ``height x width`` are averaged down for the
+    footprints: the largest that keeps the short side at ``side`` pixels or more (1 for the
+    64 px renders the defaults were tuned on; 7 for a 640x480 camera)."""
+    return max(1, min(int(height), int(width)) // int(side))
+
+
+def normalise_frames(observations: np.ndarray, factor: int = 1,
+                     chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
+    """Frames averaged down by ``factor`` (blocks of ``factor x factor`` pixels; edges that do
+    not fill a block are cropped), each divided by its per-channel median (cancels a
+    per-frame gain and tint). Frames are read in chunks of about ``chunk_bytes`` of float
+    pixels, so only the working-resolution copy of all of them is ever held.
 
     Parameters
     ----------
     observations : ndarray of uint8, shape (N, H, W, 3)
+        Any array-like that slices along its first axis (a memory map too).
+    factor : int
 
     Returns
     -------
-    ndarray of float32, shape (N, H, W, 3)
+    ndarray of float32, shape (N, H // factor, W // factor, 3)
     """
-    out = np.empty(observations.shape, dtype=np.float32)
-    for s in range(0, len(observations), chunk):
-        x = observations[s:s + chunk].astype(np.float32) / 255.0
+    n, h, w = observations.shape[:3]
+    f = max(1, int(factor))
+    hh, ww = h // f, w // f
+    out = np.empty((n, hh, ww, 3), dtype=np.float32)
+    chunk = max(1, int(chunk_bytes) // (h * w * 3 * 4))  # a float32 copy of a chunk
+    for s in range(0, n, chunk):
+        block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
+        if f > 1:  # block sums in integers (exact), one division: the block means
+            block = _block_sums(block, f)
+        x = block.astype(np.float32) / (255.0 * f * f)
         med = np.median(x.reshape(len(x), -1, 3), axis=1)
         out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
     return out
+
+
+def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
+    """Sums of ``f x f`` pixel blocks of uint8 frames (N, f*h, f*w, 3), exact integers of
+    shape (N, h, w, 3): rows then columns added slice by slice (several times faster than a
+    reduction over strided axes)."""
+    n, hf, wf = frames.shape[:3]
+    v = frames.reshape(n, hf // f, f, wf // f, f, 3)
+    dtype = np.uint16 if f * f * 255 <= np.iinfo(np.uint16).max else np.uint32
+    rows = v[:, :, 0].astype(dtype)
+    for k in range(1, f):
+        rows += v[:, :, k]
+    out = rows[:, :, :, 0].copy()
+    for k in range(1, f):
+        out += rows[:, :, :, k]
+    return out
+
+
+#: Frames of one block of :func:`working_frames` on an executor.
+BLOCK_FRAMES = 256
+
+
+def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
+    observations, factor = item
+    return normalise_frames(observations, factor)
+
+
+def working_frames(observations: np.ndarray, executor=None,
+                   block: int | None = None) -> np.ndarray:
+    """:func:`normalise_frames` at the :func:`working_factor` of the frames' size; with an
+    ``executor`` (e.g. a dask cluster), blocks of ``block`` (default :data:`BLOCK_FRAMES`)
+    frames are converted on its workers (each frame on its own: the same numbers as here).
+
+    Returns
+    -------
+    ndarray of float32, shape (N, H // f, W // f, 3)
+    """
+    factor = working_factor(*observations.shape[1:3])
+    block = int(block or BLOCK_FRAMES)
+    if executor is None or len(observations) <= block:
+        return normalise_frames(observations, factor)
+    items = [(np.ascontiguousarray(observations[s:s + block]), factor)
+             for s in range(0, len(observations), block)]
+    return np.concatenate(executor.map(_normalise_block, items), axis=0)
 
 
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
@@ -452,8 +523,12 @@ def run_ends(actions: np.ndarray, starts: np.ndarray, touches: np.ndarray) -> np
     return out
 
 
-def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Footprints:
+def action_footprints(trace: Trace, params: FootprintConfig | None = None,
+                      executor=None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
+
+    ``executor`` (:func:`vggc_cp.parallel.open_executor`) converts the frames in blocks
+    (:func:`working_frames`); the same numbers either way.
 
     Raises
     ------
@@ -464,7 +539,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise EvidenceNotApplicable("footprint evidence needs at least one transition")
-    x = steady(normalise_frames(trace.observations))   # a shaking camera held still
+    x = steady(working_frames(trace.observations, executor))   # a shaking camera held still
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():
@@ -582,3 +657,40 @@ def footprint_distances(trace: Trace, params: FootprintConfig | None = None
     return tuple(footprint_distance_matrix(fp.presence[roles == role], fp.posterior[roles == role],
                                            fp.taken, fp.nuisance)
                  for role in (PICK, PLACE))
+
+
+def footprint_codes(fp: Footprints, roles: np.ndarray
+                    ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Descriptor codes and code distance tables of both roles (issue 27).
+
+    Observations of one role whose descriptors (presence and colour posterior in every taken
+    site) are identical to the bit get one code; the distance of two observations is a
+    function of their descriptors, so ``footprint_distances(...)[role][o, o'] ==
+    table[code(o), code(o')]`` exactly, with tables of the codes' representatives.
+
+    Parameters
+    ----------
+    fp : Footprints
+    roles : ndarray, shape (N,)
+
+    Returns
+    -------
+    codes : (ndarray of int64 (n_pick,), ndarray of int64 (n_place,))
+    tables : (ndarray of float64 (G_pick, G_pick), ndarray of float64 (G_place, G_place))
+    """
+    taken = fp.taken
+    codes, tables = [], []
+    for role in (PICK, PLACE):
+        sel = np.flatnonzero(roles == role)
+        desc = np.concatenate([fp.presence[sel][:, taken],
+                               fp.posterior[sel][:, taken].reshape(len(sel), -1)], axis=1)
+        if len(sel) == 0:
+            codes.append(np.zeros(0, dtype=np.int64))
+            tables.append(np.zeros((0, 0)))
+            continue
+        _, first, inv = np.unique(desc, axis=0, return_index=True, return_inverse=True)
+        rep = sel[first]
+        codes.append(np.asarray(inv, dtype=np.int64).ravel())
+        tables.append(footprint_distance_matrix(fp.presence[rep], fp.posterior[rep], taken,
+                                                fp.nuisance))
+    return (codes[0], codes[1]), (tables[0], tables[1])

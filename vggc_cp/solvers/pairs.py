@@ -1,0 +1,584 @@
+"""The threshold path on candidate pairs of descriptor codes: no N x N matrix (issue 27).
+
+:mod:`vggc_cp.solvers.merge` reads two dense ``(n, n)`` distance matrices and runs one
+congruence-closure merge per threshold from scratch over all pairs. Its time grows with the
+square of the trace and its memory too. This module gives the same partitions from less.
+
+**Codes.** The footprint evidence describes an observation by per-site presence and colour
+values, nearly all exactly 0 or 1: renders of one situation share their descriptor to the
+bit. Observations of one role with identical descriptors get one *code*; the distance is a
+function of the two descriptors, so ``d(o, o') = table[code(o), code(o')]`` exactly, with a
+``(G, G)`` table (G codes, a few hundred where the trace has thousands of observations).
+:class:`CodedProblem` holds roles, transitions, codes and tables; it answers what the
+pipeline asks of a :class:`~vggc_cp.solvers.base.Problem` and builds the dense one on demand
+(:meth:`CodedProblem.dense`, for the grid solvers and ``solve --exact``).
+
+**Candidate pairs.** Pairs are met in the dense path's order (distance, then first, then
+second observation id) but generated level by level from pairs of codes
+(:class:`_PairStream`): all members of code ``g`` against all of ``h``; the scan drops, with
+numpy, pairs inside one cluster (merges never split, so they are no-ops).
+Cluster distance sums are kept per code (an ``(n, G)`` row block and the code counts of every
+cluster), not per observation.
+
+**One pass for all thresholds.** Within a run, a pair between two clusters is tried only at
+its first occurrence since the last accepted merge (the dense loop skips the later ones), so a
+window of the sorted pairs is scanned with numpy and only those first occurrences reach the
+closure. Across thresholds the closure is kept: the run at the next threshold ``t'`` repeats
+the run at ``t`` exactly up to the first attempt whose veto was an average linkage in
+``(t, t']`` (the only place a threshold enters a closure; :func:`_try_merge` reports it), so
+the pass continues from there, or from the end when there is none, replaying the accepted
+merges before it. The partitions are the dense path's (``tests/solvers/test_pairs.py`` on
+random code tables, ``tests/test_pipeline_pairs.py`` on rendered traces); the counters in
+``stats`` count this pass's attempts. What still grows faster than the trace is the closure
+work at thresholds below the noise, where most attempts cascade and are vetoed (README, *Long
+recordings*): the same work the dense path does there at each threshold, done once.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vggc_cp.graph import TaskGraph
+from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult
+from vggc_cp.solvers.merge import (
+    MergeStats,
+    ThresholdPath,
+    _Clusters,
+    _try_merge,
+    get_selection,
+)
+from vggc_cp.solvers.selection import PATH
+from vggc_cp.trace import PICK, PLACE
+
+#: Candidate pairs generated at once (a batch ends at a distance level).
+BATCH = 1 << 20
+#: Candidate pairs of the batches kept for the next thresholds.
+CACHED = 4 << 20
+
+
+@dataclass(frozen=True, eq=False)
+class CodedProblem:
+    """A :class:`~vggc_cp.solvers.base.Problem` whose distances are tables of codes.
+
+    Attributes
+    ----------
+    roles : ndarray of int8, shape (N,)
+    src, act, dst : ndarray of int64, shape (|D|,)
+    action_names : tuple of str
+    codes_pick, codes_place : ndarray of int64, shapes (n_pick,), (n_place,)
+        Code of every observation of the role (rows in the order of ``pick_obs``,
+        ``place_obs``).
+    table_pick, table_place : ndarray of float64, shapes (G_pick, G_pick), (G_place, G_place)
+        Distance between codes; zero diagonal.
+    """
+
+    roles: np.ndarray
+    src: np.ndarray
+    act: np.ndarray
+    dst: np.ndarray
+    action_names: tuple[str, ...]
+    codes_pick: np.ndarray
+    codes_place: np.ndarray
+    table_pick: np.ndarray
+    table_place: np.ndarray
+    pick_obs: np.ndarray = field(init=False)
+    place_obs: np.ndarray = field(init=False)
+    local: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        roles = np.asarray(self.roles, dtype=np.int8)
+        object.__setattr__(self, "roles", roles)
+        pick, place = np.flatnonzero(roles == PICK), np.flatnonzero(roles == PLACE)
+        local = np.empty(len(roles), dtype=np.int64)
+        local[pick] = np.arange(len(pick))
+        local[place] = np.arange(len(place))
+        object.__setattr__(self, "pick_obs", pick)
+        object.__setattr__(self, "place_obs", place)
+        object.__setattr__(self, "local", local)
+        for name, codes, table, n in (("pick", self.codes_pick, self.table_pick, len(pick)),
+                                      ("place", self.codes_place, self.table_place,
+                                       len(place))):
+            if np.shape(codes) != (n,):
+                raise ValueError(f"codes_{name} has shape {np.shape(codes)}, expected ({n},)")
+            g = int(np.max(codes)) + 1 if n else 0
+            if np.ndim(table) != 2 or np.shape(table)[0] != np.shape(table)[1] \
+                    or np.shape(table)[0] < g:
+                raise ValueError(f"table_{name} has shape {np.shape(table)}, expected a square "
+                                 f"table of at least {g} codes")
+
+    @classmethod
+    def from_trace(cls, trace, codes: tuple[np.ndarray, np.ndarray],
+                   tables: tuple[np.ndarray, np.ndarray]) -> CodedProblem:
+        """From a trace (its ``states`` are not copied), per-role codes and tables."""
+        src, act, dst = trace.transitions()
+        return cls(trace.roles(), src, act, dst, trace.action_names,
+                   np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
+                   np.asarray(tables[0], dtype=np.float64),
+                   np.asarray(tables[1], dtype=np.float64))
+
+    n_obs = Problem.n_obs
+    n_pick = Problem.n_pick
+    n_place = Problem.n_place
+    n_actions = Problem.n_actions
+    labels_from_colours = Problem.labels_from_colours
+
+    def codes(self, role: int) -> np.ndarray:
+        return self.codes_pick if role == PICK else self.codes_place
+
+    def table(self, role: int) -> np.ndarray:
+        return self.table_pick if role == PICK else self.table_place
+
+    def graph(self, labels: np.ndarray) -> TaskGraph:
+        """The task graph that ``labels`` induces on the transitions."""
+        return TaskGraph.from_labels(labels, self.roles, self.src, self.act, self.dst,
+                                     self.action_names)
+
+    def visual_score(self, labels: np.ndarray) -> float:
+        """The paper's J (:func:`vggc_cp.score.visual_score`) from code counts: equal to the
+        dense one up to rounding."""
+        labels = np.asarray(labels)
+        total = 0.0
+        for role in (PICK, PLACE):
+            obs = self.pick_obs if role == PICK else self.place_obs
+            if len(obs) == 0:
+                continue
+            codes, table = self.codes(role), self.table(role)
+            ids, inv = np.unique(labels[obs], return_inverse=True)
+            counts = np.zeros((len(ids), len(table)))
+            np.add.at(counts, (inv, codes), 1.0)
+            size = counts.sum(axis=1)
+            within = ((counts @ table) * counts).sum(axis=1)
+            big = size >= 2
+            total += float(np.sum(within[big] / (size[big] * (size[big] - 1))))
+        return total
+
+    def dense(self) -> Problem:
+        """The :class:`Problem` with ``(n, n)`` distance matrices (quadratic memory)."""
+        return Problem(self.roles, self.src, self.act, self.dst, self.action_names,
+                       self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
+                       self.table_place[np.ix_(self.codes_place, self.codes_place)])
+
+    def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
+        """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
+        ends kept, the same tables. Returns it and the kept indices (as
+        :func:`vggc_cp.solvers.confidence.subproblem`)."""
+        idx = np.flatnonzero(keep)
+        new = np.full(self.n_obs, -1, dtype=np.int64)
+        new[idx] = np.arange(len(idx))
+        tk = keep[self.src] & keep[self.dst]
+        roles = self.roles[idx]
+        pick, place = idx[roles == PICK], idx[roles == PLACE]
+        sub = CodedProblem(roles, new[self.src[tk]], self.act[tk], new[self.dst[tk]],
+                           self.action_names, self.codes_pick[self.local[pick]],
+                           self.codes_place[self.local[place]], self.table_pick,
+                           self.table_place)
+        return sub, idx
+
+
+def coded_values(problem: CodedProblem) -> tuple[np.ndarray, np.ndarray]:
+    """Every within-role pair distance as ``(values, counts)``: the distinct entries of the
+    tables that some pair of observations takes, and how many pairs take each."""
+    vals, counts = [], []
+    for role in (PICK, PLACE):
+        codes, table = problem.codes(role), problem.table(role)
+        size = np.bincount(codes, minlength=len(table)).astype(np.float64)
+        gi, hi = np.triu_indices(len(table))
+        n = np.where(gi == hi, size[gi] * (size[gi] - 1) / 2, size[gi] * size[hi])
+        keep = n > 0
+        vals.append(table[gi[keep], hi[keep]])
+        counts.append(n[keep])
+    v, c = np.concatenate(vals), np.concatenate(counts)
+    uniq, inv = np.unique(v, return_inverse=True)
+    return uniq, np.bincount(inv, weights=c)
+
+
+def weighted_quantile(values: np.ndarray, counts: np.ndarray, q: float) -> float:
+    """``np.quantile`` (method ``linear``) of the sample holding ``counts[k]`` copies of
+    ``values[k]`` (``values`` ascending), computed without building it; bit-identical."""
+    total = int(round(float(counts.sum())))
+    if total == 0:
+        raise ValueError("quantile of an empty sample")
+    virtual = (total - 1) * float(q)
+    prev = float(np.floor(virtual))
+    cum = np.cumsum(counts)
+
+    def at(k: int) -> float:
+        return float(values[int(np.searchsorted(cum, k, side="right"))])
+
+    if virtual >= total - 1:
+        return at(total - 1)
+    a, b, t = at(int(prev)), at(int(prev) + 1), virtual - prev
+    diff = b - a
+    return b - diff * (1 - t) if t >= 0.5 else a + diff * t
+
+
+def coded_noise_scale(problem: CodedProblem) -> float:
+    """:func:`vggc_cp.solvers.merge.noise_scale` from the tables: an observation's nearest
+    neighbour is 0 away when its code has another member, else its code's nearest code."""
+    nn = []
+    for role in (PICK, PLACE):
+        codes, table = problem.codes(role), problem.table(role)
+        if len(codes) <= 1:
+            continue
+        size = np.bincount(codes, minlength=len(table))
+        present = size > 0
+        masked = np.where(present[None, :], table, np.inf)
+        masked = masked + np.diag(np.full(len(table), np.inf))
+        nearest = np.where(size >= 2, 0.0, masked.min(axis=1))
+        nn.append(nearest[codes])
+    return float(np.median(np.concatenate(nn))) if nn else 0.0
+
+
+def coded_threshold_grid(problem: CodedProblem, steps: int = 24,
+                         top_quantile: float = 0.9) -> np.ndarray:
+    """:func:`vggc_cp.pipeline.threshold_grid` from the tables (bit-identical)."""
+    values, counts = coded_values(problem)
+    lo = coded_noise_scale(problem)
+    hi = weighted_quantile(values, counts, top_quantile) if counts.sum() > 0 else 0.0
+    lo = max(lo, hi / 100) if hi > 0 else (lo if lo > 0 else 1e-3)
+    hi = max(hi, lo * 1.01)
+    return np.geomspace(lo, hi, int(steps))
+
+
+class _CodedClusters(_Clusters):
+    """:class:`~vggc_cp.solvers.merge._Clusters` whose distance sums are kept per code: for
+    every root, the sum of its members' table rows (shape (G,)) and its members' code counts;
+    the root of every observation is kept in a numpy array for the vectorized scan."""
+
+    def _distance_sums(self, problem: CodedProblem):
+        self.root_of = np.arange(problem.n_obs, dtype=np.int64)
+        self.code_of = np.empty(problem.n_obs, dtype=np.int64)
+        self.code_of[problem.pick_obs] = problem.codes_pick
+        self.code_of[problem.place_obs] = problem.codes_place
+        self.counts: list[dict[int, int]] = [{int(c): 1} for c in self.code_of.tolist()]
+        return (problem.table_pick[problem.codes_pick],
+                problem.table_place[problem.codes_place])
+
+    def _absorb_sums(self, head: int, r: int) -> None:
+        s = self.sums[self.roles[head]]
+        s[self.local[head]] += s[self.local[r]]
+        counts = self.counts[head]
+        for c, k in self.counts[r].items():
+            counts[c] = counts.get(c, 0) + k
+        self.counts[r] = {}
+
+    def link_sum(self, roots_a: list[int], roots_b: list[int]) -> float:
+        p = self.p
+        role = self.roles[roots_a[0]]
+        if len(roots_a) == 1 and len(roots_b) == 1 and self.size[roots_a[0]] == 1 \
+                and self.size[roots_b[0]] == 1:
+            return float(p.table(role)[self.code_of[roots_a[0]], self.code_of[roots_b[0]]])
+        s = self.sums[role]
+        row = s[self.local[roots_a[0]]] if len(roots_a) == 1 else \
+            s[[self.local[r] for r in roots_a]].sum(axis=0)
+        total = 0.0
+        for r in roots_b:
+            for c, k in self.counts[r].items():
+                total += k * row[c]
+        return float(total)
+
+    def commit(self, groups: dict[int, list[int]]) -> None:
+        for head, absorbed in groups.items():
+            for r in absorbed:
+                self.root_of[self.members[r]] = head
+        super().commit(groups)
+
+
+def _after(rows: np.ndarray, others: np.ndarray, start: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(rows[k], others[m])`` for every ``m >= start[k]`` (``others`` sorted)."""
+    counts = len(others) - start
+    total = int(counts.sum())
+    if total == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    offsets = np.cumsum(counts) - counts
+    idx = np.arange(total) - np.repeat(offsets, counts) + np.repeat(start, counts)
+    return np.repeat(rows, counts), others[idx]
+
+
+class _PairStream:
+    """The within-role pairs at distance <= ``top``, in the dense path's order (distance,
+    then ids), generated batch by batch from pairs of codes (pairs inside one cluster are
+    dropped by the scan, :meth:`_Pass._scan`). A batch is a run of whole distance levels, or
+    one level's pairs whose first id lies in a range (a level larger than a batch is split)."""
+
+    def __init__(self, problem: CodedProblem, top: float, batch: int | None = None):
+        batch = int(batch or BATCH)
+        self.n = problem.n_obs
+        self.members: dict[int, list[np.ndarray]] = {}
+        vals, roles, gs, hs, ns = [], [], [], [], []
+        for role in (PICK, PLACE):
+            obs = problem.pick_obs if role == PICK else problem.place_obs
+            codes, table = problem.codes(role), problem.table(role)
+            order = np.argsort(codes, kind="stable")
+            size = np.bincount(codes, minlength=len(table))
+            self.members[role] = np.split(obs[order], np.cumsum(size)[:-1])
+            gi, hi = np.triu_indices(len(table))
+            n = np.where(gi == hi, size[gi] * (size[gi] - 1) // 2, size[gi] * size[hi])
+            v = table[gi, hi]
+            keep = (n > 0) & (v <= top)
+            vals.append(v[keep])
+            roles.append(np.full(int(keep.sum()), role))
+            gs.append(gi[keep])
+            hs.append(hi[keep])
+            ns.append(n[keep])
+        v = np.concatenate(vals)
+        order = np.argsort(v, kind="stable")
+        self.v = v[order]
+        self.role = np.concatenate(roles)[order]
+        self.g = np.concatenate(gs)[order]
+        self.h = np.concatenate(hs)[order]
+        npairs = np.concatenate(ns)[order].astype(np.float64)
+        cum = np.cumsum(npairs)
+        # batches (code pairs [a, b), first ids [i0, i1)): whole levels up to about ``batch``
+        # pairs, or a level of more split into ranges of first ids of about ``batch`` pairs
+        # each (pairs thin out as the first id grows: the ranges follow sqrt)
+        self.bounds: list[tuple[int, int, int, int]] = []
+        a = 0
+        while a < len(self.v):
+            level_end = int(np.searchsorted(self.v, self.v[a], side="right"))
+            base = cum[a - 1] if a else 0.0
+            level_pairs = cum[level_end - 1] - base
+            if level_pairs > batch:
+                k = int(np.ceil(level_pairs / batch))
+                cuts = [int(round(self.n * (1 - np.sqrt(1 - q / k)))) for q in range(k + 1)]
+                cuts[-1] = self.n
+                for i0, i1 in zip(cuts, cuts[1:]):
+                    if i1 > i0:
+                        self.bounds.append((a, level_end, i0, i1))
+                a = level_end
+                continue
+            b = int(np.searchsorted(cum, base + batch, side="left")) + 1
+            b = min(max(b, level_end), len(self.v))
+            b = int(np.searchsorted(self.v, self.v[b - 1], side="right"))
+            if cum[b - 1] - base > batch and b > level_end:  # stop before a big level
+                b = int(np.searchsorted(self.v, self.v[b - 1], side="left"))
+            self.bounds.append((a, b, 0, self.n))
+            a = b
+        self.starts = [(float(self.v[a]), i0) for a, _, i0, _ in self.bounds]
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def batch_of(self, d: float, i: int) -> int:
+        """Index of the batch holding the pair key ``(d, i, .)`` (or the next one)."""
+        import bisect
+
+        return max(bisect.bisect_right(self.starts, (d, i)) - 1, 0)
+
+    def first_level(self, k: int) -> float:
+        return self.starts[k][0]
+
+    def pairs(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Batch ``k`` as ``(d, i, j)`` sorted like the dense candidates (the last few
+        batches are kept)."""
+        hit = self._cache.pop(k, None)
+        if hit is None:
+            hit = self._generate(k)
+        self._cache[k] = hit
+        while len(self._cache) > 1 and sum(len(b[0]) for b in self._cache.values()) > CACHED:
+            self._cache.pop(next(iter(self._cache)))
+        return hit
+
+    def _generate(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a, b, i0, i1 = self.bounds[k]
+        ds, iis, jjs = [], [], []
+        for v, role, g, h in zip(self.v[a:b].tolist(), self.role[a:b].tolist(),
+                                 self.g[a:b].tolist(), self.h[a:b].tolist()):
+            mg = self.members[role][g]
+            lo, hi = np.searchsorted(mg, (i0, i1))
+            if g == h:  # (mg[r], mg[m]) for m > r, first ids in range
+                rows = np.arange(lo, hi)
+                parts = [(mg[rows], mg, rows + 1)]
+            else:  # the smaller id first, from either code
+                mh = self.members[role][h]
+                lo2, hi2 = np.searchsorted(mh, (i0, i1))
+                parts = [(mg[lo:hi], mh, np.searchsorted(mh, mg[lo:hi], side="right")),
+                         (mh[lo2:hi2], mg, np.searchsorted(mg, mh[lo2:hi2], side="right"))]
+            for rows, others, start in parts:
+                i, j = _after(rows, others, start)
+                if len(i):
+                    ds.append(np.full(len(i), v))
+                    iis.append(i)
+                    jjs.append(j)
+        if not ds:
+            empty = np.zeros(0, dtype=np.int64)
+            return np.zeros(0), empty, empty
+        d, i, j = np.concatenate(ds), np.concatenate(iis), np.concatenate(jjs)
+        order = np.lexsort((j, i, d))
+        return d[order], i[order], j[order]
+
+
+class _Pass:
+    """Congruence-closure merging along ascending thresholds (module docstring)."""
+
+    def __init__(self, problem: CodedProblem, top: float, max_work: int = 2_000):
+        self.problem = problem
+        self.stream = _PairStream(problem, top)
+        self.max_work = max_work
+        self.commits: list[tuple[tuple[float, int, int], dict[int, list[int]]]] = []
+        self.linkage_vetoes: list[tuple[tuple[float, int, int], float]] = []
+        self.outcomes: list[tuple[tuple[float, int, int], str]] = []
+        self._reset()
+        self.at = (-np.inf, -1, -1)  # next pair to scan: the first >= this key
+
+    def _reset(self) -> None:
+        self.cl = _CodedClusters(self.problem)
+        self.epoch = 0
+        self.vetoed: dict[tuple[int, int], int] = {}
+        self.replay: dict[tuple[int, int], tuple[int, str]] = {}
+        self.depends: dict[int, list[tuple[tuple[int, int], int]]] = {}
+        self.token = 0
+
+    def _rewind(self, key: tuple[float, int, int]) -> None:
+        """The state just before the pair ``key`` was scanned: accepted merges before it
+        replayed on fresh clusters (the veto memories start empty: they only save work)."""
+        self.commits = [c for c in self.commits if c[0] < key]
+        self.linkage_vetoes = [v for v in self.linkage_vetoes if v[0] < key]
+        self.outcomes = [o for o in self.outcomes if o[0] < key]
+        self._reset()
+        for _, groups in self.commits:
+            self.cl.commit(groups)
+            self.epoch += 1
+        self.at = key
+
+    def advance(self, threshold: float) -> tuple[np.ndarray, MergeStats]:
+        """Labels and counters of the merge at ``threshold`` (not below the previous one)."""
+        late = [k for k, link in self.linkage_vetoes if link <= threshold]
+        if late:
+            self._rewind(min(late))
+        k = self.stream.batch_of(self.at[0], self.at[1])
+        while k < len(self.stream.bounds):
+            if self.stream.first_level(k) > threshold:
+                break
+            d, i, j = self.stream.pairs(k)
+            lo = int(np.searchsorted(d, self.at[0], side="left"))
+            hi = int(np.searchsorted(d, self.at[0], side="right"))
+            codes = i[lo:hi] * self.stream.n + j[lo:hi]
+            start = lo + int(np.searchsorted(codes, self.at[1] * self.stream.n + self.at[2]))
+            stop = int(np.searchsorted(d, threshold, side="right"))
+            self._scan(d, i, j, start, stop, threshold)
+            if stop < len(d):
+                self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
+                break
+            k += 1
+            self.at = ((*self.stream.starts[k], -1) if k < len(self.stream.bounds)
+                       else (np.inf, -1, -1))
+        cl = self.cl
+        roots = cl.root_of
+        p = self.problem
+        labels = p.labels_from_colours(roots[p.pick_obs], roots[p.place_obs])
+        kinds = [o[1] for o in self.outcomes]
+        stats = MergeStats(len(kinds), kinds.count("accepted"), kinds.count("distance"),
+                           kinds.count("exactly_one"), kinds.count("work"),
+                           kinds.count("replayed"))
+        return labels, stats
+
+    def _scan(self, d: np.ndarray, i: np.ndarray, j: np.ndarray, start: int, stop: int,
+              threshold: float) -> None:
+        """Merge the pairs ``start:stop`` of a batch: per window, only the first pair between
+        two clusters since the last accepted merge is tried (the others would be skipped)."""
+        cl = self.cl
+        n = self.stream.n
+        window = 1024
+        o = start
+        while o < stop:
+            end = min(o + window, stop)
+            ri, rj = cl.root_of[i[o:end]], cl.root_of[j[o:end]]
+            live = np.flatnonzero(ri != rj)
+            accepted = None
+            if len(live):
+                a, b = ri[live], rj[live]
+                key = np.minimum(a, b) * n + np.maximum(a, b)
+                _, first = np.unique(key, return_index=True)
+                first.sort()
+                for f in first.tolist():
+                    at = o + int(live[f])
+                    if self._attempt(int(a[f]), int(b[f]), (float(d[at]), int(i[at]),
+                                                            int(j[at])), threshold):
+                        accepted = at
+                        break
+            if accepted is None:
+                o = end
+                window = min(window * 2, 1 << 18)
+            else:
+                o = accepted + 1
+                window = 1024
+
+    def _attempt(self, ri: int, rj: int, pair: tuple[float, int, int], threshold: float
+                 ) -> bool:
+        """One candidate pair between the clusters ``ri`` and ``rj`` (the dense loop of
+        :func:`vggc_cp.solvers.merge._merge_sorted`); True when the merge was accepted."""
+        key = (ri, rj) if ri < rj else (rj, ri)
+        if self.vetoed.get(key) == self.epoch:
+            return False
+        memo = self.replay.get((ri, rj))
+        if memo is not None:
+            self.vetoed[key] = self.epoch
+            self.outcomes.append((pair, "replayed"))
+            return False
+        read: set[int] = set()
+        linkage: list[float] = []
+        groups, why = _try_merge(self.cl, pair[1], pair[2], threshold, self.max_work, read,
+                                 linkage)
+        if groups is None:
+            self.vetoed[key] = self.epoch
+            self.outcomes.append((pair, why))
+            if linkage and np.isfinite(linkage[0]):
+                self.linkage_vetoes.append((pair, linkage[0]))
+            self.token += 1
+            self.replay[(ri, rj)] = (self.token, why)
+            for r in read:
+                self.depends.setdefault(r, []).append(((ri, rj), self.token))
+            return False
+        for h, absorbed in groups.items():
+            for r in (h, *absorbed):
+                for k, t in self.depends.pop(r, ()):
+                    m = self.replay.get(k)
+                    if m is not None and m[0] == t:
+                        del self.replay[k]
+        self.cl.commit(groups)
+        self.commits.append((pair, groups))
+        self.outcomes.append((pair, "accepted"))
+        self.epoch += 1
+        return True
+
+
+def _result(problem: CodedProblem, threshold: float, labels: np.ndarray, stats: MergeStats,
+            seconds: float) -> SolveResult:
+    n_pick = len(np.unique(labels[problem.pick_obs]))
+    n_place = len(np.unique(labels[problem.place_obs]))
+    return SolveResult(labels, n_pick, n_place, problem.visual_score(labels), FEASIBLE, "merge",
+                       seconds, stats={"threshold": threshold, **stats.__dict__})
+
+
+def coded_merge(problem: CodedProblem, threshold: float, max_work: int = 2_000
+                ) -> tuple[np.ndarray, MergeStats]:
+    """:func:`vggc_cp.solvers.merge.congruence_merge` on a :class:`CodedProblem`."""
+    return _Pass(problem, float(threshold), max_work).advance(float(threshold))
+
+
+def coded_threshold_path(problem: CodedProblem, thresholds: Sequence[float],
+                         rule: str = "mdl", progress: bool = False) -> ThresholdPath:
+    """:func:`vggc_cp.solvers.merge.threshold_path` on a :class:`CodedProblem`: one pass
+    (module docstring), the same partitions."""
+    fn = get_selection(rule, PATH)
+    ts = np.sort(np.asarray(thresholds, dtype=np.float64))
+    t0 = time.perf_counter()
+    iterator = ts
+    if progress:
+        from tqdm.auto import tqdm
+
+        iterator = tqdm(ts, desc="merge thresholds", unit="thr")
+    run = _Pass(problem, float(ts[-1]) if len(ts) else 0.0)
+    results = []
+    for t in iterator:
+        t1 = time.perf_counter()
+        labels, stats = run.advance(float(t))
+        results.append(_result(problem, float(t), labels, stats, time.perf_counter() - t1))
+    results = tuple(results)
+    return ThresholdPath(tuple(float(t) for t in ts), results, fn(results, problem), rule,
+                         time.perf_counter() - t0)
