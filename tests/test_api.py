@@ -87,6 +87,7 @@ def test_to_networkx(learned):
 
 def test_medoid_is_the_least_total_distance_member(learned):
     p = learned.problem
+    p = p.dense() if hasattr(p, "dense") else p   # a problem of descriptor codes
     for u, m in learned.medoids().items():
         members = np.flatnonzero(learned.labels == u)
         d = p.dist_pick if p.roles[m] == 0 else p.dist_place

@@ -194,17 +194,34 @@ def test_default_solver_is_merge_and_recovers_the_shipped_graph(tmp_path, capsys
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
 
 
-def test_footprints_refuse_images_that_change_everywhere(toy_path, tmp_path, capsys):
-    """The toy's images are noise per state: no action changes one place of its own. Asked
-    for footprints, solve says so (exit 2); by default the next evidence is tried and the
-    skipped one is reported."""
-    path, _ = toy_path
+def test_footprints_refuse_images_where_no_action_changes_a_place(toy_path, tmp_path, capsys):
+    """Every image alike: no action changes one place of its own. Asked for footprints, solve
+    says so (exit 2); by default the fallback evidence is tried and the skipped one is
+    reported (here the fallback cannot read the images either)."""
+    from vggc_cp.trace import Trace
+
+    _, trace = toy_path
+    flat = Trace(np.full_like(trace.observations, 90), trace.actions, trace.action_names)
+    path = tmp_path / "flat.npz"
+    save_trace(flat, path)
     rc = main(["solve", str(path), "-o", str(tmp_path / "f.json"), "--quiet",
                "--evidence", "footprints"])
     assert rc == 2 and "in one place" in capsys.readouterr().err
-    assert main(["solve", str(path), "-o", str(tmp_path / "d.json"), "--quiet", *FAST]) == 0
-    sol = read_solution(tmp_path / "d.json")
-    assert sol.extra["evidence"] != "footprints" and sol.extra["confidence"]["suspect"]
+    rc = main(["solve", str(path), "-o", str(tmp_path / "d.json"), "--quiet", *FAST])
+    out, err = capsys.readouterr()
+    assert "footprints" in out + err and "in one place" in out + err
+    assert rc == 2 or read_solution(tmp_path / "d.json").extra["evidence"] != "footprints"
+
+
+def test_the_toys_states_are_read_from_what_its_actions_state(toy_path, tmp_path):
+    """The toy's images differ by state only as noise does; its actions state what each place
+    holds, and the footprint graph is the true one (3 states)."""
+    path, trace = toy_path
+    assert main(["solve", str(path), "-o", str(tmp_path / "t.json"), "--quiet",
+                 "--evidence", "footprints"]) == 0
+    sol = read_solution(tmp_path / "t.json")
+    same = sol.labels[:, None] == sol.labels[None, :]
+    np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
 
 
 def test_paper_attention_and_cascade_rule_stay_available(toy_path, tmp_path, capsys):

@@ -334,7 +334,7 @@ class Learned:
         write_solution(path, self.solution_record(**extra), timings=timings)
 
 
-def evidence_medoids(problem: Problem, labels: np.ndarray) -> dict[int, int]:
+def evidence_medoids(problem: Problem | CodedProblem, labels: np.ndarray) -> dict[int, int]:
     """``{node: observation}``: each node's member of least summed within-role distance to
     its other members (the first of equal ones; a node of mixed roles: among its first role's
     members)."""
@@ -344,9 +344,15 @@ def evidence_medoids(problem: Problem, labels: np.ndarray) -> dict[int, int]:
         members = np.flatnonzero(labels == u)
         role = problem.roles[members[0]]
         members = members[problem.roles[members] == role]
-        d = problem.dist_pick if role == 0 else problem.dist_place
         loc = problem.local[members]
-        out[int(u)] = int(members[int(np.argmin(d[np.ix_(loc, loc)].sum(axis=1)))])
+        if isinstance(problem, CodedProblem):  # distances of codes: a node's own block only
+            codes = problem.codes_pick if role == 0 else problem.codes_place
+            table = problem.table_pick if role == 0 else problem.table_place
+            block = table[np.ix_(codes[loc], codes[loc])]
+        else:
+            d = problem.dist_pick if role == 0 else problem.dist_place
+            block = d[np.ix_(loc, loc)]
+        out[int(u)] = int(members[int(np.argmin(block.sum(axis=1)))])
     return out
 
 

@@ -277,18 +277,20 @@ def check_size(value: int | None, option: str, low: int, high: int, cap_text: st
         raise VggcError(f"{option} {value:,}: above {cap_text} ({high:,})")
 
 
-def check_trace_budget(n: int | None, side: int, option: str) -> None:
-    """Refuse ``n`` transitions (or renders) of ``side`` x ``side`` RGB images whose arrays
-    would exceed ``max_bytes``: the cap of a trace read from a file, applied to one the
-    command would generate (``--transitions 1000000000`` is refused, not run)."""
+def check_trace_budget(n: int | None, side: int | tuple[int, int], option: str) -> None:
+    """Refuse ``n`` transitions (or renders) of ``side`` x ``side`` (or ``(height, width)``)
+    RGB images whose arrays would exceed ``max_bytes``: the cap of a trace read from a file,
+    applied to one the command would generate (``--transitions 1000000000`` is refused, not
+    run)."""
     if n is None:
         return
     if n < 1:
         raise VggcError(f"{option} {n}: expected at least 1")
     limit = cap("max_bytes")
-    per = 3 * side * side
+    h, w = (side, side) if isinstance(side, int) else side
+    per = 3 * h * w
     if (n + 1) * per > limit:
-        raise VggcError(f"{option} {n:,}: {side}x{side} images of {n + 1:,} observations would "
+        raise VggcError(f"{option} {n:,}: {w}x{h} images of {n + 1:,} observations would "
                         f"take {(n + 1) * per:,} bytes, above the cap of {limit:,} "
                         f"({CAPS['max_bytes'][1]}); at most {limit // per - 1:,}")
 

@@ -387,6 +387,19 @@ CASES += [
          ("--task",), ("spec",)),
     Case("bench startup", "limit-nan", lambda w, t: ["bench", "startup", "--limit=nan"],
          must=("--limit",)),
+    Case("bench scale", "cache-dir-a-file", lambda w, t: ["bench", "scale", "--cache-dir",
+                                                          w["solution"], "--sizes", "20",
+                                                          "--camera", "none"],
+         ("--cache-dir",), ("--cache-dir",)),
+    *files("bench scale", "--csv", "out", lambda w, t, p: ["bench", "scale", "--csv", p,
+                                                           "--sizes", "20", "--camera", "none"],
+           skip=("is-the-trace",)),
+    Case("bench scale", "sizes-not-numbers", lambda w, t: ["bench", "scale", "--sizes", "a,b"],
+         must=("--sizes",)),
+    Case("solve", "backend-ray-missing", lambda w, t: ["solve", w["trace"], "-o",
+                                                       OUT(t, "s.json"), "--backend", "ray",
+                                                       "--quiet"],
+         ("--backend",), ("ray",)),
 ]
 
 

@@ -112,11 +112,13 @@ def cmd_generate(args) -> int:
     if args.novel < 0:
         raise VggcError(f"--novel must be at least 0, got {args.novel}")
     from vggc_cp.safeio import check_image_size, check_trace_budget
+    from vggc_cp.sim.explore import parse_image_size
 
-    check_image_size(args.size, args.size, "--size")
-    check_trace_budget(d, args.size, "--transitions")
+    height, width = parse_image_size(args.size)
+    check_image_size(height, width, "--size")
+    check_trace_budget(d, (height, width), "--transitions")
     if args.novel:
-        check_trace_budget(args.novel, args.size, "--novel")
+        check_trace_budget(args.novel, (height, width), "--novel")
     bars = []
 
     def on_frame(total: int) -> None:
@@ -126,9 +128,6 @@ def cmd_generate(args) -> int:
             bars.append(tqdm(total=total, unit="frame", desc=args.bench[:40], leave=False))
         bars[0].update(1)
 
-    from vggc_cp.sim.explore import parse_image_size
-
-    height, width = parse_image_size(args.size)
     try:
         generated = generate(args.bench, d, args.seed, (height, width), args.novel,
                              on_frame=None if args.quiet else on_frame, look=args.look)
