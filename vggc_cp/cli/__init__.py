@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.compare_cmds",
     "vggc_cp.cli.robustness_cmds",
     "vggc_cp.cli.import_cmds",
+    "vggc_cp.cli.verdict_cmds",
 ]
 
 
