@@ -12,9 +12,10 @@ observations are one state. Two kinds of decision can be close calls:
   transitively). When Exactly-One forbids the closure, the pair is a candidate only when
   ``d(A, B) <= t*``: the images put the two nodes together and only the constraints keep
   them apart, so some other decision conflicts with it (``forbidden: "exactly_one"``);
-* a **split doubt** -- a node ``N`` that might be two states: the nearest of the
-  ``window`` next smaller thresholds that splits it gives its two sides, the largest part
-  there (``P``) and the rest (``Q``). Sides closer than one grid step above the path's
+* a **split doubt** -- a node ``N`` that might be two states: one of the ``window`` next
+  smaller thresholds splits it; its two sides ``P`` (the larger) and ``Q`` are the two
+  clusters of the last merge of average-linkage clustering on its observations' distances
+  (the cut a person would draw between its renders). Sides closer than one grid step above the path's
   lowest threshold (the noise scale, or a hundredth of the top distances) differ by
   rendering noise only and make no doubt.
 
@@ -36,8 +37,10 @@ Evidence each way (a :class:`Doubt`'s ``evidence``; the two sides are ``A``/``B`
     Description length (:func:`~vggc_cp.solvers.mdl.description_length`) of the graph with
     the decision flipped (merge doubt: the closure's groups joined, or just ``A`` and ``B``
     when forbidden; split doubt: ``Q`` given a node of its own) minus that of the chosen
-    graph, in nats per transition. Positive: the actions the trace took favour the chosen
-    decision; negative: they favour the flip.
+    graph, in nats per transition (``dl_nats``: in nats). Positive: the actions the trace
+    took favour the chosen decision; negative: they favour the flip. ``dl_nats`` is a log
+    odds: 3 nats (odds of 20 to 1) is "strong" evidence in the usual reading of Bayes
+    factors (Kass and Raftery 1995).
 ``thresholds_apart``, ``thresholds_together``
     Thresholds of the path at which most observations of the two sides lie in different
     nodes / in one node.
@@ -48,13 +51,13 @@ Evidence each way (a :class:`Doubt`'s ``evidence``; the two sides are ``A``/``B`
     Action names taken in the trace from one side and never from the other: what the
     robot could try from the other side to settle the doubt (``vggc-cp suggest``).
 ``closeness``
-    The ranking key, ``visual + dl_change / max_dl`` with ``visual = max(0, steps) /
+    The ranking key, ``visual + dl_nats / max_nats`` with ``visual = max(0, steps) /
     window`` for a merge doubt and ``max(0, -steps) / window`` for a split doubt: 0 when
     the images favour the flip, 1 at ``window`` steps. Smaller is a closer call (negative:
     the actions favour the flip).
 
 A candidate is a **doubt** when ``visual <= 1`` and ``closeness <= 1``: neither the images
-(within ``window`` grid steps) nor the actions (within ``max_dl`` nats per transition)
+(within ``window`` grid steps) nor the actions (less than ``max_nats``, strong evidence)
 settle it. Doubts are ranked by ``closeness`` and at most ``limit`` are kept; the
 observations of each side are its ``typical`` most typical ones (least mean distance to
 the others of its side).
@@ -87,8 +90,9 @@ class DoubtRule:
     ----------
     window : int
         Thresholds of the path looked at on each side of the chosen one.
-    max_dl : float
-        Largest ``|dl_change|`` (nats per transition) of a doubt.
+    max_nats : float
+        Description-length change (nats) that settles a decision on its own (3: odds of
+        20 to 1).
     limit : int
         Most doubts kept.
     typical : int
@@ -96,15 +100,15 @@ class DoubtRule:
     """
 
     window: int = 3
-    max_dl: float = 0.05
+    max_nats: float = 3.0
     limit: int = 10
     typical: int = 3
 
     def __post_init__(self):
         if self.window < 1:
             raise ValueError(f"window must be at least 1, got {self.window}")
-        if not self.max_dl > 0:
-            raise ValueError(f"max_dl must be positive, got {self.max_dl}")
+        if not self.max_nats > 0:
+            raise ValueError(f"max_nats must be positive, got {self.max_nats}")
         if self.limit < 0 or self.typical < 1:
             raise ValueError("limit must be >= 0 and typical >= 1")
 
@@ -162,6 +166,20 @@ class _Sides:
             return 0.0
         blk = self.block(a, a)
         return float(blk.sum() / (len(a) * (len(a) - 1)))
+
+    def halves(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The two clusters of the last merge of average-linkage clustering on ``a``'s
+        distances: the larger (ties: the one holding ``a[0]``) first."""
+        from scipy.cluster.hierarchy import fcluster, linkage
+        from scipy.spatial.distance import squareform
+
+        blk = self.block(a, a)
+        blk = (blk + blk.T) / 2
+        np.fill_diagonal(blk, 0.0)
+        cut = fcluster(linkage(squareform(blk, checks=False), method="average"), 2,
+                       criterion="maxclust")
+        one, two = a[cut == cut[0]], a[cut != cut[0]]
+        return (one, two) if len(one) >= len(two) else (two, one)
 
     def typical(self, a: np.ndarray, k: int) -> tuple[int, ...]:
         """The ``k`` observations of ``a`` of least mean distance to the others."""
@@ -299,7 +317,7 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         ev = _evidence(dist_ab, t_star, spread, max(noise, 1e-3 * t_star), steps_of(need),
                        (description_length(problem, merged) - dl0) / n_trans,
                        _count_together(path, members[a], members[b]),
-                       acts[a] - acts[b], acts[b] - acts[a], names)
+                       acts[a] - acts[b], acts[b] - acts[a], names, n_trans)
         ev["threshold_needed"] = round(need, 6)
         ev["forced"] = None if groups is None else sum(len(g) - 1 for g in groups) - 1
         ev["forbidden"] = why or None
@@ -314,11 +332,11 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             lab = path.results[j].labels
             if lab is None:
                 continue
-            parts, counts = np.unique(lab[m], return_counts=True)
-            if len(parts) < 2:
+            if len(np.unique(lab[m])) < 2:
                 continue
-            big = parts[np.lexsort((parts, -counts))[0]]
-            p_side, q_side = m[lab[m] == big], m[lab[m] != big]
+            p_side, q_side = sides.halves(m)
+            if len(q_side) == 0:
+                break  # its renders are identical: nothing to cut
             dist_pq = sides.link(p_side, q_side)
             if dist_pq <= floor:
                 break  # the sides differ by rendering noise only: not a doubt
@@ -328,7 +346,8 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             ap, aq = _actions_from(problem, p_side), _actions_from(problem, q_side)
             ev = _evidence(dist_pq, t_star, spread, max(noise, 1e-3 * t_star), steps_of(dist_pq),
                            (description_length(problem, split) - dl0) / n_trans,
-                           _count_together(path, p_side, q_side), ap - aq, aq - ap, names)
+                           _count_together(path, p_side, q_side), ap - aq, aq - ap, names,
+                           n_trans)
             doubt = _keep(SPLIT, (u,), (sides.typical(p_side, rule.typical),
                                         sides.typical(q_side, rule.typical)), ev, rule)
             if doubt is not None:
@@ -340,12 +359,13 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
 
 def _evidence(distance: float, threshold: float, spread: float, noise: float, steps: float,
               dl_change: float, apart_together: tuple[int, int], only_a: set[int],
-              only_b: set[int], names: tuple[str, ...]) -> dict:
+              only_b: set[int], names: tuple[str, ...], n_trans: int) -> dict:
     return {"distance": round(distance, 6), "threshold": round(threshold, 6),
             "spread": round(spread, 6),
             "separation": round(distance / max(spread, noise), 4),
             "steps": round(steps, 3) if math.isfinite(steps) else None,
-            "dl_change": round(dl_change, 6),
+            "dl_change": round(float(dl_change), 6),
+            "dl_nats": round(float(dl_change) * n_trans, 4),
             "thresholds_apart": apart_together[0], "thresholds_together": apart_together[1],
             "only_a": sorted(names[a] for a in only_a),
             "only_b": sorted(names[a] for a in only_b)}
@@ -360,7 +380,7 @@ def _keep(kind: str, nodes: tuple[int, ...], obs, ev: dict, rule: DoubtRule) -> 
     # because the join needs a larger threshold; a split doubt's sides are together because
     # their distance is below the threshold. 0 where the images favour the other decision.
     visual = max(0.0, steps if kind == MERGE else -steps) / rule.window
-    closeness = visual + ev["dl_change"] / rule.max_dl
+    closeness = visual + ev["dl_nats"] / rule.max_nats
     if visual > 1.0 or closeness > 1.0:
         return None
     ev["closeness"] = round(closeness, 4)
