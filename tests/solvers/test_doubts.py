@@ -138,7 +138,10 @@ def test_partition_closure_forced_merges_and_exactly_one():
     closure = PartitionClosure(problem, labels)
     groups, why = closure.join(1, 3)  # the two H nodes: no other merge is forced
     assert why == "" and groups == [[1, 3]]
-    groups, why = closure.join(0, 2)  # '1' and '2' as one: H -> it by place_1 and place_2
+    # both H renders one node: then '1' and '2' as one would be entered from H by place_1
+    # and by place_2 (two labels between one ordered pair of nodes)
+    closure = PartitionClosure(problem, np.array([0, 1, 2, 1, 0]))
+    groups, why = closure.join(0, 2)
     assert groups is None and why == "exactly_one"
 
 
