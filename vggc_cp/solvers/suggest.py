@@ -14,7 +14,8 @@ proposes episodes a robot can run:
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
     simulator reports it), they differ. When both nodes afford the same actions, an action
-    they share is repeated from each: do they lead to one node?
+    they share is repeated from each (those whose outcomes differ first): do they lead to
+    one node?
   - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
     a typical observation of one side (the same predecessor node and action, or the same
     episode start), then an action taken from the other side only is tried.
@@ -163,8 +164,10 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
         if not only_a and not only_b:
-            shared = sorted(n for n in acts_a if acts_a[n] != acts_b.get(n))[:per_doubt]
-            for name in shared:
+            # both afford the same actions: repeat them from each (those whose outcomes
+            # differ first): more renders of both and of where they lead
+            shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
+            for name in shared[:per_doubt]:
                 for x in (a, b):
                     yield (None, x, (), x, name,
                            f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
