@@ -13,12 +13,15 @@ proposes episodes a robot can run:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
-    simulator reports it), they differ. When both nodes afford the same actions, an action
+    simulator reports it), they differ. An illegal action is not recorded, so each such
+    probe comes with a confirming one that is: the same action again from ``A`` (more
+    renders of ``A`` doing what ``B`` was never seen to do). When both nodes afford the same actions, an action
     they share is repeated from each (those whose outcomes differ first): do they lead to
     one node?
   - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
     a typical observation of one side (the same predecessor node and action, or the same
-    episode start), then an action taken from the other side only is tried.
+    episode start), then an action taken from the other side only is tried, and (the
+    confirming probe) one taken from this side only.
 
 Each episode tests one doubtful (node, action) pair; episodes are ranked by how much they
 settle per transition (``1 / len(actions)``), then by the doubt's rank, then by start
@@ -163,6 +166,9 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                        f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
+                yield (None, y, (), y, name,
+                       f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
+                       f"saw take it: more renders of {y} doing what {x} was never seen to do")
         if not only_a and not only_b:
             # both afford the same actions: repeat them from each (those whose outcomes
             # differ first): more renders of both and of where they lead
@@ -175,14 +181,21 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         return
     (u,) = doubt.nodes
     sides = [tuple(side) for side in doubt.observations]
-    side_acts = []
-    for side in sides:
-        names = set()
-        for o in side:
-            if o < trace.n_obs - 1 and trace.actions[o] >= 0:
-                names.add(trace.action_names[int(trace.actions[o])])
-        side_acts.append(names)
-    only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
+    ev = doubt.evidence or {}
+    if isinstance(ev.get("only_a"), list) and isinstance(ev.get("only_b"), list):
+        # the actions each whole side took and the other never did (find_doubts)
+        names = set(graph.action_names)
+        only = (sorted(a for a in ev["only_b"] if a in names),
+                sorted(a for a in ev["only_a"] if a in names))
+    else:  # from the listed observations only
+        side_acts = []
+        for side in sides:
+            seen = set()
+            for o in side:
+                if o < trace.n_obs - 1 and trace.actions[o] >= 0:
+                    seen.add(trace.action_names[int(trace.actions[o])])
+            side_acts.append(seen)
+        only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
     if not only[0] and not only[1]:
         shared = sorted(side_acts[0] | side_acts[1])[:per_doubt]
         only = (shared, shared)
@@ -196,6 +209,11 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                    f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                    f"(one side), then {name}, taken in the trace from the other side only: "
                    f"legal and alike -> one state; illegal -> two")
+        for name in only[1 - s][:per_doubt]:
+            yield (start, target, tail, u, name,
+                   f"split doubt {u}: node {u} entered as the trace entered observation {o} "
+                   f"(one side), then {name}, which only that side took in the trace: "
+                   f"more renders of that side doing what the other was never seen to do")
 
 
 def _entry(trace, labels, side, start_set):
