@@ -23,9 +23,10 @@ proposes episodes a robot can run:
     episode start), then an action taken from the other side only is tried, and (the
     confirming probe) one taken from this side only.
 
-Each episode tests one doubtful (node, action) pair; episodes are ranked by how much they
+Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
 settle per transition (``1 / len(actions)``), then by the doubt's rank, then by start
-observation. Only observations and actions are read, never ground-truth states.
+observation -- the best of every (doubt, direction) first, so that no side of a doubt is
+left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
 """
 
 from __future__ import annotations
@@ -130,7 +131,7 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
-        for fixed, target, tail, probe_node, probe, why in _probes(
+        for side, (fixed, target, tail, probe_node, probe, why) in _probes(
                 graph, trace, labels, doubt, per_doubt, start_set):
             if fixed is not None:
                 start, plan = fixed, []
@@ -139,22 +140,26 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
                 if r is None:
                     continue
                 start, plan = r
-            out.append(Proposal(start, (*plan, *tail, probe), k, probe_node, why))
-    seen = set()
-    unique = []
-    for p in sorted(out, key=lambda p: (len(p.actions), p.doubt, p.start_observation,
-                                        p.actions)):
+            out.append(((k, side), Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
+    # the best episode of every (doubt, side) first, then the others; each part by length
+    order = sorted(out, key=lambda gp: (len(gp[1].actions), gp[1].doubt,
+                                        gp[1].start_observation, gp[1].actions))
+    firsts, rest, groups, seen = [], [], set(), set()
+    for group, p in order:
         key = (p.start_observation, p.actions)
-        if key not in seen:
-            seen.add(key)
-            unique.append(p)
-    return unique[:max_episodes]
+        if key in seen:
+            continue
+        seen.add(key)
+        (rest if group in groups else firsts).append(p)
+        groups.add(group)
+    return (firsts + rest)[:max_episodes]
 
 
 def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int]):
-    """Yield ``(start, target, tail, probe node, probe action, why)``: the episode starts at
-    observation ``start`` (when not None) or at the best start for a plan to node ``target``;
-    then ``tail`` actions, then the probe."""
+    """Yield ``(side, (start, target, tail, probe node, probe action, why))``: the episode
+    starts at observation ``start`` (when not None) or at the best start for a plan to node
+    ``target``; then ``tail`` actions, then the probe. ``side`` names the direction tested
+    (the node probed, or the half of a split node entered)."""
     if doubt.kind == MERGE:
         a, b = doubt.nodes
         acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
@@ -162,12 +167,12 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         only_b = sorted(set(acts_b) - set(acts_a))
         for x, y, only in ((b, a, only_a), (a, b, only_b)):
             for name in only[:per_doubt]:
-                yield (None, x, (), x, name,
-                       f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
+                yield x, (None, x, (), x, name,
+                          f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
-                yield (None, y, (), y, name,
-                       f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
+                yield x, (None, y, (), y, name,
+                          f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
         if not only_a and not only_b:
             # both afford the same actions: repeat them from each (those whose outcomes
@@ -175,8 +180,8 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
             for name in shared[:per_doubt]:
                 for x in (a, b):
-                    yield (None, x, (), x, name,
-                           f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
+                    yield x, (None, x, (), x, name,
+                              f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
         return
     (u,) = doubt.nodes
@@ -205,14 +210,14 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             continue
         start, target, tail, o = entry
         for name in only[s][:per_doubt]:
-            yield (start, target, tail, u, name,
-                   f"split doubt {u}: node {u} entered as the trace entered observation {o} "
-                   f"(one side), then {name}, taken in the trace from the other side only: "
+            yield s, (start, target, tail, u, name,
+                      f"split doubt {u}: node {u} entered as the trace entered observation {o} "
+                      f"(one side), then {name}, taken in the trace from the other side only: "
                    f"legal and alike -> one state; illegal -> two")
         for name in only[1 - s][:per_doubt]:
-            yield (start, target, tail, u, name,
-                   f"split doubt {u}: node {u} entered as the trace entered observation {o} "
-                   f"(one side), then {name}, which only that side took in the trace: "
+            yield s, (start, target, tail, u, name,
+                      f"split doubt {u}: node {u} entered as the trace entered observation {o} "
+                      f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
 
 
