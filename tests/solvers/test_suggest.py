@@ -69,11 +69,15 @@ def test_plans_to_doubtful_nodes_of_a_right_graph_execute():
               Doubt(MERGE, (place_nodes[0], place_nodes[2]),
                     (node_obs[place_nodes[0]], node_obs[place_nodes[2]]), {}),
               Doubt(SPLIT, (pick_nodes[2],),
-                    (node_obs[pick_nodes[2]][:2], node_obs[pick_nodes[2]][2:]), {})]
+                    (node_obs[pick_nodes[2]][:2], node_obs[pick_nodes[2]][2:]), {}),
+              # halves that took the same actions (find_doubts' evidence says so)
+              Doubt(SPLIT, (pick_nodes[1],),
+                    (node_obs[pick_nodes[1]][:2], node_obs[pick_nodes[1]][2:]),
+                    {"only_a": [], "only_b": []})]
     proposals = suggest_episodes(trace.without_states(), labels, doubts, max_episodes=50)
-    assert {p.doubt for p in proposals} == {0, 1, 2}
+    assert {p.doubt for p in proposals} == {0, 1, 2, 3}
     for p in proposals:
         valid = _legal(bench, trace.states[p.start_observation], p.actions)
         assert all(valid[:-1]), p
-        if p.doubt == 2:  # a split doubt of a true node: every action is legal
+        if p.doubt in (2, 3):  # a split doubt of a true node: every action is legal
             assert all(valid), p

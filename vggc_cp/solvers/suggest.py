@@ -202,7 +202,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             side_acts.append(seen)
         only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
     if not only[0] and not only[1]:
-        shared = sorted(side_acts[0] | side_acts[1])[:per_doubt]
+        shared = sorted(_actions_of(graph, u))[:per_doubt]  # the node's actions
         only = (shared, shared)
     for s in (0, 1):
         entry = _entry(trace, labels, sides[s], start_set)
