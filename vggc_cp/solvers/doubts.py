@@ -7,7 +7,7 @@ observations are one state. Two kinds of decision can be close calls:
   that might be one state. Candidates: pairs that one of the ``window`` next larger
   thresholds of the path joins (most observations of each in one node there), and pairs
   whose average-linkage distance ``d(A, B)`` is at most ``t* * ratio**window`` (``ratio``:
-  the grid's step). The join is closed on the chosen partition as the merge would close it
+  the grid's step); the ``max_pairs`` closest of them are examined. The join is closed on the chosen partition as the merge would close it
   (:class:`~vggc_cp.solvers.merge.PartitionClosure`: determinism and co-determinism,
   transitively). When Exactly-One forbids the closure, the pair is a candidate only when
   ``d(A, B) <= t*``: the images put the two nodes together and only the constraints keep
@@ -97,20 +97,23 @@ class DoubtRule:
         Most doubts kept.
     typical : int
         Observations listed per side (the most typical: least mean distance to their side).
+    max_pairs : int
+        Candidate node pairs examined for merge doubts, closest first.
     """
 
     window: int = 3
     max_nats: float = 3.0
     limit: int = 10
     typical: int = 3
+    max_pairs: int = 400
 
     def __post_init__(self):
         if self.window < 1:
             raise ValueError(f"window must be at least 1, got {self.window}")
         if not self.max_nats > 0:
             raise ValueError(f"max_nats must be positive, got {self.max_nats}")
-        if self.limit < 0 or self.typical < 1:
-            raise ValueError("limit must be >= 0 and typical >= 1")
+        if self.limit < 0 or self.typical < 1 or self.max_pairs < 0:
+            raise ValueError("limit and max_pairs must be >= 0 and typical >= 1")
 
 
 @dataclass(frozen=True)
@@ -294,9 +297,10 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         iu, ju = np.nonzero(np.triu(link <= limit_d, 1))
         pairs |= {(us[a], us[b]) for a, b in zip(iu.tolist(), ju.tolist())}
     closure = PartitionClosure(problem, labels) if pairs else None
-    for a, b in sorted(pairs):
+    # the closest pairs first, at most max_pairs of them (a bound on the work)
+    ranked = sorted((sides.link(members[a], members[b]), a, b) for a, b in pairs)
+    for dist_ab, a, b in ranked[:rule.max_pairs]:
         groups, why = closure.join(a, b)
-        dist_ab = sides.link(members[a], members[b])
         merged = labels.copy()
         if groups is None:
             # the constraints forbid the join: a doubt only where the images put the two
