@@ -90,3 +90,30 @@ def generated_twice(tmp_path, name: str, transitions: int, seed: int, novel: int
         save_novel(novel_path(out), g.novel_observations, g.novel_states)
         paths.append(out)
     return paths
+
+
+@pytest.fixture(scope="session")
+def solved_benchmark(tmp_path_factory):
+    """``solved_benchmark(name) -> (solution.json, trace.npz)``: the shipped fruit-2x3 trace, or
+    a small generated trace of ``name`` (seed 0, |D| = 80), with its default solution (made
+    once per session)."""
+    from pathlib import Path
+
+    from vggc_cp.cli import main
+
+    tmp = tmp_path_factory.mktemp("solved")
+    made: dict = {}
+
+    def get(name: str):
+        if name not in made:
+            if name == "fruit-2x3":
+                trace = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
+            else:
+                trace = tmp / f"{name}.npz"
+                assert main(["generate", name, "--seed", "0", "--transitions", "80",
+                             "-o", str(trace), "--quiet"]) == 0
+            out = tmp / f"{name}.json"
+            assert main(["solve", str(trace), "-o", str(out), "--quiet", "--no-cache"]) == 0
+            made[name] = (out, trace)
+        return made[name]
+    return get

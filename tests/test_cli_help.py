@@ -1,4 +1,6 @@
-"""Every ``--help`` of the command line shows the defaults of its options, once."""
+"""Every ``--help`` of the command line shows the defaults of its options, once; a mistyped
+option or choice gets the sub-command's usage and the nearest name, and no prefix of an option
+stands for it."""
 
 from __future__ import annotations
 
@@ -7,7 +9,7 @@ import re
 
 import pytest
 
-from vggc_cp.cli import build_parser, iter_parsers
+from vggc_cp.cli import Parser, build_parser, iter_parsers, main
 
 
 def _shown(parser: argparse.ArgumentParser, action: argparse.Action) -> str:
@@ -59,3 +61,43 @@ def test_options_whose_none_stands_for_a_computed_value_say_which():
                 seen += 1
                 assert "default: per role, the median" in _shown(parser, action), name
     assert seen >= 2
+
+
+def test_every_parser_refuses_prefixes_of_options():
+    for name, parser in PARSERS:
+        assert isinstance(parser, Parser) and parser.allow_abbrev is False, name
+
+
+def _refused(capsys, argv: list[str]) -> str:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    return captured.err
+
+
+@pytest.mark.parametrize("argv,usage,hint", [
+    (["solve", "t.npz", "-o", "s.json", "--k-pik", "3"], "usage: vggc-cp solve",
+     "unrecognized arguments: --k-pik 3; did you mean --k-pick?"),
+    # a unique prefix is not taken for the option
+    (["solve", "t.npz", "-o", "s.json", "--k-pi", "3"], "usage: vggc-cp solve",
+     "did you mean --k-pick?"),
+    (["plan", "s.json", "--start-ob", "0", "--goal-obs", "1"], "usage: vggc-cp plan",
+     "did you mean --start-obs?"),
+    (["bench", "sweep", "--job", "2"], "usage: vggc-cp bench sweep", "did you mean --jobs?"),
+    (["solve", "t.npz", "--outptu", "s.json"], "usage: vggc-cp solve",
+     "(--outptu is not an option; did you mean --output?)"),
+    (["slove", "t.npz"], "usage: vggc-cp ", "did you mean solve?"),
+    (["solve", "t.npz", "-o", "s.json", "--table", "cels"], "usage: vggc-cp solve",
+     "did you mean cells?"),
+])
+def test_a_mistyped_option_gets_usage_and_the_nearest_name(capsys, argv, usage, hint):
+    err = _refused(capsys, argv)
+    assert err.startswith(usage) and hint in err
+    assert err.strip().splitlines()[-1].startswith(f"{usage[7:].strip()}: error: ")
+
+
+def test_an_unknown_option_far_from_every_name_gets_no_guess(capsys):
+    err = _refused(capsys, ["solve", "t.npz", "-o", "s.json", "--zzzz"])
+    assert "unrecognized arguments: --zzzz" in err and "did you mean" not in err

@@ -102,6 +102,26 @@ def test_plan_between_two_observations(toy_path, tmp_path, capsys):
     assert "2 actions" in text and "pick_L" in text and "place_R" in text
     assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "0"]) == 0
     assert "0 actions" in capsys.readouterr().out
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "1"]) == 0
+    assert "plan           1 action\n" in capsys.readouterr().out  # not "1 actions"
+
+
+def test_plan_json_between_two_observations(toy_path, tmp_path, capsys):
+    """--json is honoured with --start-obs/--goal-obs: one JSON object, the text's plan."""
+    path, _ = toy_path
+    out = tmp_path / "sol.json"
+    assert solve(path, out) == 0
+    capsys.readouterr()
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "2", "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["found"] is True and plan["length"] == 2 == len(plan["steps"])
+    assert plan["actions"] == ["pick_L", "place_R"]
+    assert (plan["start_obs"], plan["goal_obs"]) == (0, 2) and plan["start_role"] == "pick"
+    sol = json.loads(out.read_text())
+    assert (plan["start"], plan["goal"]) == (sol["labels"][0], sol["labels"][2])
+    assert plan["steps"][0].startswith(f"{plan['start']} --pick_L--> ")
+    assert main(["plan", str(out), "--start-obs", "0", "--goal-obs", "0", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["length"] == 0
 
 
 @pytest.mark.parametrize("args, needle", [
@@ -226,3 +246,18 @@ def test_options_the_solver_would_ignore_are_refused(toy_path, tmp_path, capsys,
     assert main(["solve", str(path), "-o", str(out), "--quiet", *extra, *FAST]) == 2
     err = capsys.readouterr().err
     assert word in err and len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+@pytest.mark.parametrize("extra", [["--eps", "0.1"], ["--attention", "keypoints"],
+                                   ["--sinkhorn-device", "numpy"], ["--no-cache"],
+                                   ["--distance-rows", "4"], ["--cache-dir", "c"]])
+def test_distance_options_are_refused_under_footprints(toy_path, tmp_path, capsys, extra):
+    """Footprints read no Sinkhorn distance: its options are refused like a grid option under
+    merge (exit 2, one line naming the flag, nothing written)."""
+    path, _ = toy_path
+    out = tmp_path / "s.json"
+    assert main(["solve", str(path), "-o", str(out), "--quiet", "--evidence", "footprints",
+                 *extra]) == 2
+    err = capsys.readouterr().err
+    assert f"{extra[0]} applies to the attention distances" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()

@@ -81,3 +81,57 @@ def test_threshold_grid_and_errors(shipped):
     empty = Trace(shipped.observations[:1], np.zeros(0, dtype=np.int64), shipped.action_names)
     with pytest.raises(VggcError):
         learn_graph(empty)
+
+
+def _toy_problem(trace: Trace):
+    """``trace``'s problem under distances that are 0 within a true state, 1 across."""
+    from vggc_cp.solvers.base import Problem
+
+    roles, states = trace.roles(), np.asarray(trace.states)
+    dists = []
+    for r in (0, 1):
+        s = states[roles == r]
+        dists.append((s[:, None] != s[None, :]).astype(np.float64))
+    return Problem.from_trace(trace, *dists)
+
+
+def test_grid_sweep_is_the_one_grid_path(toy_trace):
+    """solve's grid solvers and table1's methods both call grid_sweep: the default grid and
+    run_sweep for a heuristic; for CP-SAT the greedy sweep first, then the exact sweep it
+    warm-starts, both kept and both timed."""
+    from vggc_cp.pipeline import grid_sweep
+    from vggc_cp.solvers.cpsat import CpSatSolver
+    from vggc_cp.solvers.greedy import GreedySolver
+    from vggc_cp.solvers.sweep import default_grid, run_sweep
+
+    problem = _toy_problem(toy_trace)
+    kp, kq = default_grid(problem)
+    grid = grid_sweep(problem, GreedySolver())
+    plain = run_sweep(problem, GreedySolver(), kp, kq)
+    assert (grid.k_pick, grid.k_place, grid.greedy) == (kp, kq, None)
+    assert [(r.k_pick, r.k_place, r.status, r.n_nodes) for r in grid.sweep.results] == \
+        [(r.k_pick, r.k_place, r.status, r.n_nodes) for r in plain.results]
+    assert np.array_equal(grid.best.labels, plain.best.labels)
+    exact = grid_sweep(problem, CpSatSolver(params="num_workers:1"), range(1, 3), range(1, 3))
+    assert exact.greedy is not None and exact.sweep.solver == "cpsat"
+    assert len(exact.sweep.results) == len(exact.greedy.results) == 4
+    assert exact.seconds == exact.sweep.seconds + exact.greedy.seconds
+    assert exact.best.n_nodes == 3  # L, R and H: the toy's true states
+
+
+@pytest.mark.slow
+def test_the_fallback_runs_only_where_the_policy_says(shipped):
+    """A trace whose images say nothing: the footprint graph is suspect. By default (refused)
+    the keypoint evidence does not run for it; with ``fallback="suspect"`` it does; with
+    ``never`` a trace the footprints refuse is refused."""
+    noise = shuffled_within_roles(shipped, 0, keep_states=False)
+    default = learn_graph(noise)
+    assert [c.evidence for c in default.candidates] == ["footprints"]
+    assert default.confidence.suspect
+    again = learn_graph(noise, LearnConfig(fallback="suspect"))
+    assert [c.evidence for c in again.candidates] == ["footprints", "keypoints"]
+    with pytest.raises(VggcError, match="fallback"):
+        LearnConfig(fallback="sometimes")
+    flat = Trace(np.zeros_like(shipped.observations), shipped.actions, shipped.action_names)
+    with pytest.raises(VggcError, match="no visual evidence"):
+        learn_graph(flat, LearnConfig(fallback="never"))

@@ -22,6 +22,15 @@ class UnknownNameError(VggcError):
     """A registry lookup with a name that is not registered."""
 
 
+class EvidenceNotApplicable(VggcError):
+    """A visual evidence cannot read this trace (e.g. no action changes the images in one place
+    of its own, or the images are smaller than an attention grid).
+
+    The only error that :func:`vggc_cp.pipeline.learn_graph` passes over when it tries the
+    next evidence under ``evidence="auto"``; every other error propagates.
+    """
+
+
 def lookup(registry: dict, name: str, family: str):
     """Return ``registry[name]`` or raise :class:`UnknownNameError` listing the known names."""
     try:

@@ -139,6 +139,34 @@ class TaskGraph:
         return out
 
 
+def to_networkx(graph: TaskGraph, medoids: dict[int, int] | None = None,
+                support: bool = True):
+    """``graph`` as a :class:`networkx.MultiDiGraph`.
+
+    One node per learned node, with attributes ``role`` (``pick``, ``place`` or ``mixed``),
+    ``size`` (its number of observations) and, when ``medoids`` is given, ``medoid`` (the index
+    of its most typical observation); one edge per ``(u, action, v)``, keyed by the action's
+    name, with attribute ``action`` (the name) and, when ``support``, ``support`` (the number of
+    transitions behind it). The graph's ``action_names`` attribute lists every action name.
+    """
+    import networkx as nx
+
+    g = nx.MultiDiGraph(action_names=list(graph.action_names))
+    for u in graph.nodes:
+        r = graph.node_role[u]
+        attrs = {"role": ROLE_NAMES[r] if r >= 0 else "mixed", "size": int(len(graph.members[u]))}
+        if medoids is not None and u in medoids:
+            attrs["medoid"] = int(medoids[u])
+        g.add_node(int(u), **attrs)
+    for (u, a, v) in sorted(graph.edges):
+        name = graph.action_names[a]
+        attrs = {"action": name}
+        if support:
+            attrs["support"] = int(len(graph.edges[(u, a, v)]))
+        g.add_edge(int(u), int(v), key=name, **attrs)
+    return g
+
+
 def check(graph: TaskGraph) -> CheckReport:
     """Report every violation of bipartiteness, Exactly-One and (not enforced) determinism.
 

@@ -8,13 +8,49 @@ copies of its code; CI runs them at their small size.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError
-from vggc_cp.safeio import check_input
+from vggc_cp.safeio import read_json
+
+#: notebook format major versions this runner reads
+NBFORMATS = (4,)
+_ANSI = re.compile(r"\x1b\[[0-9;?]*[ -/]*[@-~]|\x1b[@-_]")
+
+
+def plain_text(text: str) -> str:
+    """``text`` without ANSI escape sequences (a kernel's coloured traceback)."""
+    return _ANSI.sub("", text)
+
+
+def read_notebook(path: Path):
+    """The notebook at ``path`` as an nbformat v4 node, checked before nbformat parses it:
+    UTF-8 JSON within the size and depth caps, an object whose ``nbformat`` is in
+    :data:`NBFORMATS`, valid against nbformat's schema. Errors name the file."""
+    import nbformat
+
+    data = read_json(path, str(path))
+    if not isinstance(data, dict):
+        raise VggcError(f"{path}: not a notebook (the JSON is not an object)")
+    version = data.get("nbformat")
+    if isinstance(version, bool) or not isinstance(version, int) or version not in NBFORMATS:
+        raise VggcError(f"{path}: field 'nbformat' is {version!r}; this runner reads notebook "
+                        f"format {', '.join(map(str, NBFORMATS))}")
+    try:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the schema's verdict comes from validate()
+            nb = nbformat.reads(path.read_text(encoding="utf-8"), as_version=4)
+            nbformat.validate(nb)
+    except Exception as exc:  # noqa: BLE001 - any schema failure of a third-party reader
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:200]
+        raise VggcError(f"{path}: not a valid notebook ({first})") from None
+    return nb
 
 
 @dataclass(frozen=True)
@@ -68,8 +104,7 @@ def run_notebook(path: str | Path, parameters: dict | None = None,
     except ImportError as exc:
         raise _missing(exc.name or "nbclient") from None
     path = Path(path)
-    check_input(path, "notebook")
-    nb = nbformat.read(path, as_version=4)
+    nb = read_notebook(path)
     index = next((i for i, c in enumerate(nb.cells)
                   if "parameters" in c.get("metadata", {}).get("tags", [])), None)
     if index is None:
@@ -87,7 +122,8 @@ def run_notebook(path: str | Path, parameters: dict | None = None,
         client.execute()
     except CellExecutionError as exc:
         first = str(exc).strip().splitlines()
-        raise VggcError(f"{path}: a cell failed: {first[-1] if first else exc}") from None
+        last = plain_text(first[-1] if first else str(exc))
+        raise VggcError(f"{path}: a cell failed: {last}") from None
     seconds = time.perf_counter() - t0
     if output is not None:
         nb.metadata["vggc_cp"] = {"parameters": parameters or {}, "seconds": round(seconds, 1)}

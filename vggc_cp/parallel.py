@@ -25,8 +25,10 @@ never on a worker.
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import multiprocessing
 import os
+import re
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -37,6 +39,61 @@ BACKENDS = ("local", "dask", "ray")
 #: Environment variable holding the default scheduler address of ``dask`` / ``ray``.
 SCHEDULER_ENV = "VGGC_CP_SCHEDULER"
 LOCAL = "local"
+#: URL schemes of a dask scheduler address this tool connects to (``host:port`` means tcp)
+DASK_SCHEMES = ("tcp", "tls")
+#: Longest address accepted (a host name is at most 253 characters)
+MAX_ADDRESS = 300
+_HOST_RE = re.compile(r"(?=.{1,253}$)[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+                      r"(?:\.[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?)*")
+
+
+def parse_address(text: str, backend: str, source: str = "--scheduler") -> str:
+    """The scheduler address ``text`` checked for its shape before dask or ray sees it.
+
+    dask: ``tcp://HOST:PORT``, ``tls://HOST:PORT`` or ``HOST:PORT`` (read as tcp); ray:
+    ``auto``, ``ray://HOST:PORT`` or ``HOST:PORT``. HOST is a host name, an IPv4 address or an
+    IPv6 address in brackets; PORT is 1..65535. Anything else (``inproc://``, ``udp://``,
+    ``http://``, a path, a missing port, control characters) is refused naming ``source``.
+
+    Returns
+    -------
+    str
+        The address as the backend's client takes it (``tcp://`` added to a bare dask one).
+    """
+    shown = text if len(text) <= 60 else text[:60] + "..."
+
+    def bad(why: str) -> VggcError:
+        return VggcError(f"{source} {shown!r}: {why}")
+
+    if len(text) > MAX_ADDRESS:
+        raise bad(f"longer than {MAX_ADDRESS} characters")
+    if not text.isprintable() or any(c.isspace() for c in text):
+        raise bad("holds spaces or control characters")
+    allowed = DASK_SCHEMES if backend == "dask" else ("ray",)
+    if backend == "ray" and text == "auto":
+        return text
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = (allowed[0], text)
+    if scheme not in allowed:
+        raise bad(f"expected {' or '.join(s + '://HOST:PORT' for s in allowed)} "
+                  f"(or HOST:PORT) for --backend {backend}")
+    m = re.fullmatch(r"(\[[^\]]*\]|[^:/\[\]]+):([0-9]{1,5})", rest)
+    if m is None:
+        raise bad("expected HOST:PORT after the scheme (an IPv6 host in brackets)")
+    host, port = m.group(1), int(m.group(2))
+    if not 1 <= port <= 65535:
+        raise bad(f"port {port} is not in 1..65535")
+    if host.startswith("["):
+        try:
+            ipaddress.IPv6Address(host[1:-1])
+        except ValueError:
+            raise bad(f"{host} is not an IPv6 address") from None
+    elif not _HOST_RE.fullmatch(host):
+        raise bad(f"{host!r} is not a host name or IPv4 address")
+    if backend == "dask" and not sep:
+        return f"tcp://{text}"
+    return text
 
 
 @dataclass(frozen=True)
@@ -73,13 +130,17 @@ class Backend:
             raise VggcError(f"--jobs must be at least 1, got {self.jobs}")
         if self.name == LOCAL and self.scheduler:
             raise VggcError("--scheduler applies to --backend dask or ray, not local")
+        self.address  # noqa: B018 - --scheduler / $VGGC_CP_SCHEDULER checked here, once
 
     @property
     def address(self) -> str | None:
         """``scheduler``, else ``$VGGC_CP_SCHEDULER`` (None for ``local`` or when neither)."""
         if self.name == LOCAL:
             return None
-        return self.scheduler or os.environ.get(SCHEDULER_ENV) or None
+        if self.scheduler:
+            return parse_address(self.scheduler, self.name)
+        env = os.environ.get(SCHEDULER_ENV, "").strip()
+        return parse_address(env, self.name, f"${SCHEDULER_ENV}") if env else None
 
     @property
     def remote(self) -> bool:
@@ -207,9 +268,12 @@ def open_executor(backend: Backend | None = None) -> Iterator[Executor]:
         if address:
             try:
                 client = Client(address, timeout="10s")
-            except OSError as exc:
-                raise VggcError(f"--scheduler {address}: cannot reach the dask scheduler "
-                                f"({exc})") from None
+            except (OSError, ValueError, TypeError, MemoryError, OverflowError) as exc:
+                # a server that is not a dask scheduler can make dask's comm misread a frame
+                # length (an allocation of exabytes): any failure to connect is one line
+                why = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+                raise VggcError(f"--scheduler {address}: cannot reach a dask scheduler "
+                                f"there ({why})") from None
             try:
                 yield DaskExecutor(client)
             finally:
@@ -222,12 +286,13 @@ def open_executor(backend: Backend | None = None) -> Iterator[Executor]:
         return
     import ray
 
-    ray.init(address=backend.address, ignore_reinit_error=True)
+    address = backend.address
+    ray.init(address=address, ignore_reinit_error=True)
     try:
         yield RayExecutor()
     finally:
         ray.shutdown()
 
 
-__all__ = ["BACKENDS", "SCHEDULER_ENV", "Backend", "DaskExecutor", "Executor",
+__all__ = ["BACKENDS", "SCHEDULER_ENV", "parse_address", "Backend", "DaskExecutor", "Executor",
            "ProcessExecutor", "RayExecutor", "check_backend", "open_executor"]

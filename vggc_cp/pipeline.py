@@ -23,12 +23,13 @@ Everything here reads observations and actions only, never ground-truth ``states
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from vggc_cp.errors import VggcError
+from vggc_cp.errors import EvidenceNotApplicable, VggcError, lookup
 from vggc_cp.graph import TaskGraph
 from vggc_cp.solvers.base import Problem, SolveResult
 from vggc_cp.solvers.confidence import (
@@ -40,41 +41,92 @@ from vggc_cp.solvers.confidence import (
 )
 from vggc_cp.solvers.doubts import Doubt, find_doubts
 from vggc_cp.solvers.mdl import description_length
-from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
+from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.trace import Trace
-from vggc_cp.vision.distances import DistanceConfig, compute_distances
-from vggc_cp.vision.footprints import FootprintConfig, footprint_distances
+from vggc_cp.vision.distances import DistanceConfig
+from vggc_cp.vision.evidence import evidence_names, get_evidence
+from vggc_cp.vision.footprints import FootprintConfig
 
-#: Evidence names: ``footprints``, or an attention backend of the Sinkhorn distances.
+#: The first evidence ``auto`` tries (the others only when its graph is suspect).
 FOOTPRINTS = "footprints"
 AUTO = "auto"
-#: What ``vggc-cp solve --evidence`` accepts (``attention``: the backend of ``--attention``).
-EVIDENCES = (AUTO, FOOTPRINTS, "attention")
-#: Attention backends that ``auto`` tries when the footprint graph is suspect.
+#: ``evidence="attention"`` (``vggc-cp solve --evidence attention``): the attention backend
+#: of ``LearnConfig.distance`` (``--attention``).
+ATTENTION = "attention"
+#: Evidences that ``auto`` tries after the footprints (when :data:`FALLBACKS` says so).
 AUTO_FALLBACK = ("keypoints",)
+#: When ``auto`` runs its fallback evidences (``LearnConfig.fallback``, ``solve --fallback``).
+#: A fallback can change the answer only by passing its own checks where the footprints fail
+#: theirs; measured on the robustness suite, where its graph differed from a suspect footprint
+#: graph it was wrong, and its Sinkhorn distances cost 10-70 times the footprints' (fruit-6x8,
+#: |D| = 1500: 187 s against 8 s). So by default it runs only where the footprints cannot read
+#: the trace at all.
+FALLBACKS = {
+    "refused": "the fallback evidences run only when the footprints cannot read the trace",
+    "suspect": "also when the footprint graph is suspect (kept only if their graph passes its "
+               "checks; any size disagreement flags the graph); costs their Sinkhorn distances",
+    "never": "footprints only; a trace they cannot read is refused",
+}
+
+
+def evidence_choices() -> tuple[str, ...]:
+    """Every value ``LearnConfig.evidence`` (and ``solve --evidence``) accepts: ``auto``,
+    ``attention`` and the names of the evidence registry (:mod:`vggc_cp.vision.evidence`)."""
+    return (AUTO, ATTENTION, *evidence_names())
+
+
+def _positive_number(x) -> bool:
+    return (isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+            and math.isfinite(float(x)) and float(x) > 0)
+
+
+def _integer(x) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
 
 
 @dataclass(frozen=True)
 class LearnConfig:
-    """Every setting of :func:`learn_graph`.
+    """Every setting of :func:`learn_graph`; validated when built.
 
     Attributes
     ----------
     evidence : str
-        ``auto`` (footprints, then attention backends when suspect), ``footprints``, or an
-        attention backend (``saliency``, ``keypoints``, ``dinov2``) of the Sinkhorn distances.
+        ``auto`` (footprints, then the :data:`AUTO_FALLBACK` evidences as ``fallback`` says), a
+        registered evidence (:func:`~vggc_cp.vision.evidence.evidence_names`: ``footprints``,
+        ``saliency``, ``keypoints``, ``dinov2``, ...), or ``attention``: the backend of
+        ``distance`` (replaced by that name when the object is built).
     distance : DistanceConfig
         Settings of the Sinkhorn distances (its ``backend`` is replaced by the evidence).
     footprint : FootprintConfig
     rule : str
         Path selection rule (``mdl`` default; ``cascade``, ``fewest``).
     thresholds : tuple of float or None
-        Merge thresholds; None: :func:`threshold_grid`.
+        Merge thresholds, positive; None: :func:`threshold_grid`.
     steps : int
-        Thresholds of the default grid.
+        Thresholds of the default grid (at least 1).
     folds : int
-        Episode folds of the held-out prediction (0: skip it).
+        Episode folds of the held-out prediction (0: skip it; else at least 2).
     warning : WarningRule
+    fallback : str
+        When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``
+        (default: only where the footprints cannot read the trace), ``suspect`` (also where
+        their graph is suspect), ``never``.
+
+    Raises
+    ------
+    UnknownNameError
+        An unknown ``evidence`` or ``rule``, naming the known ones.
+    VggcError
+        A value out of range, naming the field.
+
+    Examples
+    --------
+    >>> LearnConfig(rule="MDL")
+    Traceback (most recent call last):
+    ...
+    vggc_cp.errors.UnknownNameError: unknown path selection rule 'MDL'; known: cascade, fewest, mdl
+    >>> LearnConfig(evidence="attention").evidence   # the backend of distance
+    'saliency'
     """
 
     evidence: str = AUTO
@@ -85,6 +137,65 @@ class LearnConfig:
     steps: int = 24
     folds: int = 5
     warning: WarningRule = field(default_factory=WarningRule)
+    fallback: str = "refused"
+
+    def __post_init__(self) -> None:
+        for name, kind in (("distance", DistanceConfig), ("footprint", FootprintConfig),
+                           ("warning", WarningRule)):
+            if not isinstance(getattr(self, name), kind):
+                raise VggcError(f"LearnConfig field {name!r} must be a {kind.__name__}, got "
+                                f"{type(getattr(self, name)).__name__}")
+        if not isinstance(self.evidence, str):
+            raise VggcError(f"LearnConfig field 'evidence' must be a name, got "
+                            f"{self.evidence!r}")
+        lookup({e: e for e in evidence_choices()}, self.evidence, "evidence")
+        lookup(FALLBACKS, self.fallback, "fallback")
+        if self.evidence == ATTENTION:
+            object.__setattr__(self, "evidence", self.distance.backend)
+        if not isinstance(self.rule, str):
+            raise VggcError(f"LearnConfig field 'rule' must be a name, got {self.rule!r}")
+        lookup(PATH_SELECTIONS, self.rule, "path selection rule")
+        if self.thresholds is not None:
+            ts = (tuple(self.thresholds) if isinstance(self.thresholds, (list, tuple, np.ndarray))
+                  else None)
+            if not ts:
+                raise VggcError(f"LearnConfig field 'thresholds' must be a non-empty sequence "
+                                f"of positive numbers or None, got {self.thresholds!r}")
+            for i, t in enumerate(ts):
+                if not _positive_number(t):
+                    raise VggcError(f"LearnConfig field 'thresholds'[{i}] must be a positive "
+                                    f"finite number, got {t!r}")
+            object.__setattr__(self, "thresholds", tuple(float(t) for t in ts))
+        if not _integer(self.steps) or self.steps < 1:
+            raise VggcError(f"LearnConfig field 'steps' must be an integer of at least 1, got "
+                            f"{self.steps!r}")
+        if not _integer(self.folds) or self.folds < 0 or self.folds == 1:
+            raise VggcError(f"LearnConfig field 'folds' must be 0 (no held-out prediction) or "
+                            f"an integer of at least 2, got {self.folds!r}")
+        w = self.warning
+        for name in ("min_plateau", "max_contradicted", "min_predicted", "min_obs_per_node",
+                     "min_margin"):
+            v = getattr(w, name)
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) \
+                    or v < 0:
+                raise VggcError(f"LearnConfig field 'warning.{name}' must be a non-negative "
+                                f"number, got {v!r}")
+
+    @classmethod
+    def from_settings(cls, config: LearnConfig | None = None, **settings) -> LearnConfig:
+        """``config`` (default: the defaults) with ``settings`` replaced; an unknown setting
+        names the known ones."""
+        base = config if config is not None else cls()
+        if not isinstance(base, cls):
+            raise VggcError(f"expected a LearnConfig, got {type(base).__name__}")
+        known = {f.name for f in fields(cls)}
+        for name in settings:
+            lookup({k: k for k in known}, name, "LearnConfig setting")
+        return replace(base, **settings) if settings else base
+
+    def evidence_settings(self, evidence: str):
+        """The settings object ``evidence`` ran under (the solution's ``distances`` field)."""
+        return get_evidence(evidence).settings(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,17 +220,34 @@ class Candidate:
 
 @dataclass(frozen=True, eq=False)
 class Learned:
-    """What :func:`learn_graph` returns: the chosen candidate and all that were tried."""
+    """What :func:`learn_graph` returns: the chosen candidate and all that were tried.
+
+    Attributes
+    ----------
+    chosen : Candidate
+    candidates : tuple of Candidate
+        Every evidence tried, in order.
+    seconds : float
+    skipped : tuple of str
+        Evidences that did not apply, with the reason.
+    options : LearnConfig
+        The settings it was learned with.
+    trace : Trace or None
+        The trace it was learned from (its ``source`` names the file in :meth:`save`).
+    """
 
     chosen: Candidate
     candidates: tuple[Candidate, ...]
     seconds: float
     skipped: tuple[str, ...] = ()
+    options: LearnConfig | None = None
+    trace: Trace | None = None
     #: the chosen graph's doubtful decisions (:mod:`vggc_cp.solvers.doubts`), closest first
     doubts: tuple[Doubt, ...] = ()
 
     @property
     def labels(self) -> np.ndarray:
+        """Node of every observation, int64 array of shape (N,)."""
         return self.chosen.best.labels
 
     @property
@@ -137,6 +265,19 @@ class Learned:
     @property
     def threshold(self) -> float:
         return self.chosen.path.thresholds[self.chosen.path.selected]
+
+    def medoids(self) -> dict[int, int]:
+        """The most typical observation of every node: the member of least total distance to
+        the node's other members under the chosen evidence (the first of equal ones)."""
+        return evidence_medoids(self.problem, self.labels)
+
+    def to_networkx(self):
+        """The learned graph as a :class:`networkx.MultiDiGraph`
+        (:func:`vggc_cp.graph.to_networkx`): nodes with ``role``, ``size`` and ``medoid``,
+        edges keyed by action name with ``action`` and ``support``."""
+        from vggc_cp.graph import to_networkx
+
+        return to_networkx(self.graph, self.medoids())
 
     def path_records(self) -> list[dict]:
         """The chosen evidence's threshold path, one JSON-ready row per threshold, with the
@@ -157,6 +298,46 @@ class Learned:
                 "grid": self.path_records(),
                 "doubts": [d.as_dict() for d in self.doubts]}
 
+    def solution_record(self, **extra) -> dict:
+        """The solution JSON object of ``vggc-cp solve`` (required fields, the settings of the
+        chosen evidence, the trace's file and hash, how the graph was chosen, ``extra``)."""
+        from vggc_cp.solution import jsonable, settings_record
+
+        if self.trace is None or self.options is None:
+            raise VggcError("this Learned holds no trace or settings: learn it with "
+                            "learn_graph to write its solution")
+        best = self.chosen.best
+        return solution_record(
+            self.problem, best,
+            distances=settings_record(self.options.evidence_settings(self.chosen.evidence)),
+            trace=str(self.trace.source), trace_sha256=self.trace.content_hash(),
+            stats=jsonable(best.stats), **jsonable(self.solution_fields()),
+            seconds={"learn": round(self.seconds, 3), "merge": round(self.chosen.path.seconds, 3)},
+            **extra)
+
+    def save(self, path, timings: bool = False, **extra) -> None:
+        """Write the solution JSON, the same bytes as ``vggc-cp solve TRACE -o PATH``
+        (atomically; wall-clock seconds only with ``timings``)."""
+        from vggc_cp.solution import write_solution
+
+        write_solution(path, self.solution_record(**extra), timings=timings)
+
+
+def evidence_medoids(problem: Problem, labels: np.ndarray) -> dict[int, int]:
+    """``{node: observation}``: each node's member of least summed within-role distance to
+    its other members (the first of equal ones; a node of mixed roles: among its first role's
+    members)."""
+    labels = np.asarray(labels)
+    out = {}
+    for u in np.unique(labels):
+        members = np.flatnonzero(labels == u)
+        role = problem.roles[members[0]]
+        members = members[problem.roles[members] == role]
+        d = problem.dist_pick if role == 0 else problem.dist_place
+        loc = problem.local[members]
+        out[int(u)] = int(members[int(np.argmin(d[np.ix_(loc, loc)].sum(axis=1)))])
+    return out
+
 
 def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9) -> np.ndarray:
     """Geometric grid from the noise scale to the ``top_quantile`` of all within-role
@@ -175,12 +356,9 @@ def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9)
 
 def evidence_distances(trace: Trace, evidence: str, options: LearnConfig,
                        progress: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Within-role distances of ``trace`` under ``evidence`` (``footprints`` or an attention
-    backend)."""
-    if evidence == FOOTPRINTS:
-        return footprint_distances(trace, options.footprint)
-    cfg = replace(options.distance, backend=evidence)
-    return compute_distances(trace, cfg, progress=progress)
+    """Within-role distances of ``trace`` under the registered ``evidence``
+    (:mod:`vggc_cp.vision.evidence`)."""
+    return get_evidence(evidence).distances(trace, options, progress)
 
 
 def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
@@ -225,9 +403,14 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     Raises
     ------
     VggcError
-        When the trace has no transition.
+        When the trace has no transition, or (``evidence="auto"``) no evidence applies to it.
+    EvidenceNotApplicable
+        When the one evidence asked for cannot read the trace.
     """
     options = options or LearnConfig()
+    if not isinstance(options, LearnConfig):
+        raise VggcError(f"learn_graph: options must be a LearnConfig, got "
+                        f"{type(options).__name__}")
     if trace.n_transitions == 0:
         raise VggcError("the trace has no transition: nothing to learn")
     t0 = time.perf_counter()
@@ -236,13 +419,14 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         skipped = []
     else:
         candidates, skipped = [], []
-        for evidence in (FOOTPRINTS, *AUTO_FALLBACK):
+        order = (FOOTPRINTS,) if options.fallback == "never" else (FOOTPRINTS, *AUTO_FALLBACK)
+        for evidence in order:
             try:
                 candidates.append(run_candidate(trace, evidence, options, progress))
-            except VggcError as exc:  # no localized change; images smaller than a grid
+            except EvidenceNotApplicable as exc:  # no localized change; images below a grid
                 skipped.append(f"{evidence}: {exc}")
                 continue
-            if not candidates[-1].confidence.suspect:
+            if options.fallback != "suspect" or not candidates[-1].confidence.suspect:
                 break
         if not candidates:
             raise VggcError("no visual evidence applies to this trace (" + "; ".join(skipped)
@@ -250,7 +434,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
     doubts = find_doubts(chosen.problem, chosen.path, chosen.best.labels)
-    return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped), doubts)
+    return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
+                   options, trace, doubts)
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
@@ -392,6 +577,74 @@ def greedy_then_exact(problem: Problem, k_pick, k_place, solver, *, greedy=None,
     exact = exact_sweep(problem, k_pick, k_place, solver, greedy.results, optimize=optimize,
                         select=select, progress=progress, executor=executor)
     return GridSweeps(greedy, exact)
+
+
+@dataclass(frozen=True, eq=False)
+class GridRun:
+    """What :func:`grid_sweep` did: the grid, the sweep that selects, and the greedy sweep
+    that warm-started it (CP-SAT only).
+
+    Attributes
+    ----------
+    k_pick, k_place : range
+        Grid values.
+    sweep : Sweep
+        The solver's sweep (:class:`~vggc_cp.solvers.sweep.Sweep`); its ``best`` is selected.
+    greedy : Sweep or None
+        CP-SAT's greedy warm start; None for the other solvers.
+    """
+
+    k_pick: range
+    k_place: range
+    sweep: object
+    greedy: object | None = None
+
+    @property
+    def best(self) -> SolveResult | None:
+        return self.sweep.best
+
+    @property
+    def seconds(self) -> float:
+        """Seconds of the whole search (CP-SAT's include its greedy warm start)."""
+        return self.sweep.seconds + (self.greedy.seconds if self.greedy is not None else 0.0)
+
+
+def grid_sweep(problem: Problem, solver, k_pick: range | None = None,
+               k_place: range | None = None, *, jobs: int = 1, select: str = "fewest",
+               optimize: str = "minimal", progress: bool = False, executor=None) -> GridRun:
+    """The grid solvers' path: sweep ``solver`` over the (k_pick, k_place) grid and select.
+
+    Parameters
+    ----------
+    problem : Problem
+    solver : Solver
+        A grid solver (``greedy``, ``brute``, ...); a CP-SAT solver runs the greedy sweep first
+        and warm-starts :func:`~vggc_cp.solvers.cpsat.exact_sweep` with it
+        (:func:`greedy_then_exact`).
+    k_pick, k_place : range, optional
+        Grid values; None: :func:`~vggc_cp.solvers.sweep.default_grid`.
+    jobs, select, progress, executor
+        As :func:`~vggc_cp.solvers.sweep.run_sweep`.
+    optimize : str
+        CP-SAT only: the cells whose J is minimized (``minimal`` or ``all``).
+
+    Returns
+    -------
+    GridRun
+    """
+    from vggc_cp.solvers.sweep import default_grid, run_sweep
+
+    if k_pick is None or k_place is None:
+        dp, dq = default_grid(problem)
+        k_pick = dp if k_pick is None else k_pick
+        k_place = dq if k_place is None else k_place
+    if getattr(solver, "name", None) == "cpsat":
+        sweeps = greedy_then_exact(problem, k_pick, k_place, solver, jobs=jobs, select=select,
+                                   optimize=optimize, progress=progress, executor=executor)
+        return GridRun(k_pick, k_place, sweeps.exact, sweeps.greedy)
+    sweep = run_sweep(problem, solver, k_pick, k_place, jobs=jobs, select=select,
+                      progress=progress, executor=executor)
+    return GridRun(k_pick, k_place, sweep)
 
 
 def node_frontiers(problem: Problem, sweeps: GridSweeps) -> tuple:

@@ -377,8 +377,8 @@ def _is_number(x) -> bool:
 
 def plot_exec(rows: list[dict], path: str | Path, *, title: str | None = None) -> None:
     """Exec of every run, grouped by benchmark, one colour per look; warned runs drawn as
-    crosses, quiet ones as dots; the dashed line is :data:`vggc_cp.experiments.robustness.MIN_EXEC`."""
-    from vggc_cp.experiments.robustness import MIN_EXEC
+    crosses, quiet ones as dots; the dashed line is :data:`vggc_cp.evaluate.metrics.MIN_EXEC`."""
+    from vggc_cp.evaluate.metrics import MIN_EXEC
 
     plt = _pyplot()
     benches = list(dict.fromkeys(r["benchmark"] for r in rows))

@@ -18,15 +18,17 @@ and refusals"): :data:`CAPS` maps each name to its default and variable.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
 import re
+import secrets
 import stat
 import sys
-import tempfile
 import time
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -46,29 +48,66 @@ CAPS: dict[str, tuple[int, str, str]] = {
 }
 
 #: attributes of a parsed command line that name files the command reads
-INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "weights")
+INPUT_ATTRS = ("trace", "solution", "hint", "model", "novel", "start", "goal", "weights",
+               "notebook")
 #: attributes that name files the command writes
 OUTPUT_ATTRS = ("output", "csv", "plot")
+#: attributes that name folders the command writes into (checked by :func:`check_output_dir`)
+OUTPUT_DIR_ATTRS = ("out", "workdir")
+#: integer options bounded for every command that has them: attribute -> (lowest, highest);
+#: a new command's option of the same name is checked without touching this module
+ARG_BOUNDS: dict[str, tuple[int, int]] = {
+    "seed": (0, 2**32 - 1),
+    "queries": (1, 1_000_000),
+    "i2p_queries": (1, 1_000_000),
+    "reference_queries": (1, 1_000_000),
+    "jobs": (1, 1024),
+    "threads": (1, 1024),
+    "sinkhorn_threads": (1, 1024),
+    "pairs": (1, 10_000_000),
+    "naive_pairs": (1, 10_000_000),
+    "batch_pairs": (1, 1_000_000),
+    "batch_size": (1, 1_000_000),
+    "maps": (1, 1_000_000),
+}
 #: suffixes matplotlib can write (``--plot``)
 PLOT_FORMATS = frozenset({"png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif",
                           "tiff", "webp", "pgf", "raw", "rgba"})
 TEMP_MARK = ".vggctmp-"
-_TEMP_RE = re.compile(r"^\..+\.vggctmp-[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
+PROBE_PREFIX = ".vggc-probe-"
+_TEMP_RE = re.compile(r"^(\..+\.vggctmp-|\.vggc-probe-)[A-Za-z0-9_]+(\.[A-Za-z0-9]+)?$")
+#: temporary files that may exist now: registered *before* they are created, removed by
+#: :func:`cleanup_temps` when a signal ends the run
+_LIVE: set[Path] = set()
 
 
-def cap(name: str) -> int:
-    """The cap ``name`` (:data:`CAPS`): its environment variable if set, else the default."""
-    default, env, _ = CAPS[name]
+#: largest value an environment cap may hold (a C ``int64``: numpy and the OS take it)
+ENV_INT_MAX = (1 << 63) - 1
+
+
+def env_int(env: str, default: int, minimum: int = 1) -> int:
+    """The integer of environment variable ``env`` (``default`` when unset or blank).
+
+    The one parser of every integer the environment sets: a value that is not a plain decimal
+    integer (``1.5``, ``1e9``, ``inf``, ``nan``, ``-3``, ``abc``), below ``minimum`` or above
+    :data:`ENV_INT_MAX` is refused with one line naming the variable.
+    """
     text = os.environ.get(env)
     if text is None or not text.strip():
         return default
-    try:
-        value = int(float(text))
-    except ValueError:
-        raise VggcError(f"${env} = {text!r}: expected a positive integer") from None
-    if value < 1:
-        raise VggcError(f"${env} = {text!r}: expected a positive integer")
-    return value
+    t = text.strip()
+    if not re.fullmatch(r"\+?[0-9]{1,19}", t) or not minimum <= int(t) <= ENV_INT_MAX:
+        shown = text if len(text) <= 40 else text[:40] + "..."
+        raise VggcError(f"${env} = {shown!r}: expected an integer from {minimum:,} to "
+                        f"{ENV_INT_MAX:,} (unset it for the default, {default:,})")
+    return int(t)
+
+
+def cap(name: str) -> int:
+    """The cap ``name`` (:data:`CAPS`): its environment variable if set, else the default
+    (parsed by :func:`env_int`)."""
+    default, env, _ = CAPS[name]
+    return env_int(env, default)
 
 
 def fail(source, msg: str) -> VggcError:
@@ -148,18 +187,130 @@ def check_output(path, opt: str, inputs: dict[str, str] = {}) -> None:  # noqa: 
         raise fail(src, f"{opt}: {probe} is a file, not a folder")
     if probe == parent:
         try:
-            fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=parent)
+            with temp_file(parent, PROBE_PREFIX):
+                pass
         except OSError as exc:
             raise fail(src, f"{opt}: cannot write in {parent} "
                             f"({exc.strerror or type(exc).__name__})") from None
-        os.close(fd)
-        os.unlink(tmp)
     elif not os.access(probe, os.W_OK | os.X_OK):
         raise fail(src, f"{opt}: cannot create folders in {probe} (not writable)")
 
 
+def check_output_dir(path, opt: str = "--out", folders: tuple[str, ...] = (),
+                     files: tuple[str, ...] = (),
+                     file_suffixes: tuple[str, ...] = (".json", ".npz", ".pt", ".csv", ".md")
+                     ) -> None:
+    """Refuse an output *folder* the command could not write into, before any work.
+
+    ``path`` must be a folder (or not exist yet, under a writable existing folder): not a
+    file, a fifo, a device, a symbolic-link loop, under ``/proc``/``/sys``, or read-only
+    (checked by creating a probe file there). Inside it, each of ``folders`` must be a folder
+    where it exists, each of ``files`` a regular file where it exists, and every entry of those
+    folders whose name ends in one of ``file_suffixes`` a regular file (a directory or fifo
+    named ``cells/x.json`` would fail the run later). Stale temporary files are swept from the
+    folder and its ``folders``.
+    """
+    src = str(path)
+    if "\x00" in src:
+        raise fail(repr(src), f"{opt}: a path holding NUL")
+    if _name_too_long(src):
+        raise fail(src[:80] + "...", f"{opt}: a path component is longer than 255 bytes")
+    real = os.path.realpath(src)
+    if real == "/proc" or real.startswith(("/proc/", "/sys/", "/dev/")) or real == "/sys":
+        raise fail(src, f"{opt}: a folder under /proc, /sys or /dev; refused")
+    try:
+        st = os.stat(src)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise fail(src, f"{opt}: cannot use this path ({oserror_text(exc)})") from None
+    if st is not None and not stat.S_ISDIR(st.st_mode):
+        kind = "a file" if stat.S_ISREG(st.st_mode) else "a device, fifo or socket"
+        raise fail(src, f"{opt} is {kind}, not a folder")
+    probe = Path(os.path.abspath(src))
+    while not (probe.exists() or probe.is_symlink()):
+        probe = probe.parent
+    if probe.is_symlink() and not probe.exists():
+        raise fail(src, f"{opt}: {probe} is a broken link")
+    if not probe.is_dir():
+        raise fail(src, f"{opt}: {probe} is a file, not a folder")
+    try:
+        with temp_file(probe, PROBE_PREFIX):
+            pass
+    except OSError as exc:
+        raise fail(src, f"{opt}: cannot write in {probe} ({oserror_text(exc)})") from None
+    if st is None:
+        return
+    root = Path(src)
+    for name in files:
+        p = root / name
+        if (p.exists() or p.is_symlink()) and not p.is_file():
+            raise fail(p, f"{opt}: {name} is not a regular file (a folder, fifo or broken "
+                          f"link); refused")
+    sweep_stale_temps(root)
+    for name in folders:
+        sub = root / name
+        if not (sub.exists() or sub.is_symlink()):
+            continue
+        if not sub.is_dir():
+            raise fail(sub, f"{opt}: {name} is not a folder")
+        try:
+            entries = list(os.scandir(sub))
+        except OSError as exc:
+            raise fail(sub, f"{opt}: cannot read the folder ({oserror_text(exc)})") from None
+        for e in entries:
+            if e.name.endswith(file_suffixes) and not is_temp_name(e.name) \
+                    and not e.is_file(follow_symlinks=True):
+                raise fail(e.path, f"{opt}: not a regular file (a folder, fifo or broken "
+                                   f"link); refused")
+        sweep_stale_temps(sub)
+
+
+def check_size(value: int | None, option: str, low: int, high: int, cap_text: str) -> None:
+    """Refuse a size from the command line outside ``low..high``; ``cap_text`` names the cap
+    (``"the cap of 10,000 seeds"``, ``"VGGC_CP_MAX_BYTES"``)."""
+    if value is None:
+        return
+    if value < low:
+        raise VggcError(f"{option} {value}: expected at least {low:,}")
+    if value > high:
+        raise VggcError(f"{option} {value:,}: above {cap_text} ({high:,})")
+
+
+def check_trace_budget(n: int | None, side: int, option: str) -> None:
+    """Refuse ``n`` transitions (or renders) of ``side`` x ``side`` RGB images whose arrays
+    would exceed ``max_bytes``: the cap of a trace read from a file, applied to one the
+    command would generate (``--transitions 1000000000`` is refused, not run)."""
+    if n is None:
+        return
+    if n < 1:
+        raise VggcError(f"{option} {n}: expected at least 1")
+    limit = cap("max_bytes")
+    per = 3 * side * side
+    if (n + 1) * per > limit:
+        raise VggcError(f"{option} {n:,}: {side}x{side} images of {n + 1:,} observations would "
+                        f"take {(n + 1) * per:,} bytes, above the cap of {limit:,} "
+                        f"({CAPS['max_bytes'][1]}); at most {limit // per - 1:,}")
+
+
+def check_numbers(args) -> None:
+    """Refuse a NaN in any float option and an integer option of :data:`ARG_BOUNDS` outside
+    its bounds (``--seed -1``, ``-Q 100000000000``), naming the option and the cap."""
+    for attr, value in sorted(vars(args).items()):
+        opt = "--" + attr.replace("_", "-")
+        if isinstance(value, float) and value != value:
+            raise VggcError(f"{opt} nan: not a number")
+        if attr in ARG_BOUNDS and isinstance(value, int) and not isinstance(value, bool):
+            lo, hi = ARG_BOUNDS[attr]
+            check_size(value, opt, lo, hi, "the cap in safeio.ARG_BOUNDS")
+
+
 def preflight(args) -> None:
-    """Check the input and output paths of a parsed command line before any work."""
+    """Check the environment's caps and the input and output paths of a parsed command line
+    before any work."""
+    for name in CAPS:
+        cap(name)  # a bad $VGGC_CP_* cap fails here, whatever the command reads later
+    check_numbers(args)
     inputs: dict[str, str] = {}
     for attr in INPUT_ATTRS:
         value = getattr(args, attr, None)
@@ -183,7 +334,11 @@ def preflight(args) -> None:
                 raise fail(value, f"--plot: {suffix!r} is not an image format "
                                   f"({', '.join(sorted(PLOT_FORMATS))})")
         outputs[opt] = str(value)
-        sweep_stale_temps(Path(os.path.abspath(value)).parent, Path(value).name)
+        sweep_stale_temps(Path(os.path.abspath(value)).parent)
+    for attr in OUTPUT_DIR_ATTRS:
+        value = getattr(args, attr, None)
+        if isinstance(value, (str, os.PathLike)):
+            check_output_dir(value, "--" + attr.replace("_", "-"))
     cache = getattr(args, "cache_dir", None)
     if isinstance(cache, str) and not getattr(args, "no_cache", False):
         if os.path.exists(cache) and not os.path.isdir(cache):
@@ -331,12 +486,59 @@ def read_json(path, source: str | None = None, *, allow_nan: bool = True):
 
 
 def is_temp_name(name: str) -> bool:
-    """True for the names :func:`vggc_cp.atomic.atomic_path` gives its temporary files."""
+    """True for the names :func:`temp_file` gives: ``.NAME.vggctmp-*`` of
+    :func:`vggc_cp.atomic.atomic_path` and ``.vggc-probe-*`` of the writability probes."""
     return bool(_TEMP_RE.match(name))
 
 
+@contextlib.contextmanager
+def temp_file(folder, prefix: str, suffix: str = "") -> Iterator[Path]:
+    """An empty new file ``folder/<prefix><random><suffix>`` for the ``with`` block.
+
+    The path is registered for :func:`cleanup_temps` *before* the file is created (``O_EXCL``,
+    mode ``0666 & ~umask``), so a signal at any moment leaves nothing behind; the file is
+    removed on exit unless the block renamed it away.
+    """
+    folder = Path(folder)
+    for _ in range(100):
+        path = folder / f"{prefix}{secrets.token_hex(6)}{suffix}"
+        _LIVE.add(path)
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0),
+                         0o666)
+        except FileExistsError:
+            _LIVE.discard(path)
+            continue
+        except BaseException:  # e.g. a signal's exception: the file may exist already
+            with contextlib.suppress(OSError):
+                path.unlink()
+            _LIVE.discard(path)
+            raise
+        os.close(fd)
+        break
+    else:  # pragma: no cover - 100 collisions of 48 random bits
+        raise FileExistsError(errno.EEXIST, "no free temporary name", str(folder))
+    try:
+        yield path
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+        _LIVE.discard(path)
+
+
+def cleanup_temps() -> None:
+    """Remove every temporary file of :func:`temp_file` still in progress (signal handlers)."""
+    for tmp in list(_LIVE):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        _LIVE.discard(tmp)
+
+
 def sweep_stale_temps(folder, target_name: str | None = None) -> int:
-    """Remove our temporary files in ``folder`` older than ``stale_temp_minutes``.
+    """Remove the tool's temporary files in ``folder`` (:func:`is_temp_name`: any target's
+    ``.NAME.vggctmp-*`` and ``.vggc-probe-*``) older than ``stale_temp_minutes``.
 
     With ``target_name``, only those of that target (``.<name>.vggctmp-*``). Returns the count.
     """
@@ -367,9 +569,8 @@ def cache_writable(path) -> bool:
     folder = Path(path).parent
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".vggc-probe-", dir=folder)
-        os.close(fd)
-        os.unlink(tmp)
+        with temp_file(folder, PROBE_PREFIX):
+            pass
     except OSError as exc:
         warn(f"{folder}: cannot write the distance cache ({oserror_text(exc)}); going on "
              f"without caching")

@@ -18,8 +18,10 @@ import numpy as np
 
 def affinity(dist: np.ndarray, tau: float) -> np.ndarray:
     """K_vis = exp(-d / tau), elementwise; same shape as ``dist``."""
-    if tau <= 0:
-        raise ValueError("tau must be positive")
+    if not 0 < tau < float("inf"):
+        from vggc_cp.errors import VggcError
+
+        raise VggcError(f"--tau must be positive and finite, got {tau}")
     return np.exp(-np.asarray(dist, dtype=np.float64) / tau)
 
 

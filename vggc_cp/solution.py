@@ -89,6 +89,26 @@ class Solution:
         return TaskGraph(node_role, members, edges, names, out, inn)
 
 
+def jsonable(obj):
+    """``obj`` as plain JSON values: dict keys as strings, tuples as lists, numpy scalars as
+    Python numbers, paths as strings and NaN as None (``null``), all the way down.
+
+    The one converter of every JSON file the package writes from computed values (solution
+    fields, benchmark and study rows, cache keys).
+    """
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, float) and math.isnan(obj):
+        return None
+    if hasattr(obj, "item"):
+        return jsonable(obj.item())
+    return obj
+
+
 def _num(x):
     if x is None:
         return None
@@ -112,6 +132,17 @@ def solution_dict(labels, roles, graph: TaskGraph, *, k_pick: int, k_place: int,
     }
     out.update(extra)
     return out
+
+
+def settings_record(cfg) -> dict | str:
+    """A settings dataclass as the solution file's ``distances`` field: plain values kept,
+    anything else written as its ``repr``."""
+    import dataclasses
+
+    if dataclasses.is_dataclass(cfg):
+        return {k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)
+                for k, v in dataclasses.asdict(cfg).items()}
+    return repr(cfg)
 
 
 #: keys of wall-clock timings, left out of solution files unless asked for
@@ -266,7 +297,14 @@ def verify_standalone(solution: Solution, source: str = "<solution>") -> TaskGra
     the graph is bipartite and Exactly-One (unless ``constraints`` is ``"none"``)."""
     from vggc_cp.trace import action_kind
 
-    graph = solution.edge_graph()
+    try:
+        graph = solution.edge_graph()
+    except SolutionError as exc:  # an edge to a node no observation has: name the file
+        index = next((i for i, (u, _a, v) in enumerate(solution.edges)
+                      if u not in set(solution.labels.tolist())
+                      or v not in set(solution.labels.tolist())), None)
+        where = f"field 'edges[{index}]': " if index is not None else ""
+        raise SolutionError(f"{source}: {where}{exc}") from None
     for u, r in graph.node_role.items():
         if r < 0:
             raise SolutionError(f"{source}: node {u} holds both pick and place observations")

@@ -175,8 +175,6 @@ def test_cli_reuses_the_study_and_prints_the_summary(study, capsys):
     assert f"wrote {cfg.out / 'robustness.md'}" in out
 
 
-@pytest.mark.skipif("randomized" not in rob.looks_available(),
-                    reason="this checkout's renderer has no randomized look (branch looks)")
 def test_randomized_look_cell(tmp_path):
     cfg = rob.RobustnessConfig(tmp_path, ("fruit-2x3",), (0,), ("randomized",), transitions=D,
                                n_queries=Q, tasks=())

@@ -143,3 +143,17 @@ def test_scalability_rows(tmp_path):
 def test_unknown_model_is_rejected(toy_trace):
     with pytest.raises(ValueError, match="unknown model"):
         studies.feasibility_instance(toy_instance(toy_trace), 2, models=("nope",))
+
+
+@pytest.mark.slow
+def test_bench_solve_times_the_default_the_footprints_alone_and_the_previous_default():
+    from pathlib import Path
+
+    from vggc_cp.experiments.perf import bench_solve
+    from vggc_cp.trace import load_trace
+
+    trace = load_trace(Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz")
+    t = bench_solve(trace.without_states())
+    assert t.default_nodes == t.footprints_nodes == 6 and t.default_evidence == "footprints"
+    assert t.default_seconds > 0 and t.footprints_seconds > 0 and t.previous_seconds > 0
+    assert t.footprints_ratio == t.default_seconds / t.footprints_seconds

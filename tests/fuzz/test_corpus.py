@@ -7,6 +7,8 @@ there is one), no traceback, and every input byte-identical afterwards.
 
 from __future__ import annotations
 
+import argparse
+import functools
 import json
 import os
 from pathlib import Path
@@ -440,3 +442,131 @@ def test_corpus_size():
     n = (len(TRACE_CASES) + len(SOL_CASES) + len(OUT_CASES) + len(IN_CASES) + len(CKPT_CASES)
          + 16 + 9 + 4 + 2 + 3 + 3 + 3 + 2)
     assert n >= 200
+
+
+# ------------------------------------------------------------------ the registry (issue 26)
+
+from cases import ALL_CASES, FILE_HELP, env_variables  # noqa: E402
+
+from vggc_cp.cli import build_parser, iter_parsers  # noqa: E402
+from vggc_cp.safeio import INPUT_ATTRS, OUTPUT_ATTRS, OUTPUT_DIR_ATTRS  # noqa: E402
+
+FILE_DESTS = {*INPUT_ATTRS, *OUTPUT_ATTRS, *OUTPUT_DIR_ATTRS, "cache_dir"}
+NOTEBOOK = {"nbformat": 4, "nbformat_minor": 5, "metadata": {}, "cells": [
+    {"cell_type": "code", "id": "p", "metadata": {"tags": ["parameters"]}, "source": "x = 1",
+     "outputs": [], "execution_count": None}]}
+
+
+@pytest.fixture(scope="session")
+def corpus_world(world):
+    """The world plus the files the registry's cases read (a notebook, damaged notebooks, a
+    solution with an edge to a node no observation has)."""
+    root = world["root"]
+    if "notebook" not in world:
+        world["notebook"] = root / "n.ipynb"
+        world["notebook"].write_text(json.dumps(NOTEBOOK))
+        bad = {"random": np.random.default_rng(3).bytes(400), "empty-object": b"{}",
+               "nbformat-99": json.dumps({**NOTEBOOK, "nbformat": 99}).encode(),
+               "deep": b"[" * 100_000 + b"]" * 100_000,
+               "no-cells": json.dumps({k: v for k, v in NOTEBOOK.items() if k != "cells"}
+                                      ).encode(),
+               "list": b"[]"}
+        for name, data in bad.items():
+            world[f"nb_{name}"] = root / f"nb_{name}.ipynb"
+            world[f"nb_{name}"].write_bytes(data)
+        d = json.loads(json.dumps(world["valid_solution"]))
+        u, a, _v = d["edges"][0]
+        d["edges"].append([u, a, 999])
+        world["unknown_node"] = root / "unknown_node.json"
+        world["unknown_node"].write_text(json.dumps(d))
+    return world
+
+
+def _leaf_parsers():
+    for name, p in iter_parsers(build_parser()):
+        if not any(isinstance(a, argparse._SubParsersAction) for a in p._actions):
+            yield name.removeprefix("vggc-cp "), p
+
+
+@functools.lru_cache(maxsize=1)
+def _leaf_commands() -> dict[str, set[str]]:
+    """command -> its option strings and positional names."""
+    return {cmd: {s for a in p._actions for s in (a.option_strings or [a.dest])}
+            for cmd, p in _leaf_parsers()}
+
+
+def _file_options(parser) -> list[str]:
+    out = []
+    for a in parser._actions:
+        if isinstance(a, argparse._HelpAction) or a.nargs == 0 or a.type in (int, float):
+            continue
+        if a.dest in FILE_DESTS or FILE_HELP.search(f"{a.help or ''} {a.metavar or ''}"):
+            out.append(a.option_strings[-1] if a.option_strings else a.dest)
+    return out
+
+
+def test_every_subcommand_and_file_option_has_cases():
+    """A new sub-command, or a new option taking a file or folder, fails here until
+    tests/fuzz/cases.py holds its cases (see that module's docstring for the one-entry way)."""
+    missing = []
+    for cmd, parser in _leaf_parsers():
+        cases = [c for c in ALL_CASES if c.command == cmd]
+        if not cases:
+            missing.append(f"{cmd}: no case at all")
+        covered = {o for c in cases for o in c.covers}
+        missing += [f"{cmd} {opt}" for opt in _file_options(parser) if opt not in covered]
+    assert not missing, "no corpus case in tests/fuzz/cases.py for:\n  " + "\n  ".join(missing)
+    ids = [c.id for c in ALL_CASES]
+    assert len(ids) == len(set(ids)), "two cases share an id"
+
+
+def test_every_environment_variable_has_cases():
+    import vggc_cp
+
+    names = env_variables(Path(vggc_cp.__file__).parent)
+    covered = {k for c in ALL_CASES for k in c.env}
+    assert names and names <= covered, f"no corpus case sets: {sorted(names - covered)}"
+
+
+def _resolve_env(case, w, t) -> dict:
+    return {k: str(v[1](w, t)) if isinstance(v, tuple) else v for k, v in case.env.items()}
+
+
+def _quick_first(cases) -> list:
+    """Every case; in the quick run only the first of each command and of each environment
+    variable (the rest are marked slow: the full run takes every case, the quick run stays
+    within its budget and still runs every command once)."""
+    seen, out = set(), []
+    for c in cases:
+        key = tuple(sorted(c.env)) if c.env else c.command
+        out.append(pytest.param(c, id=c.id, marks=() if key not in seen else pytest.mark.slow))
+        seen.add(key)
+    return out
+
+
+@pytest.mark.parametrize("case", _quick_first(ALL_CASES))
+def test_registry_case(corpus_world, capsys, tmp_path, monkeypatch, case):
+    if case.command not in _leaf_commands():
+        pytest.skip(f"vggc-cp {case.command}: not a command of this checkout")
+    if not set(case.covers) <= _leaf_commands()[case.command]:
+        pytest.skip(f"vggc-cp {case.command}: no {', '.join(case.covers)} in this checkout")
+    w = corpus_world
+    (tmp_path / "out").mkdir()
+    for k in [k for k in os.environ if k.startswith("VGGC_CP_")]:
+        monkeypatch.delenv(k)
+    monkeypatch.setenv("VGGC_CP_CACHE", str(w["cache"]))
+    for k, v in _resolve_env(case, w, tmp_path).items():
+        monkeypatch.setenv(k, v)
+    argv = case.argv(w, tmp_path)
+    files = [p for p in w.values() if isinstance(p, Path) and p.is_file()]
+    if case.expect == "refusal":
+        expect_refusal(capsys, argv, files, case.must)
+    else:
+        before = {str(p): sha(p) for p in files}
+        rc = main([str(a) for a in argv])
+        out, err = capsys.readouterr()
+        assert rc == 0 and "Traceback" not in out + err, err
+        assert any(all(m in line for m in case.must) for line in err.splitlines()
+                   if line.startswith("vggc-cp: warning: ")), err
+        assert {str(p): sha(p) for p in files} == before
+    assert not list((tmp_path / "out").iterdir())  # nothing written

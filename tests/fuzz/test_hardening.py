@@ -54,9 +54,9 @@ def test_subprocess_refusals_have_no_traceback(tmp_path):
 def test_sigterm_removes_temporary_files(tmp_path):
     code = (
         "import os, signal, sys\n"
-        "from vggc_cp.cli import _signal_handlers\n"
+        "from vggc_cp.interrupts import guard\n"
         "from vggc_cp.atomic import atomic_path\n"
-        "with _signal_handlers():\n"
+        "with guard():\n"
         f"    with atomic_path({str(tmp_path / 'out.json')!r}) as tmp:\n"
         "        tmp.write_text('partial')\n"
         "        os.kill(os.getpid(), signal.SIGTERM)\n"
@@ -73,12 +73,17 @@ def test_stale_temporary_files_are_swept(tmp_path, capsys):
     stale = tmp_path / ".b.json.vggctmp-abc123.json"
     fresh = tmp_path / ".b.json.vggctmp-def456.json"
     other = tmp_path / ".b.json.keepme"
-    for p in (stale, fresh, other):
+    # the README: the output folder is swept of the tool's temporaries, whatever their target
+    stale_other = tmp_path / ".t.npz.vggctmp-xyz789.npz"
+    stale_probe = tmp_path / ".vggc-probe-0a1b2c"
+    for p in (stale, fresh, other, stale_other, stale_probe):
         p.write_text("x")
     old = time.time() - 3 * 3600
-    os.utime(stale, (old, old))
+    for p in (stale, stale_other, stale_probe):
+        os.utime(p, (old, old))
     assert main(["baseline", "pca-hdbscan", str(t), "-o", str(tmp_path / "b.json")]) == 0
     assert not stale.exists() and fresh.exists() and other.exists()
+    assert not stale_other.exists() and not stale_probe.exists()
 
 
 @pytest.mark.slow
@@ -139,6 +144,61 @@ def test_dynamics_auto_falls_back_on_foreign_state_keys(tmp_path, capsys):
     assert "Exec on trace dynamics" in out
     assert len(err.splitlines()) == 1 and "own transitions" in err
     assert main(["evaluate", str(path), str(sol), "-Q", "20", "--dynamics", "sim"]) == 2
+
+
+def test_dynamics_auto_says_when_the_benchmark_is_unknown(tmp_path, capsys):
+    from vggc_cp.evaluate import resolve_dynamics
+    from vggc_cp.evaluate.groundtruth import GroundTruth
+
+    t = toy_trace()
+    for bench in ("no-such-benchmark", ["a", "list"]):
+        u = Trace(t.observations, t.actions, t.action_names, t.states, {"benchmark": bench})
+        step, used = resolve_dynamics(u, GroundTruth.from_trace(u), "auto")
+        err = capsys.readouterr().err
+        assert (step, used) == (None, "trace")
+        assert err.count("\n") == 1 and "does not know" in err and "own transitions" in err
+
+
+@pytest.mark.slow
+def test_a_server_that_is_not_a_dask_scheduler_is_one_line(tmp_path, capsys):
+    """A loopback server answering garbage made dask's comm try to allocate exabytes."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    port = srv.getsockname()[1]
+    stop = threading.Event()
+
+    def serve():
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                continue
+            try:
+                conn.recv(1000)
+                conn.sendall(b"HTTP/1.0 200 OK\r\n\r\n" + b"\xff" * 64)
+            except OSError:
+                pass
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    t = tmp_path / "t.npz"
+    save_trace(toy_trace(), t)
+    try:
+        rc = main(["distances", str(t), "--backend", "dask", "--distance-rows", "4",
+                   "--scheduler", f"tcp://127.0.0.1:{port}", "--no-cache", "--quiet", *FAST])
+    finally:
+        stop.set()
+        thread.join(2)
+        srv.close()
+    err = capsys.readouterr().err
+    assert rc == 2 and "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("vggc-cp: error: ")]
+    assert len(lines) == 1 and f"127.0.0.1:{port}" in lines[0]
 
 
 # ------------------------------------------------------------------ hypothesis
@@ -223,3 +283,24 @@ def test_hypothesis_solutions(solved, tmp_path_factory, capsys, key, value, cmd)
     if rc == 1 and cmd == "plan":  # a valid file whose goal is unreachable
         rc = 0
     _check(rc, capsys.readouterr().err, [path, trace], before)
+
+
+def test_an_unwritable_out_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """A read-only folder (as root a chmod does not stop writing, so the probe's failure is
+    simulated the way a read-only file system answers)."""
+    import contextlib
+    import errno
+
+    from vggc_cp import safeio
+
+    @contextlib.contextmanager
+    def read_only(folder, prefix, suffix=""):
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(folder))
+        yield  # pragma: no cover
+
+    monkeypatch.setattr(safeio, "temp_file", read_only)
+    out = tmp_path / "study"
+    rc = main(["robustness", "--out", str(out), "--benchmarks", "fruit-2x3", "--seeds", "0"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "Read-only file system" in err
+    assert not out.exists()

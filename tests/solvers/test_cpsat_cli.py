@@ -126,3 +126,26 @@ def test_solve_with_a_hint_from_a_larger_cell(tmp_path, toy_trace, capsys):
     err = capsys.readouterr().err
     assert rc == 2 and "other.json" in err and "'labels'" in err and err.count("\n") == 1
     assert not bad.exists()
+
+
+def test_compare_with_csv_prints_a_summary_and_table_prints_the_cells(tmp_path, toy_trace,
+                                                                       capsys):
+    """--csv gets the per-cell table; the terminal the summary (status counts, the fewest
+    nodes and selected cells), unless --table asks for the cells too."""
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    base = ["compare", str(path), "--k-pick", "2:3", "--k-place", "2:2",
+            "--cpsat-params", "max_time_in_seconds:10,num_workers:1", "--grid", "4",
+            "--sinkhorn-device", "numpy", "--cache-dir", str(tmp_path / "cache")]
+    assert main([*base, "--csv", str(tmp_path / "c.csv")]) == 0
+    text = capsys.readouterr().out
+    assert not any(line.startswith("|") for line in text.splitlines())
+    assert "CP-SAT cells" in text and "fewest nodes" in text
+    assert f"csv            {tmp_path / 'c.csv'}: the per-cell table, 2 rows" in text
+    assert "--table prints it here too" in text
+    assert len(list(csv.DictReader((tmp_path / "c.csv").open()))) == 2
+    assert main([*base, "--csv", str(tmp_path / "d.csv"), "--table"]) == 0
+    cells = [line for line in capsys.readouterr().out.splitlines() if line.startswith("|")]
+    assert len(cells) == 2 + 2  # header, rule, one row per cell
+    assert main(base) == 0  # no --csv: the cells are printed, as before
+    assert sum(line.startswith("|") for line in capsys.readouterr().out.splitlines()) == 4

@@ -8,7 +8,7 @@ from conftest import TOY_NAMES, make_trace
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from vggc_cp.errors import UnknownNameError
+from vggc_cp.errors import UnknownNameError, VggcError
 from vggc_cp.graph import TaskGraph, check
 from vggc_cp.solvers import FEASIBLE, UNKNOWN, Problem, get_solver
 from vggc_cp.solvers.greedy import (
@@ -286,8 +286,9 @@ def test_registry_and_options():
         get_solver("no-such-solver")
     with pytest.raises(UnknownNameError, match="dissimilar"):
         GreedySolver(open_when="sometimes")
-    with pytest.raises(ValueError):
-        GreedySolver(tau=0.0)
+    for bad in (0.0, float("nan"), float("inf")):
+        with pytest.raises(VggcError, match="--tau"):
+            GreedySolver(tau=bad)
     with pytest.raises(ValueError):
         GreedySolver().solve(Problem.from_trace(
             make_trace([["L", "pick_L", "H"]], TOY_NAMES), np.zeros((1, 1)), np.zeros((1, 1))),

@@ -80,7 +80,7 @@ def test_missing_weights_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.delenv("VGGC_CP_DINOV2_WEIGHTS", raising=False)
     with pytest.raises(VggcError, match="--weights"):
         attention_maps(images(1), "dinov2", AttentionConfig(grid=2))
-    with pytest.raises(VggcError, match="does not exist"):
+    with pytest.raises(VggcError, match="no such file"):
         attention_maps(images(1), "dinov2", AttentionConfig(grid=2,
                                                             weights=str(tmp_path / "no.pth")))
     junk = tmp_path / "junk.pth"

@@ -102,3 +102,32 @@ def test_side_by_side_sites_keep_the_hand_made_presence():
     p, refined = occ.refine_presence(trace, normalise_frames(trace.observations), fp.sites, ov,
                                      fp.colour, fp.counts, fp.presence, 0.2)
     assert not refined.any() and np.array_equal(p, fp.presence)
+
+
+def test_settled_sites_are_what_the_actions_state_even_where_a_frame_hides_them():
+    """Paste an opaque grey square (an arm, a distractor) over a random spot of the table in
+    every third frame: where an episode's actions state what a site holds, the settled
+    presence is that, whatever the frame shows; the learned graph stays the true one."""
+    from pathlib import Path
+
+    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.trace import Trace, load_trace
+    from vggc_cp.vision.footprints import action_footprints
+
+    tr = load_trace(Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz")
+    obs = tr.observations.copy()
+    rng = np.random.default_rng(0)
+    for t in range(0, len(obs), 3):
+        y, x = rng.integers(24, 40), rng.integers(4, 50)
+        obs[t, y:y + 10, x:x + 10] = 200
+    hidden = Trace(obs, tr.actions, tr.action_names, tr.states, tr.meta)
+    fp = action_footprints(hidden)
+    # every site of a pick: occupied right before the pick, empty right after it
+    src, act, dst = hidden.transitions()
+    kinds = hidden.action_kinds()
+    for s, a, d in zip(src, act, dst):
+        if kinds[a] == 0:
+            assert fp.presence[s, a] == 1.0 and fp.presence[d, a] == 0.0
+    learned = learn_graph(hidden.without_states(), LearnConfig(evidence="footprints"))
+    same = learned.labels[:, None] == learned.labels[None, :]
+    np.testing.assert_array_equal(same, tr.states[:, None] == tr.states[None, :])

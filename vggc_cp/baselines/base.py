@@ -23,7 +23,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 import numpy as np
-from scipy.spatial.distance import pdist
 
 from vggc_cp.errors import VggcError, lookup
 from vggc_cp.graph import TaskGraph, check
@@ -125,6 +124,8 @@ def within_role_score(roles: np.ndarray, labels: np.ndarray, features: np.ndarra
     :func:`vggc_cp.score.visual_score`), on the Minkowski distances between the rows of
     ``features`` (shape (N, F)) that the baseline clustered. Computed cluster by cluster.
     """
+    from scipy.spatial.distance import pdist
+
     total = 0.0
     for u in np.unique(labels):
         mem = features[labels == u]

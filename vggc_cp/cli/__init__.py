@@ -8,8 +8,9 @@ Each module in :data:`COMMAND_MODULES` contributes sub-commands through
 from __future__ import annotations
 
 import argparse
-import contextlib
+import difflib
 import importlib
+import re
 import signal
 import sys
 
@@ -26,6 +27,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.compare_cmds",
     "vggc_cp.cli.robustness_cmds",
     "vggc_cp.cli.import_cmds",
+    "vggc_cp.cli.graph_cmds",
     "vggc_cp.cli.verdict_cmds",
 ]
 
@@ -48,6 +50,68 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+def _did_you_mean(word: str, choices) -> str:
+    """``"; did you mean X?"`` for the choice closest to ``word`` (difflib), or ``""``."""
+    close = difflib.get_close_matches(word, [str(c) for c in choices], n=1, cutoff=0.6)
+    return f"; did you mean {close[0]}?" if close else ""
+
+
+class Parser(argparse.ArgumentParser):
+    """The parser of ``vggc-cp`` and of every sub-command (sub-parsers inherit the class).
+
+    * A prefix of an option is not taken for the option (``allow_abbrev=False``):
+      ``--k-pi`` is an error, not ``--k-pick``.
+    * An unknown option is reported by the sub-command it was given to, with its usage and
+      the nearest option ("did you mean --k-pick?"); a mistyped choice (a command name, a
+      ``choices`` value) gets the nearest choice too. Exit 2, as every argparse error.
+    """
+
+    def __init__(self, *args, allow_abbrev: bool = False, **kwargs):
+        super().__init__(*args, allow_abbrev=allow_abbrev, **kwargs)
+
+    def parse_known_args(self, args=None, namespace=None):
+        self._given = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def parse_args(self, args=None, namespace=None):
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            self.chosen(namespace).error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace
+
+    def chosen(self, namespace: argparse.Namespace) -> Parser:
+        """The deepest sub-command parser that ``namespace`` went through (self if none)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                child = action.choices.get(getattr(namespace, action.dest, None))
+                if isinstance(child, Parser):
+                    return child.chosen(namespace)
+        return self
+
+    def _hint(self, message: str) -> str:
+        """The nearest choice of an invalid choice, else the nearest option of the first
+        option given here that this parser does not know (a missing required argument may be
+        a mistyped one)."""
+        found = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)$", message)
+        if found:
+            return _did_you_mean(found.group(1), re.findall(r"'([^']*)'", found.group(2)))
+        known = {o for a in self._actions for o in a.option_strings}
+        for word in getattr(self, "_given", ()):
+            if word == "--":
+                break
+            flag = word.split("=", 1)[0]
+            if flag.startswith("--") and flag not in known:
+                hint = _did_you_mean(flag, sorted(o for o in known if o.startswith("--")))
+                return hint if "unrecognized" in message else (
+                    f" ({flag} is not an option{hint})" if hint else f" ({flag} is not an option)")
+        return ""
+
+    def error(self, message: str):
+        if "did you mean" not in message:
+            message += self._hint(message)
+        super().error(message)
+
+
 def iter_parsers(parser: argparse.ArgumentParser, prefix: str = "vggc-cp"):
     """Yield ``(name, parser)`` for ``parser`` and every sub-command parser below it."""
     yield prefix, parser
@@ -61,9 +125,12 @@ def iter_parsers(parser: argparse.ArgumentParser, prefix: str = "vggc-cp"):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="vggc-cp",
         description="Learn discrete pick/place task graphs from RGB traces (VGGC + CP-SAT).",
+        epilog="Start here: `vggc-cp solve TRACE.npz -o solution.json` runs the default "
+               "pipeline; then `vggc-cp plan solution.json --start-obs I --goal-obs J`. "
+               "Each command's own --help describes it.",
         formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -81,50 +148,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _on_signal(signum, _frame):
-    """SIGTERM (and SIGHUP): remove the temporary files of writes in progress, then exit."""
-    from vggc_cp.atomic import cleanup_temps
-
-    cleanup_temps()
-    print(f"vggc-cp: terminated by signal {signum}", file=sys.stderr)
-    raise SystemExit(128 + signum)
-
-
-@contextlib.contextmanager
-def _signal_handlers():
-    """Install :func:`_on_signal` for SIGTERM/SIGHUP while a command runs (main thread only)."""
-    saved = {}
-    try:
-        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
-            if sig is not None:
-                saved[sig] = signal.signal(sig, _on_signal)
-    except ValueError:  # not the main thread: leave signals alone
-        pass
-    try:
-        yield
-    finally:
-        for sig, handler in saved.items():
-            signal.signal(sig, handler)
-
-
 def main(argv: list[str] | None = None) -> int:
-    from vggc_cp.atomic import cleanup_temps
+    """Run one command; bad input: one line, exit 2; SIGINT/SIGTERM/SIGHUP: exit 130/143/129
+    within about a second, temporary files removed (:mod:`vggc_cp.interrupts`)."""
+    from vggc_cp.interrupts import exit_code, guard, received
 
     try:
-        with _signal_handlers():
-            parser = build_parser()
-            args = parser.parse_args(argv)
-            from vggc_cp.safeio import preflight
+        with guard():
+            try:
+                parser = build_parser()
+                args = parser.parse_args(argv)
+                from vggc_cp.safeio import preflight
 
-            preflight(args)  # inputs and outputs checked before any work
-            return int(args.func(args) or 0)
-    except VggcError as exc:
-        print(f"vggc-cp: error: {_one_line(str(exc))}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        cleanup_temps()
-        print("vggc-cp: interrupted", file=sys.stderr)
-        return 130
+                preflight(args)  # inputs and outputs checked before any work
+                code = int(args.func(args) or 0)
+            except VggcError as exc:
+                if received() is None:
+                    print(f"vggc-cp: error: {_one_line(str(exc))}", file=sys.stderr)
+                code = 2
+            except KeyboardInterrupt:  # a SIGINT before the handler was installed, or ours
+                code = exit_code(received() or signal.SIGINT)
+            except SystemExit:
+                if received() is None:
+                    raise  # argparse's --help / usage errors
+                code = exit_code(received())
+            if received() is not None:  # never swallowed, whoever caught it on the way
+                from vggc_cp.interrupts import announce
+                from vggc_cp.safeio import cleanup_temps
+
+                cleanup_temps()
+                announce(received())
+                code = exit_code(received())
+            return code
+    except KeyboardInterrupt:  # a second Ctrl-C while unwinding
+        return exit_code(received() or signal.SIGINT)
 
 
 def _one_line(text: str) -> str:

@@ -1,4 +1,5 @@
-"""``vggc-cp baseline`` (run one baseline on a trace) and ``vggc-cp benchmark`` (Table 1)."""
+"""``vggc-cp baseline`` (run one baseline on a trace), ``vggc-cp benchmark`` (Table 1) and
+``vggc-cp bench startup`` (how fast the command line starts)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,34 @@ def register(sub) -> None:
     register_benchmark(sub)
 
 
+def register_bench(bench_sub) -> None:
+    p = bench_sub.add_parser(
+        "startup", help="time `vggc-cp --help` and `vggc-cp plan --help` against `python -c "
+                        "pass` in one run, and list the heavy modules they import (none)")
+    p.add_argument("--repeats", type=int, default=5,
+                   help="timed runs of each command; the fastest counts")
+    p.add_argument("--limit", type=float, default=1.0,
+                   help="the start-up, in seconds, that a command must stay within")
+    p.set_defaults(func=cmd_bench_startup)
+
+
+def cmd_bench_startup(args) -> int:
+    from vggc_cp.errors import VggcError
+    from vggc_cp.experiments.perf import STARTUP_COMMANDS, time_startup
+
+    if args.repeats < 1:
+        raise VggcError(f"--repeats must be at least 1, got {args.repeats}")
+    for argv in STARTUP_COMMANDS:
+        t = time_startup(argv, args.repeats)
+        verdict = "within" if t.seconds <= args.limit else "OVER"
+        print(f"startup        python -m vggc_cp {' '.join(argv)}: {t.seconds:.3f} s (fastest of "
+              f"{args.repeats}; CPU {t.cpu_seconds:.3f} s), {t.modules} modules imported, "
+              f"heavy modules: {', '.join(t.heavy) or 'none'}")
+        print(f"  baseline, python -c pass: {t.baseline_seconds:.3f} s; ratio {t.ratio:.1f}x; "
+              f"{verdict} the {args.limit:g} s target")
+    return 0
+
+
 def cmd_baseline(args) -> int:
     cls = lookup(BASELINES, args.name, "baseline")
     options = parse_params(cls.config_class, args.param)
@@ -33,7 +62,8 @@ def cmd_baseline(args) -> int:
     write_solution(args.output, baseline_solution(trace, result))
     v = result.stats["violations"]
     print(f"{result.solver}: {v['nodes']} nodes ({v['pick_nodes']} pick, {v['place_nodes']} "
-          f"place), {v['edges']} edges, {v['exactly_one']} Exactly-One violations "
+          f"place), {v['edges']} edges, {v['exactly_one']} Exactly-One "
+          f"violation{'' if v['exactly_one'] == 1 else 's'} "
           f"({v['exactly_one_transitions']} transitions), {result.seconds:.1f} s")
     print(f"selected  {result.stats['params']}")
     print(f"sweep     {len(result.stats['grid'])} points, rule: {result.stats['selection']}")
@@ -124,6 +154,10 @@ def register_benchmark(sub) -> None:
     p.set_defaults(func=cmd_benchmark)
 
 
+#: most seeds one benchmark run takes
+MAX_SEEDS = 10_000
+
+
 def cmd_benchmark(args) -> int:
     from pathlib import Path
 
@@ -137,6 +171,14 @@ def cmd_benchmark(args) -> int:
         seeds = tuple(int(s) for s in _split(args.seeds))
     except ValueError:
         raise VggcError(f"--seeds {args.seeds!r}: expected comma-separated integers") from None
+    from vggc_cp.safeio import check_size, check_trace_budget
+
+    check_size(len(seeds), "--seeds (count)", 1, MAX_SEEDS, f"the cap of {MAX_SEEDS:,} seeds")
+    if any(not 0 <= s < 2**32 for s in seeds):
+        raise VggcError(f"--seeds {args.seeds[:60]!r}: seeds are integers from 0 to 2^32 - 1")
+    check_trace_budget(args.transitions, 64, "--transitions")
+    if args.i2p:
+        check_trace_budget(args.novel, 64, "--novel")
     cfg = BenchmarkConfig(Path(args.out), benches, tuple(_split(args.methods)), seeds,
                           args.transitions, args.queries, args.jobs, args.backend,
                           args.scheduler, method_options(args.param), args.force,

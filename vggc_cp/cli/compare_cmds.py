@@ -27,7 +27,11 @@ def register(sub) -> None:
                    help="greedy K_vis temperature (default: per role, the median within-role "
                         "distance)")
     p.add_argument("--jobs", type=int, default=1, help="greedy sweep worker processes")
-    p.add_argument("--csv", default=None, metavar="CSV", help="write the per-cell table")
+    p.add_argument("--csv", default=None, metavar="CSV",
+                   help="write the per-cell table there; only the summary is printed then "
+                        "(--table prints the table too)")
+    p.add_argument("--table", action="store_true",
+                   help="print the per-cell table also when --csv is given")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw the two grids side by side")
     p.add_argument("--quiet", action="store_true", help="no progress bars, no per-cell table")
     add_cpsat_arguments(p)
@@ -74,8 +78,8 @@ def cmd_compare(args) -> int:
     print(f"trace          {args.trace}: |D| = {trace.n_transitions}, pick {problem.n_pick}, "
           f"place {problem.n_place}; distances {t_dist:.1f} s")
     print(f"grid           k_pick {kp.start}..{kp.stop - 1} x k_place {kq.start}..{kq.stop - 1}"
-          f" = {len(rows)} cells; greedy {greedy.seconds:.1f} s, CP-SAT {exact.seconds:.1f} s")
-    if not args.quiet:
+          f" = {len(rows)} cell{'' if len(rows) == 1 else 's'}; greedy {greedy.seconds:.1f} s, CP-SAT {exact.seconds:.1f} s")
+    if not args.quiet and (args.table or not args.csv):
         # greedy_feasible (greedy_J is "-" without a colouring), greedy_seconds and the model
         # sizes stay in --csv: the printed table keeps within 120 characters
         shown = table.drop(columns=["greedy_feasible", "greedy_seconds", "variables",
@@ -103,7 +107,9 @@ def cmd_compare(args) -> int:
               f"{best.k_place}) J {best.J:.4f} {best.status}")
     if args.csv:
         write_text(args.csv, table.to_csv(index=False))
-        print(f"csv            {args.csv}")
+        more = "" if args.table or args.quiet else " (--table prints it here too)"
+        print(f"csv            {args.csv}: the per-cell table, {len(rows)} "
+              f"row{'' if len(rows) == 1 else 's'}{more}")
     if args.plot:
         from vggc_cp.plots import plot_compare_grids
 

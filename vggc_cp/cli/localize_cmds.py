@@ -7,32 +7,48 @@ import sys
 
 from vggc_cp.errors import VggcError
 
+#: most torch threads
+MAX_THREADS = 1024
+#: most values of a --lr or --epochs grid (each is a cross-validation run)
+MAX_GRID = 100
 
-def _floats(text: str) -> tuple[float, ...]:
+
+def _grid(out: tuple, text: str, option: str) -> tuple:
+    if len(out) > MAX_GRID:
+        raise VggcError(f"{option}: {len(out):,} values, above the cap of {MAX_GRID} "
+                        f"(localize_cmds.MAX_GRID)")
+    return out
+
+
+def _floats(text: str, option: str = "--lr") -> tuple[float, ...]:
+    if len(text) > 40 * MAX_GRID:
+        raise VggcError(f"{option}: {len(text):,} characters; at most {MAX_GRID} values")
     try:
         out = tuple(float(x) for x in text.split(",") if x.strip())
     except ValueError:
         raise VggcError(f"expected comma-separated numbers, got {text!r}") from None
     if not out:
         raise VggcError(f"expected comma-separated numbers, got {text!r}")
-    return out
+    return _grid(out, text, option)
 
 
-def _ints(text: str) -> tuple[int, ...]:
+def _ints(text: str, option: str = "--epochs") -> tuple[int, ...]:
+    if len(text) > 40 * MAX_GRID:
+        raise VggcError(f"{option}: {len(text):,} characters; at most {MAX_GRID} values")
     try:
         out = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
         raise VggcError(f"expected comma-separated integers, got {text!r}") from None
     if not out:
         raise VggcError(f"expected comma-separated integers, got {text!r}")
-    return out
+    return _grid(out, text, option)
 
 
 def _threads(n: int) -> None:
     import torch
 
-    if n < 1:
-        raise VggcError(f"--threads must be positive, got {n}")
+    if not 1 <= n <= MAX_THREADS:
+        raise VggcError(f"--threads {n}: expected 1 to {MAX_THREADS}")
     torch.set_num_threads(n)
 
 
@@ -55,7 +71,9 @@ def register(sub) -> None:
     p.add_argument("--gamma", type=float, default=16.0, help="cosine-head temperature")
     p.add_argument("--lr", default="1e-2,3e-3", help="learning-rate grid (comma-separated)")
     p.add_argument("--epochs", default="10,20,40", help="epoch grid (comma-separated)")
-    p.add_argument("--folds", type=int, default=3, help="k of the k-fold cross-validation")
+    p.add_argument("--folds", type=int, default=None,
+                   help="k of the k-fold cross-validation, at most half the images (default 3; "
+                        "no cross-validation on fewer than 2k images)")
     p.add_argument("--seed", type=int, default=0, help="seed of initialisation, folds, batches")
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -89,8 +107,13 @@ def cmd_train(args) -> int:
     config = TrainConfig(backbone=args.backbone, input_size=args.input_size,
                          weights=args.weights, gamma=args.gamma,
                          learning_rates=_floats(args.lr), epoch_grid=_ints(args.epochs),
-                         folds=args.folds, seed=args.seed)
+                         folds=TrainConfig().folds if args.folds is None else args.folds,
+                         seed=args.seed)
     trace = load_trace(args.trace)
+    if args.folds is not None and trace.n_obs < 2 * args.folds:
+        raise VggcError(f"--folds {args.folds}: {args.trace} holds {trace.n_obs} images; "
+                        f"k-fold cross-validation needs at least 2k (at most "
+                        f"{trace.n_obs // 2} folds here)")
     solution = read_solution(args.solution)
     verify_solution(solution, trace, args.solution, args.trace)
     localizer, report = train_localizer(trace, solution, config, progress=not args.quiet,

@@ -16,8 +16,9 @@ from vggc_cp.vision.distances import COLOUR_MODES, DistanceConfig
 from vggc_cp.vision.sinkhorn import DEVICES
 
 
-def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the distance options (``--attention``, ``--weights``, ``--eps``, ``--grid``, ...)."""
+def add_distance_arguments(parser: argparse.ArgumentParser) -> tuple[str, ...]:
+    """Add the distance options (``--attention``, ``--weights``, ``--eps``, ``--grid``, ...);
+    returns their ``dest`` names."""
     d = DistanceConfig()
     g = parser.add_argument_group("visual distances")
     g.add_argument("--attention", default=d.backend, metavar="NAME",
@@ -52,6 +53,7 @@ def add_distance_arguments(parser: argparse.ArgumentParser) -> None:
                    help="distance cache directory (default $VGGC_CP_CACHE/distances or "
                         "./.cache/vggc-cp/distances)")
     g.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    return tuple(a.dest for a in g._group_actions)
 
 
 def config_from_args(args: argparse.Namespace) -> DistanceConfig:
@@ -168,18 +170,37 @@ def add_i2p_options(p) -> None:
                    help="start/goal image pairs for I2P (the paper's Q is 150)")
 
 
+#: most seeds one study takes (every seed is a trace per benchmark and look)
+MAX_SEEDS = 10_000
+#: largest seed (numpy's seeds are 32-bit here)
+MAX_SEED = 2**32 - 1
+
+
 def parse_seeds(text: str, option: str = "--seeds") -> tuple[int, ...]:
-    """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds."""
+    """``"0:4"`` (inclusive) or ``"0,1,2"`` -> a tuple of seeds, at most :data:`MAX_SEEDS`,
+    each in ``0..MAX_SEED``."""
+    if len(text) > 20 * MAX_SEEDS:
+        raise VggcError(f"{option}: {len(text):,} characters; at most {MAX_SEEDS:,} seeds "
+                        f"(options.MAX_SEEDS)")
     try:
         if ":" in text:
             a, b = (int(x) for x in text.split(":"))
             if b < a:
                 raise ValueError
-            return tuple(range(a, b + 1))
-        seeds = tuple(int(s) for s in text.split(",") if s.strip())
+            if b - a + 1 > MAX_SEEDS:
+                raise VggcError(f"{option} {text!r}: {b - a + 1:,} seeds, above the cap of "
+                                f"{MAX_SEEDS:,} (options.MAX_SEEDS)")
+            seeds = tuple(range(a, b + 1))
+        else:
+            seeds = tuple(int(s) for s in text.split(",") if s.strip())
     except ValueError:
         raise VggcError(f"{option} {text!r}: expected an inclusive range A:B (A <= B) or "
                         "comma-separated integers") from None
     if not seeds:
         raise VggcError(f"{option} {text!r}: no seed")
+    if len(seeds) > MAX_SEEDS:
+        raise VggcError(f"{option}: {len(seeds):,} seeds, above the cap of {MAX_SEEDS:,} "
+                        f"(options.MAX_SEEDS)")
+    if any(not 0 <= s <= MAX_SEED for s in seeds):
+        raise VggcError(f"{option} {text[:60]!r}: seeds are integers from 0 to {MAX_SEED:,}")
     return seeds

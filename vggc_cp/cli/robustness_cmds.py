@@ -62,7 +62,11 @@ def cmd_robustness(args) -> int:
         run_robustness,
         write_tables,
     )
+    from vggc_cp.safeio import check_output_dir, check_trace_budget
     from vggc_cp.sim import benchmark_names
+
+    check_output_dir(args.out, "--out", ("cells", "traces", "solutions", "models"),
+                     ("robustness.csv", "robustness.md"))
 
     benches = (tuple(benchmark_names()) if args.benchmarks == "all"
                else () if args.benchmarks == "none" else tuple(_split(args.benchmarks)))
@@ -76,6 +80,10 @@ def cmd_robustness(args) -> int:
                            jobs=args.jobs, i2p=args.i2p,
                            i2p_seeds=parse_seeds(args.i2p_seeds, "--i2p-seeds"),
                            novel=args.novel, i2p_queries=args.i2p_queries, force=args.force)
+    for bench in cfg.benchmarks:
+        check_trace_budget(cfg.n_transitions(bench), cfg.size, "--transitions")
+        if cfg.i2p:
+            check_trace_budget(cfg.novel, cfg.size, "--novel")
     run = run_robustness(cfg, progress=not args.quiet)
     csv, md = write_tables(run.rows, cfg.out, run.seconds)
     print(md.read_text(encoding="utf-8"), end="")

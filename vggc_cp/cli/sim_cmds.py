@@ -120,6 +120,12 @@ def cmd_generate(args) -> int:
     d = spec.default_transitions if args.transitions is None else args.transitions
     if args.novel < 0:
         raise VggcError(f"--novel must be at least 0, got {args.novel}")
+    from vggc_cp.safeio import check_image_size, check_trace_budget
+
+    check_image_size(args.size, args.size, "--size")
+    check_trace_budget(d, args.size, "--transitions")
+    if args.novel:
+        check_trace_budget(args.novel, args.size, "--novel")
     bars = []
 
     def on_frame(total: int) -> None:
@@ -228,7 +234,7 @@ def cmd_render(args) -> int:
 
     count = contact_sheet(load_trace(args.trace), args.output, args.max,
                           show_states=not args.no_states)
-    print(f"wrote {args.output} ({count} observations)")
+    print(f"wrote {args.output} ({count} observation{'' if count == 1 else 's'})")
     return 0
 
 
@@ -242,6 +248,10 @@ def cmd_bench_generate(args) -> int:
 
     if args.transitions < 1:
         raise VggcError(f"--transitions must be at least 1, got {args.transitions}")
+    from vggc_cp.safeio import check_image_size, check_trace_budget
+
+    check_image_size(args.size, args.size, "--size")
+    check_trace_budget(args.transitions, args.size, "--transitions")
     frames = args.transitions + 1
     reps = min(frames, 300)
     empty = empty_scene_frame_seconds(args.size, reps)

@@ -30,7 +30,7 @@ GRID_ONLY = ("k_pick", "k_place", "jobs", "tau", "plot", "deterministic", "max_a
              "codeterministic", "cannot_link", "objective", "hint", "optimize", "backend",
              "scheduler")
 #: ``solve`` options that only the merge solver reads: refused under the grid solvers.
-MERGE_ONLY = ("evidence", "thresholds", "exact")
+MERGE_ONLY = ("evidence", "thresholds", "exact", "fallback")
 BENCH_NAME = "fruit-4x6"
 BENCH_TRANSITIONS = 700
 BENCH_LIMIT_S = 120.0
@@ -41,9 +41,19 @@ def register(sub) -> None:
     from vggc_cp.solvers import greedy as _greedy  # noqa: F401  (registers "greedy")
     from vggc_cp.solvers.merge import PATH_SELECTIONS
     from vggc_cp.solvers.sweep import SELECTIONS
+    from vggc_cp.vision.evidence import evidence_names
 
-    p = sub.add_parser("solve", help="learn a task graph: distances, (k_pick, k_place) sweep, "
-                                     "selection; writes the solution JSON")
+    p = sub.add_parser("solve", help="learn a task graph with the default pipeline (visual "
+                                     "evidence, merging over thresholds, least description "
+                                     "length, confidence; --solver greedy|cpsat for the "
+                                     "paper's (k_pick, k_place) grid); writes the solution JSON",
+                       description="Learn the task graph of a trace and write its solution "
+                                   "JSON. By default the pipeline of vggc_cp.pipeline: action "
+                                   "footprints (or attention distances) as visual evidence, "
+                                   "congruence-closure merging over a grid of thresholds, "
+                                   "least description length, and a confidence check. "
+                                   "--solver greedy, cpsat, both or brute sweep the paper's "
+                                   "(k_pick, k_place) grid instead.")
     p.add_argument("trace", help="trace .npz")
     p.add_argument("-o", "--output", required=True, help="solution .json to write")
     p.add_argument("--solver", default=DEFAULT_SOLVER,
@@ -68,10 +78,15 @@ def register(sub) -> None:
                         "grid from the noise scale of nearest-neighbour distances to the 90th "
                         "percentile of all distances)")
     p.add_argument("--evidence", default="auto", metavar="NAME",
-                   help="merge solver: the visual evidence; auto (action footprints; when "
-                        "their graph is suspect or they do not apply, the keypoint attention "
-                        "distances, kept only if their graph passes its checks), footprints, "
-                        "or attention (the Sinkhorn distances of --attention)")
+                   help="merge solver: the visual evidence; auto (action footprints; where "
+                        "they cannot read the trace, the keypoint attention distances: see "
+                        "--fallback), attention (the Sinkhorn distances of --attention), or a "
+                        f"registered evidence: {', '.join(evidence_names())}")
+    p.add_argument("--fallback", default=None, choices=("refused", "suspect", "never"),
+                   help="merge solver, --evidence auto: when the keypoint evidence runs after "
+                        "the footprints: refused (default: only where the footprints cannot "
+                        "read the trace), suspect (also where their graph is suspect; costs "
+                        "the keypoint Sinkhorn distances), never")
     p.add_argument("--exact", action="store_true",
                    help="merge solver: also ask CP-SAT for the fewest nodes under the merge's "
                         "constraints (determinism, co-determinism, Exactly-One, its widest "
@@ -85,11 +100,11 @@ def register(sub) -> None:
     p.add_argument("--timings", action="store_true",
                    help="record wall-clock seconds in the solution file (off by default, so "
                         "the same inputs give the same bytes)")
-    add_distance_arguments(p)
+    distance = add_distance_arguments(p)
     add_cpsat_arguments(p)
     add_backend_arguments(p, "the grid solvers' distance blocks and cells")
-    p.set_defaults(func=cmd_solve, option_defaults={
-        d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, "cpsat_params")})
+    p.set_defaults(func=cmd_solve, distance_options=distance, option_defaults={
+        d: p.get_default(d) for d in (*GRID_ONLY, *MERGE_ONLY, *distance, "cpsat_params")})
 
     q = sub.add_parser("plan", help="shortest pick/place plan on a solution's graph between the "
                                     "nodes of two trace observations (or two images)")
@@ -99,7 +114,9 @@ def register(sub) -> None:
     q.add_argument("--goal-obs", type=int, default=None, metavar="J",
                    help="index of the goal observation in the solved trace")
     add_image_plan_options(q)
-    q.add_argument("--json", action="store_true", help="print JSON (image planning)")
+    q.add_argument("--json", action="store_true",
+                   help="print the plan as one JSON object (nodes, found, length, actions, "
+                        "steps) instead of text")
     q.set_defaults(func=cmd_plan)
 
 
@@ -113,6 +130,9 @@ def register_bench(bench_sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the generated trace")
     p.add_argument("--limit", type=float, default=2.0,
                    help="the largest acceptable ratio of the default to the previous default")
+    p.add_argument("--fallback-limit", type=float, default=1.5,
+                   help="the largest acceptable ratio of the default to the footprint "
+                        "evidence alone")
     p.set_defaults(func=cmd_bench_solve)
 
     p = bench_sub.add_parser(
@@ -150,12 +170,12 @@ def _make_solver(name: str, tau: float | None):
         raise VggcError(f"solver {name!r}: {exc}") from None
 
 
-def _grid(problem, k_pick: str | None, k_place: str | None):
-    from vggc_cp.solvers.sweep import default_grid, parse_range
+def _grid_ranges(k_pick: str | None, k_place: str | None) -> tuple[range | None, range | None]:
+    """``--k-pick`` / ``--k-place`` as ranges (None: the default grid of the problem)."""
+    from vggc_cp.solvers.sweep import parse_range
 
-    dp, dq = default_grid(problem)
-    return (parse_range(k_pick, "--k-pick") if k_pick else dp,
-            parse_range(k_place, "--k-place") if k_place else dq)
+    return (parse_range(k_pick, "--k-pick") if k_pick else None,
+            parse_range(k_place, "--k-place") if k_place else None)
 
 
 def check_solver_name(name: str) -> None:
@@ -183,6 +203,15 @@ def _refuse_inapplicable(args) -> None:
                                 f"cpsat, both, brute), not to --solver merge")
         if given("cpsat_params") and not args.exact:
             raise VggcError("--cpsat-params applies to --solver merge only with --exact")
+        if given("fallback") and args.evidence != "auto":
+            raise VggcError(f"--fallback applies to --evidence auto, not to --evidence "
+                            f"{args.evidence}")
+        if args.evidence == "footprints":
+            for dest in getattr(args, "distance_options", ()):
+                if given(dest):
+                    raise VggcError(f"{flag(dest)} applies to the attention distances "
+                                    f"(--evidence auto or attention), not to --evidence "
+                                    f"footprints")
     else:
         for dest in MERGE_ONLY:
             if given(dest):
@@ -191,7 +220,8 @@ def _refuse_inapplicable(args) -> None:
 
 
 def cmd_solve(args) -> int:
-    from vggc_cp.solvers.sweep import get_selection, run_sweep
+    from vggc_cp.pipeline import grid_sweep
+    from vggc_cp.solvers.sweep import get_selection
 
     check_solver_name(args.solver)
     _refuse_inapplicable(args)
@@ -204,20 +234,14 @@ def cmd_solve(args) -> int:
         cpsat_solver_from_args(args, args.tau)  # bad --cpsat-params fail before any work
     else:
         solver = _make_solver(args.solver, args.tau)
+    k_pick, k_place = _grid_ranges(args.k_pick, args.k_place)
     with cluster_from_args(args) as cluster:
         trace, cfg, problem, t_dist = _problem(args, cluster)
-        kp, kq = _grid(problem, args.k_pick, args.k_place)
         if exact:
-            from vggc_cp.pipeline import greedy_then_exact
-
             solver = cpsat_solver_from_args(args, args.tau, n_obs=problem.n_obs)
-            sweeps = greedy_then_exact(problem, kp, kq, solver, jobs=args.jobs,
-                                       select=args.select, optimize=args.optimize,
-                                       progress=not args.quiet, executor=cluster)
-            greedy, sweep = sweeps.greedy, sweeps.exact
-        else:
-            sweep = run_sweep(problem, solver, kp, kq, jobs=args.jobs, select=args.select,
-                              progress=not args.quiet, executor=cluster)
+        grid = grid_sweep(problem, solver, k_pick, k_place, jobs=args.jobs, select=args.select,
+                          optimize=args.optimize, progress=not args.quiet, executor=cluster)
+    greedy, sweep, kp, kq = grid.greedy, grid.sweep, grid.k_pick, grid.k_place
     if exact and args.solver == "both" and greedy.best is not None:
         g = greedy.best
         print(f"greedy         selected k_pick {g.k_pick}, k_place {g.k_place}: "
@@ -227,7 +251,8 @@ def cmd_solve(args) -> int:
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
     print(f"distances      {t_dist:.1f} s")
     print(f"sweep          {sweep.solver}, k_pick {kp.start}..{kp.stop - 1} x k_place "
-          f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cells, {n_found} with a colouring, "
+          f"{kq.start}..{kq.stop - 1}: {len(sweep.results)} cell{'' if len(sweep.results) == 1 else 's'}, "
+          f"{n_found} with a colouring, "
           f"{sweep.seconds:.1f} s (jobs {args.jobs})")
     if not args.quiet and args.table == "cells":
         table = sweep.table()[["k_pick", "k_place", "feasible", "status", "J", "seconds",
@@ -279,11 +304,11 @@ def _problem(args, executor=None):
 def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
     """Write the chosen result as the solution JSON and print its summary line."""
     from vggc_cp.pipeline import solution_record
-    from vggc_cp.solution import write_solution
+    from vggc_cp.solution import jsonable, write_solution
 
     graph = problem.graph(best.labels)
     data = solution_record(problem, best, distances=_config_record(cfg), trace=str(args.trace),
-                           trace_sha256=trace.content_hash(), stats=_jsonable(best.stats),
+                           trace_sha256=trace.content_hash(), stats=jsonable(best.stats),
                            **extra)
     write_solution(args.output, data, timings=getattr(args, "timings", False))
     counts = graph.count_by_role()
@@ -305,27 +330,23 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
 
 
 def _learn_options(args):
-    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options."""
-    from vggc_cp.errors import lookup
-    from vggc_cp.pipeline import EVIDENCES, LearnConfig
-    from vggc_cp.solvers.merge import PATH_SELECTIONS
+    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options (it refuses an
+    unknown evidence or rule, naming the known ones)."""
+    from vggc_cp.pipeline import LearnConfig
 
-    rule = args.select or "mdl"
-    lookup(PATH_SELECTIONS, rule, "path selection rule")
-    lookup({e: e for e in EVIDENCES}, args.evidence, "evidence")
     thresholds = _parse_thresholds(args.thresholds)
-    cfg = config_from_args(args)
-    evidence = cfg.backend if args.evidence == "attention" else args.evidence
-    return LearnConfig(evidence=evidence, distance=cfg, rule=rule,
-                        thresholds=None if thresholds is None else tuple(thresholds)), cfg
+    return LearnConfig(evidence=args.evidence, distance=config_from_args(args),
+                       rule=args.select or "mdl",
+                       thresholds=None if thresholds is None else tuple(thresholds),
+                       fallback=getattr(args, "fallback", None) or "refused")
 
 
 def _solve_merge(args) -> int:
     """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
-    from vggc_cp.pipeline import FOOTPRINTS, learn_graph
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.trace import load_trace
 
-    options, cfg = _learn_options(args)
+    options = _learn_options(args)
     trace = load_trace(args.trace)
     learned = learn_graph(trace, options, progress=not args.quiet)
     chosen = learned.chosen
@@ -339,7 +360,8 @@ def _solve_merge(args) -> int:
         print(f"evidence     {mark} {cand.evidence:<11} {cand.best.n_nodes} nodes, description "
               f"length {cand.description_length:.1f}, "
               f"{'suspect' if cand.confidence.suspect else 'no warning'} ({cand.seconds:.1f} s)")
-    print(f"merge path     {len(path.results)} thresholds, {path.seconds:.1f} s")
+    n = len(path.results)
+    print(f"merge path     {n} threshold{'' if n == 1 else 's'}, {path.seconds:.1f} s")
     if not args.quiet and args.table != "none":
         import pandas as pd
 
@@ -360,14 +382,13 @@ def _solve_merge(args) -> int:
                            "cannot_link": exact.cannot_link,
                            "seconds": round(exact.seconds, 3)}}
     conf = learned.confidence
-    # the settings of the evidence that was chosen (the fallback's backend, not --attention's)
-    settings = (options.footprint if chosen.evidence == FOOTPRINTS
-                else dataclasses.replace(cfg, backend=chosen.evidence))
-    _write_chosen(args, trace, settings,
-                  problem, best, f"threshold {learned.threshold:.4f} ({path.rule})",
-                  **_jsonable(learned.solution_fields()),
-                  seconds={"learn": round(learned.seconds, 3), "merge": round(path.seconds, 3)},
-                  **extra)
+    learned.save(args.output, timings=getattr(args, "timings", False), **extra)
+    graph = learned.graph
+    counts = graph.count_by_role()
+    print(f"chosen         threshold {learned.threshold:.4f} ({path.rule}): {graph.n_nodes} "
+          f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
+          f"J {best.J:.4f}, {best.status}")
+    print(f"wrote          {args.output}")
     print(f"confidence     {conf.summary()}")
     _print_doubts(learned.doubts)
     if conf.suspect:
@@ -389,15 +410,6 @@ def _print_doubts(doubts) -> None:
     for line in format_doubts(doubts):
         print(f"  {line}")
 
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if hasattr(obj, "item"):
-        return obj.item()
-    return obj
 
 
 # ------------------------------------------------------------------ plan
@@ -425,13 +437,21 @@ def cmd_plan(args) -> int:
     graph = solution.edge_graph()
     start, goal = int(solution.labels[args.start_obs]), int(solution.labels[args.goal_obs])
     role = {u: ROLE_NAMES[r] if r >= 0 else "mixed" for u, r in graph.node_role.items()}
+    plan = shortest_plan(graph, start, goal)
+    if args.json:
+        found = plan is not None
+        print(json.dumps({"start_obs": args.start_obs, "start": start, "start_role": role[start],
+                          "goal_obs": args.goal_obs, "goal": goal, "goal_role": role[goal],
+                          "found": found, "length": len(plan) if found else None,
+                          "actions": [graph.action_names[a] for _, a, _ in plan or ()],
+                          "steps": format_plan(graph, plan) if found else []}, indent=2))
+        return 0 if found else 1
     print(f"start          observation {args.start_obs} -> node {start} ({role[start]})")
     print(f"goal           observation {args.goal_obs} -> node {goal} ({role[goal]})")
-    plan = shortest_plan(graph, start, goal)
     if plan is None:
         print(f"plan           none: node {goal} is unreachable from node {start}")
         return 1
-    print(f"plan           {len(plan)} actions")
+    print(f"plan           {len(plan)} action{'' if len(plan) == 1 else 's'}")
     for i, step in enumerate(format_plan(graph, plan), 1):
         print(f"  {i:>3}. {step}")
     return 0
@@ -466,7 +486,8 @@ def cmd_image_plan(args) -> int:
     if not result.found:
         print(f"plan           none: node {result.goal} is unreachable from node {result.start}")
         return 1
-    print(f"plan           {len(result.actions)} actions")
+    n = len(result.actions)
+    print(f"plan           {n} action{'' if n == 1 else 's'}")
     for i, step in enumerate(result.steps, 1):
         print(f"  {i:>3}. {step}")
     return 0
@@ -485,11 +506,8 @@ def _bench_trace(args):
     path = root / f"{BENCH_NAME}-d{args.transitions}-s{args.seed}.npz"
     if path.is_file():
         return load_trace(path), path, 0.0
-    try:
-        from vggc_cp.sim.explore import generate
-    except ImportError:
-        raise VggcError("bench sweep needs the simulator (vggc_cp.sim) to generate "
-                        f"{BENCH_NAME}") from None
+    from vggc_cp.sim.explore import generate
+
     t0 = time.perf_counter()
     trace = generate(BENCH_NAME, args.transitions, args.seed).trace
     save_trace(trace, path)
@@ -511,10 +529,15 @@ def cmd_bench_solve(args) -> int:
     print(f"solve          {name}: {trace.n_obs} observations")
     print(f"  default (pipeline, evidence {t.default_evidence}): {t.default_seconds:.1f} s, "
           f"{t.default_nodes} nodes{', suspect' if t.default_suspect else ''}")
+    print(f"  footprints alone (--evidence footprints): {t.footprints_seconds:.1f} s, "
+          f"{t.footprints_nodes} nodes")
     print(f"  baseline, previous default (saliency Sinkhorn, uncached, + cascade): "
           f"{t.previous_seconds:.1f} s, {t.previous_nodes} nodes")
     verdict = "within" if t.ratio <= args.limit else "OVER"
     print(f"  ratio {t.ratio:.2f}x: {verdict} the {args.limit:g}x target")
+    fp_verdict = "within" if t.footprints_ratio <= args.fallback_limit else "OVER"
+    print(f"  default / footprints alone {t.footprints_ratio:.2f}x: {fp_verdict} the "
+          f"{args.fallback_limit:g}x target (what the fallback costs)")
     return 0
 
 
@@ -526,6 +549,9 @@ def cmd_bench_sweep(args) -> int:
 
     if args.jobs < 1:
         raise VggcError(f"--jobs must be at least 1, got {args.jobs}")
+    from vggc_cp.safeio import check_trace_budget
+
+    check_trace_budget(args.transitions, 64, "--transitions")
     trace, path, t_gen = _bench_trace(args)
     how = f"generated in {t_gen:.1f} s" if t_gen else "cached"
     print(f"trace          {path} ({how})", file=sys.stderr)

@@ -65,27 +65,32 @@ def register_evaluate(sub) -> None:
 def cmd_evaluate(args) -> int:
     if args.queries < 1:
         raise VggcError(f"--queries must be positive, got {args.queries}")
+    if args.consistency is not None and args.reading != "paper":  # before any work
+        raise VggcError("--consistency applies to --reading paper only")
     trace = load_trace(args.trace)
     solution = read_solution(args.solution)
     graph = verify_solution(solution, trace, args.solution, args.trace)
+    loaded = i2p_inputs(args, trace, solution)  # --model / --novel checked before any work
+    localizer = loaded[0] if loaded else _paper_localizer(args, solution)
     metrics, used = evaluate_trace(trace, graph, solution.labels, n_queries=args.queries,
                                    seed=args.seed, dynamics=args.dynamics)
     out = metrics.as_dict() | {"dynamics": used, "solver": solution.solver}
     if solution.extra.get("constraints") == "none":
         out["exactly_one_violations"] = len(check(graph).of_kind("exactly_one"))
-    i2p = i2p_results(args, trace, solution)
+    i2p = i2p_results(args, trace, solution, loaded)
     if i2p is not None:
         out["i2p"] = i2p
     calibration = _calibration(solution, out)
     if calibration is not None:
         out["warning"] = calibration
-    paper = _paper_reading(args, trace, graph, solution)
+    paper = _paper_reading(args, trace, graph, solution, localizer)
     if paper is not None:
         out["paper_reading"] = paper.as_dict()
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    print(f"learned graph  {metrics.nodes} nodes, {metrics.edges} edges ({solution.solver}, "
+    print(f"learned graph  {metrics.nodes} node{'' if metrics.nodes == 1 else 's'}, "
+          f"{metrics.edges} edge{'' if metrics.edges == 1 else 's'} ({solution.solver}, "
           f"k = ({solution.k_pick}, {solution.k_place}), J = {solution.J:.4g})")
     print(f"true graph G*  {metrics.true_states} states, {metrics.true_edges} transitions")
     print(f"queries        Q = {metrics.queries} (seed {args.seed}); Exec on {used} dynamics")
@@ -110,18 +115,24 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
-def _paper_reading(args, trace, graph, solution):
+def _paper_localizer(args, solution):
+    """The ``--model`` of ``--reading paper`` (its assignment map f), read and checked before
+    any work; None without one."""
+    if args.reading != "paper" or args.model is None:
+        return None
+    from vggc_cp.localize import check_model_matches, load_localizer
+
+    localizer = load_localizer(args.model)
+    check_model_matches(localizer, solution, args.model)
+    return localizer
+
+
+def _paper_reading(args, trace, graph, solution, localizer=None):
     """The paper's reading for ``--reading paper`` (None for ``exact``)."""
     if args.reading != "paper":
         if args.consistency is not None:
             raise VggcError("--consistency applies to --reading paper only")
         return None
-    localizer = None
-    if args.model is not None:
-        from vggc_cp.localize import check_model_matches, load_localizer
-
-        localizer = load_localizer(args.model)
-        check_model_matches(localizer, solution, args.model)
     return evaluate_trace_paper(trace, graph, solution.labels, n_queries=args.queries,
                                 seed=args.seed, consistency=args.consistency or "all",
                                 localizer=localizer)
@@ -202,8 +213,9 @@ def cmd_bench_evaluate(args) -> int:
     return 0
 
 
-def i2p_results(args, trace, solution) -> dict | None:
-    """I2P figures for ``evaluate`` when ``--model`` was given (None otherwise)."""
+def i2p_inputs(args, trace, solution) -> tuple | None:
+    """The localizer and novel renders of ``evaluate --model M --novel N``, read and checked
+    (:func:`vggc_cp.evaluate.i2p.load_checkpoint`) before any work; None without them."""
     if getattr(args, "model", None) is None and getattr(args, "novel", None) is None:
         return None
     if args.model is None or args.novel is None:
@@ -212,11 +224,21 @@ def i2p_results(args, trace, solution) -> dict | None:
         raise VggcError("I2P evaluation needs both --model and --novel")
     if args.i2p_queries < 1:
         raise VggcError(f"--i2p-queries must be positive, got {args.i2p_queries}")
+    from vggc_cp.evaluate.i2p import load_checkpoint
+
+    return load_checkpoint(trace, solution, args.model, args.novel, args.trace)
+
+
+def i2p_results(args, trace, solution, loaded: tuple | None) -> dict | None:
+    """I2P figures for ``evaluate`` of what :func:`i2p_inputs` read (None without it)."""
+    if loaded is None:
+        return None
     from vggc_cp.evaluate.i2p import measure_checkpoint
 
     return measure_checkpoint(trace, solution, args.model, args.novel,
                               n_queries=args.i2p_queries, seed=args.seed,
-                              dynamics=args.dynamics, trace_source=args.trace).as_dict()
+                              dynamics=args.dynamics, trace_source=args.trace,
+                              loaded=loaded).as_dict()
 
 
 def print_i2p(d: dict) -> None:

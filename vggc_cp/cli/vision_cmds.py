@@ -97,15 +97,24 @@ def cmd_distances(args) -> int:
     return 0
 
 
+#: most observations one show-attention picture draws
+MAX_INDICES = 64
+
+
 def parse_indices(text: str, n: int) -> list[int]:
-    """``"0,5,9"`` -> ``[0, 5, 9]``, each in ``[0, n)``; a clear error otherwise."""
+    """``"0,5,9"`` -> ``[0, 5, 9]``, each in ``[0, n)``, at most :data:`MAX_INDICES`; a clear
+    error otherwise."""
     out = []
-    for part in text.split(","):
+    parts = text.split(",", MAX_INDICES + 1)
+    if len(parts) > MAX_INDICES:
+        raise VggcError(f"--indices: more than {MAX_INDICES} indices, above the cap of "
+                        f"{MAX_INDICES} (vision_cmds.MAX_INDICES)")
+    for part in parts:
         part = part.strip()
         try:
             i = int(part)
         except ValueError:
-            raise VggcError(f"--indices: {part!r} is not an integer") from None
+            raise VggcError(f"--indices: {part[:40]!r} is not an integer") from None
         if not 0 <= i < n:
             raise VggcError(f"--indices: observation {i} is out of range [0, {n - 1}]")
         out.append(i)
@@ -136,7 +145,7 @@ def cmd_show_attention(args) -> int:
     roles = trace.roles()
     titles = [f"o{i} ({ROLE_NAMES[roles[i]]})" for i in idx]
     draw_attention(trace.observations[idx], maps, titles, args.output)
-    print(f"wrote {args.output} ({len(idx)} images, {args.attention} on a "
+    print(f"wrote {args.output} ({len(idx)} image{'' if len(idx) == 1 else 's'}, {args.attention} on a "
           f"{args.grid}x{args.grid} grid)")
     return 0
 

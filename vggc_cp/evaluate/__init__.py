@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import sys
 
 import numpy as np
@@ -33,10 +32,11 @@ def simulator_step(trace: Trace, gt: GroundTruth) -> StepFn | None:
     name = trace.meta.get("benchmark") if trace.meta else None
     if not name:
         return None
+    from vggc_cp.sim import get_benchmark
+
     try:
-        sim = importlib.import_module("vggc_cp.sim")
-        bench = sim.get_benchmark(name)
-    except (ImportError, AttributeError, VggcError):
+        bench = get_benchmark(name)
+    except (TypeError, VggcError):  # not a benchmark the simulator knows
         return None
     return gt.step_from_names(bench.step, trace.action_names)
 
@@ -46,10 +46,12 @@ def _sim_mismatch(trace: Trace, gt: GroundTruth) -> str | None:
     actions (state keys written another way, foreign action names), or None when it can."""
     name = trace.meta.get("benchmark")
     src = getattr(trace, "source", None) or "the trace"
+    from vggc_cp.sim import get_benchmark
+
     try:
-        bench = importlib.import_module("vggc_cp.sim").get_benchmark(name)
-    except (ImportError, AttributeError, VggcError):
-        return f"{src}: meta names benchmark {name!r}, which the simulator does not know"
+        bench = get_benchmark(name)
+    except (TypeError, VggcError):
+        return f"{src}: meta names benchmark {str(name)[:60]!r}, which the simulator does not know"
     known = set(getattr(bench, "action_names", ()))
     for i, a in enumerate(trace.action_names):
         if known and a not in known:
@@ -87,6 +89,10 @@ def resolve_dynamics(trace: Trace, gt: GroundTruth, dynamics: str) -> tuple[Step
         return None, "trace"
     if dynamics == "sim":
         raise VggcError("--dynamics sim: the trace's meta names no known benchmark")
+    name = trace.meta.get("benchmark") if trace.meta else None
+    if name:  # a benchmark the simulator does not know: say so, as for foreign states
+        print(f"vggc-cp: note: {_sim_mismatch(trace, gt)}; Exec uses the trace's own "
+              f"transitions (--dynamics trace)", file=sys.stderr)
     return None, "trace"
 
 

@@ -225,12 +225,11 @@ def train_and_measure(trace, trace_path, solution_path, model_path, novel_path, 
     return metrics, report.seconds
 
 
-def measure_checkpoint(trace, solution, model_path, novel_path, *, n_queries: int = 150,
-                       seed: int = 0, dynamics: str = "auto", trace_source: str = "") -> I2PMetrics:
-    """:func:`evaluate_localizer` of a saved localizer (``model_path``) on saved novel renders
-    (``novel_path``), after checking that the model was trained on ``solution``'s nodes and
-    that the renders show states the trace visited (``trace_source`` names the trace in the
-    message)."""
+def load_checkpoint(trace, solution, model_path, novel_path, trace_source: str = "") -> tuple:
+    """The localizer at ``model_path`` and the novel renders at ``novel_path`` (``(localizer,
+    observations, states)``), checked before any measuring: the model was trained on
+    ``solution``'s nodes and the renders show states the trace visited (``trace_source`` names
+    the trace in the message)."""
     from vggc_cp.localize import check_model_matches, load_localizer
     from vggc_cp.sim.novel import load_novel
 
@@ -240,5 +239,16 @@ def measure_checkpoint(trace, solution, model_path, novel_path, *, n_queries: in
     if trace.states is not None and not set(states.tolist()) & set(trace.states.tolist()):
         raise VggcError(f"{novel_path}: none of its {len(states)} images shows a state that "
                         f"the trace {trace_source} visited (another benchmark or seed?)")
+    return localizer, obs, states
+
+
+def measure_checkpoint(trace, solution, model_path, novel_path, *, n_queries: int = 150,
+                       seed: int = 0, dynamics: str = "auto", trace_source: str = "",
+                       loaded: tuple | None = None) -> I2PMetrics:
+    """:func:`evaluate_localizer` of a saved localizer (``model_path``) on saved novel renders
+    (``novel_path``), read and checked by :func:`load_checkpoint` (or given as ``loaded``,
+    what it returned)."""
+    localizer, obs, states = loaded or load_checkpoint(trace, solution, model_path, novel_path,
+                                                       trace_source)
     return evaluate_localizer(trace, solution, localizer, obs, states, n_queries=n_queries,
                               seed=seed, dynamics=dynamics)

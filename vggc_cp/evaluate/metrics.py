@@ -38,6 +38,10 @@ from vggc_cp.evaluate.groundtruth import GroundTruth, StepFn
 from vggc_cp.graph import ShortestPathDAG, TaskGraph, shortest_path_dag
 
 Localizer = Callable[[int], int]  # observation index -> learned node
+#: The Exec a learned graph must reach to count as usable: the acceptance rule of the
+#: robustness study (:mod:`vggc_cp.experiments.robustness`) and the dashed line of
+#: :func:`vggc_cp.plots.plot_exec`.
+MIN_EXEC = 0.90
 
 
 @dataclass(frozen=True)

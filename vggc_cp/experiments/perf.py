@@ -1,4 +1,8 @@
-"""``vggc-cp bench solve``: the default ``solve`` against the previous default, in one run.
+"""``vggc-cp bench solve`` and ``vggc-cp bench startup``: each against a baseline, in one run.
+
+``bench startup`` times ``python -m vggc_cp --help`` (and ``plan --help``) against
+``python -c pass`` and lists the modules the command loads (``sys.modules`` once it has run):
+a command imports what it needs when it runs, so no help imports :data:`HEAVY_MODULES`.
 
 The previous default (before the pipeline) was the paper's saliency attention with batched
 Sinkhorn divergences and congruence-closure merging with the ``cascade`` threshold rule; the
@@ -8,8 +12,13 @@ process, neither reads a distance cache, and the ratio of their wall times is pr
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from vggc_cp.pipeline import learn_graph
 from vggc_cp.solvers.base import Problem
@@ -28,10 +37,18 @@ class SolveTiming:
     default_suspect: bool
     previous_seconds: float
     previous_nodes: int
+    footprints_seconds: float = float("nan")
+    footprints_nodes: int = 0
 
     @property
     def ratio(self) -> float:
         return self.default_seconds / self.previous_seconds
+
+    @property
+    def footprints_ratio(self) -> float:
+        """The default's time over the footprint evidence's alone (``--evidence footprints``):
+        what the default's fallback costs beyond it."""
+        return self.default_seconds / self.footprints_seconds
 
 
 def time_previous_default(trace: Trace, threads: int | None = None) -> tuple[float, int]:
@@ -44,8 +61,8 @@ def time_previous_default(trace: Trace, threads: int | None = None) -> tuple[flo
 
 
 def bench_solve(trace: Trace, threads: int | None = None) -> SolveTiming:
-    """Time the current default (:func:`learn_graph`, its keypoint fallback uncached) and the
-    previous one on ``trace``."""
+    """Time the current default (:func:`learn_graph`, its keypoint fallback uncached where it
+    runs), the footprint evidence alone and the previous default on ``trace``."""
     from dataclasses import replace
 
     from vggc_cp.pipeline import LearnConfig
@@ -56,6 +73,116 @@ def bench_solve(trace: Trace, threads: int | None = None) -> SolveTiming:
     t0 = time.perf_counter()
     learned = learn_graph(trace, options)
     seconds = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    alone = learn_graph(trace, replace(options, evidence="footprints"))
+    fp_seconds = time.perf_counter() - t0
     prev_s, prev_n = time_previous_default(trace, threads)
     return SolveTiming(seconds, learned.graph.n_nodes, learned.chosen.evidence,
-                       learned.confidence.suspect, prev_s, prev_n)
+                       learned.confidence.suspect, prev_s, prev_n, fp_seconds,
+                       alone.graph.n_nodes)
+
+
+# ---------------------------------------------------------------- bench startup
+
+#: Packages that building the command line must not import: each command imports the ones it
+#: needs when it runs, so ``vggc-cp --help`` and every sub-command's ``--help`` start fast.
+HEAVY_MODULES = ("torch", "ortools", "pybullet", "matplotlib", "pandas", "ot", "scipy",
+                 "sklearn", "dask", "pyarrow", "h5py", "av")
+#: The commands ``bench startup`` times.
+STARTUP_COMMANDS = (("--help",), ("plan", "--help"))
+
+
+@dataclass(frozen=True)
+class StartupTiming:
+    """One command's start: the fastest wall time, the interpreter's, and what it imported.
+
+    Attributes
+    ----------
+    argv : tuple of str
+        Arguments of ``python -m vggc_cp``.
+    seconds : float
+        Fastest wall-clock seconds of the command over the repeats.
+    cpu_seconds : float
+        CPU seconds (user + system) of that command's fastest run: near its wall time on an
+        idle machine, and unlike it not stretched by other processes.
+    baseline_seconds : float
+        Fastest wall-clock seconds of ``python -c pass``, measured in the same run.
+    modules : int
+        Modules the command imports (the interpreter's own start-up included).
+    heavy : tuple of str
+        The :data:`HEAVY_MODULES` among them (should be empty).
+    """
+
+    argv: tuple[str, ...]
+    seconds: float
+    cpu_seconds: float
+    baseline_seconds: float
+    modules: int
+    heavy: tuple[str, ...]
+
+    @property
+    def ratio(self) -> float:
+        return self.seconds / self.baseline_seconds
+
+
+def run_python(args: list[str]) -> subprocess.CompletedProcess:
+    """Run this interpreter on ``args`` with this checkout's package first on the path."""
+    root = str(Path(__file__).resolve().parents[2])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [root, *filter(None, [os.environ.get("PYTHONPATH")])]))
+    return subprocess.run([sys.executable, *args], cwd=root, env=env, capture_output=True,
+                          text=True, check=False)
+
+
+#: Runs the command line on ``sys.argv[1:]`` and prints the modules loaded, as the last line.
+_MODULES_AFTER = """
+import json, sys
+from vggc_cp.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit:
+    pass
+print("\\n" + json.dumps(sorted(sys.modules)))
+"""
+
+
+def imported_modules(argv: tuple[str, ...]) -> list[str]:
+    """The modules loaded once ``vggc-cp *argv`` has run in a fresh interpreter (sorted; the
+    interpreter's own start-up included)."""
+    res = run_python(["-c", _MODULES_AFTER, *argv])
+    lines = res.stdout.strip().splitlines()
+    if res.returncode != 0 or not lines:
+        raise RuntimeError(f"vggc-cp {' '.join(argv)} failed: {res.stderr.strip()[-400:]}")
+    return json.loads(lines[-1])
+
+
+def heavy_among(modules) -> tuple[str, ...]:
+    """The :data:`HEAVY_MODULES` whose package is among ``modules``, sorted."""
+    tops = {m.split(".")[0] for m in modules}
+    return tuple(sorted(tops & set(HEAVY_MODULES)))
+
+
+def _children_cpu() -> float:
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _fastest(args: list[str], repeats: int) -> tuple[float, float]:
+    """Wall and CPU seconds of the fastest of ``repeats`` runs of ``python *args``."""
+    best = (float("inf"), float("inf"))
+    for _ in range(max(1, repeats)):
+        c0, t0 = _children_cpu(), time.perf_counter()
+        run_python(args)
+        best = min(best, (time.perf_counter() - t0, _children_cpu() - c0))
+    return best
+
+
+def time_startup(argv: tuple[str, ...], repeats: int = 5) -> StartupTiming:
+    """Time ``python -m vggc_cp *argv`` against ``python -c pass`` (the fastest of
+    ``repeats`` runs each, interleaved in one run) and list its imports."""
+    seconds, cpu = _fastest(["-m", "vggc_cp", *argv], repeats)
+    base, _ = _fastest(["-c", "pass"], repeats)
+    modules = imported_modules(argv)
+    return StartupTiming(tuple(argv), seconds, cpu, base, len(modules), heavy_among(modules))

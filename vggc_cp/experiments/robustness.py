@@ -30,7 +30,6 @@ and :func:`write_tables` writes ``robustness.csv`` and ``robustness.md``.
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import math
 import os
@@ -40,20 +39,23 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
+from vggc_cp.evaluate.metrics import MIN_EXEC
+from vggc_cp.experiments.cells import file_sha256, read_cell
 from vggc_cp.experiments.table1 import (
     BACKENDS,
     _cached,
-    _jsonable,
     _spread,
     exploration_of,
     split_cached,
     trace_is_current,
 )
 from vggc_cp.sim import benchmark_names, get_spec
+from vggc_cp.sim.looks import LOOKS
+from vggc_cp.solution import jsonable
 
 CELL_FORMAT = "vggc-robustness-cell/1"
-#: The acceptance rule of one run (fractions; nodes as a multiple of |V*|).
-MIN_EXEC = 0.90
+#: The acceptance rule of one run (fractions; nodes as a multiple of |V*|); the Exec bar is
+#: :data:`vggc_cp.evaluate.metrics.MIN_EXEC`.
 NODES_LOW = 0.9
 NODES_HIGH = 1.1
 MIN_OPT_PATH = 0.95
@@ -95,11 +97,7 @@ def _default_looks() -> tuple[str, ...]:
 
 
 def looks_available() -> tuple[str, ...]:
-    """The looks this checkout's renderer knows (``clean`` only before the looks were added)."""
-    try:
-        from vggc_cp.sim.looks import LOOKS
-    except ImportError:
-        return (CLEAN,)
+    """The looks this checkout's renderer knows (:data:`vggc_cp.sim.looks.LOOKS`)."""
     return tuple(LOOKS)
 
 
@@ -269,17 +267,22 @@ def i2p_key(cfg: RobustnessConfig) -> dict:
     """The settings of a cell's I2P figures (novel renders, queries, localizer training)."""
     from vggc_cp.localize import TrainConfig
 
-    return _jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
-                      "train": TrainConfig().as_dict()})
+    return jsonable({"novel": cfg.novel, "queries": cfg.i2p_queries,
+                     "train": TrainConfig().as_dict()})
+
+
+def _source_path(name: str) -> Path:
+    """The source file of the package's module ``name`` (read, not imported)."""
+    parts = name.split(".")
+    path = Path(__file__).parents[1].joinpath(*parts[1:])
+    return path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
 
 
 def code_digest() -> str:
     """SHA-256 (12 hex digits) of the source of :data:`CODE_MODULES`."""
     h = hashlib.sha256()
     for name in CODE_MODULES:
-        spec = importlib.util.find_spec(name)
-        if spec is not None and spec.origin and Path(spec.origin).is_file():
-            h.update(name.encode() + b"\0" + Path(spec.origin).read_bytes())
+        h.update(name.encode() + b"\0" + _source_path(name).read_bytes())
     return h.hexdigest()[:12]
 
 
@@ -290,7 +293,7 @@ def learn_key() -> dict:
     opts = LearnConfig()
     out = {k: v for k, v in asdict(opts).items() if k != "distance"}
     out["distance"] = opts.distance.key()
-    return _jsonable(out)
+    return jsonable(out)
 
 
 def cell_jobs(cfg: RobustnessConfig) -> list[RobustCell]:
@@ -327,7 +330,7 @@ def cached_row(job: RobustCell) -> dict | None:
     """The cached row of ``job`` when it was made with the same settings (and, when the cell
     measures I2P, holds I2P figures made with the same I2P settings), else None. A row with
     I2P figures also serves a run that does not measure them."""
-    row = _cached(job.cell_path, job.key, "row")
+    row = read_cell(job.cell_path, job.key, job.trace_path)  # validated, tied to its trace
     if row is None or not job.i2p:
         return row
     return row if _cached(job.cell_path, job.key, "i2p_key") == job.i2p_key else None
@@ -416,11 +419,11 @@ def run_cell(job: RobustCell) -> dict:
                    labels_solution(trace, learned.labels, solver="learn_graph",
                                    status="feasible", evidence=learned.chosen.evidence,
                                    threshold=_finite(learned.threshold),
-                                   confidence=_jsonable(conf.as_dict())))
+                                   confidence=jsonable(conf.as_dict())))
     if job.i2p:
         row |= run_i2p(job, trace)
-    row = _jsonable(row)
-    record = {"key": job.key, "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {})
+    row = jsonable(row)
+    record = ({"key": job.key, "trace_sha256": file_sha256(job.trace_path), "row": row} | ({"i2p_key": job.i2p_key} if job.i2p else {}))
     write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
     return row
 

@@ -42,7 +42,6 @@ seeds, laid out like the paper's Table 1, with the paper's rows beside ours).
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
@@ -50,7 +49,17 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError, lookup
+from vggc_cp.experiments.table1_methods import (
+    METHODS,
+    VISUAL_METHODS,
+    CellJob,
+    generate_trace,
+    render_novel,
+    run_cell,
+    store_distances,
+)
 from vggc_cp.parallel import BACKENDS, Backend, check_backend, open_executor
+from vggc_cp.solution import jsonable
 from vggc_cp.trace import load_trace
 
 CELL_FORMAT = "vggc-benchmark-cell/1"
@@ -65,8 +74,6 @@ METHOD_TITLES = {"greedy": "VGGC greedy", "cpsat": "VGGC CP-SAT", "pca-hdbscan":
 #: The methods of a run when none are named: the paper's Table 1 (VGGC and its two baselines),
 #: our exact CP-SAT version of VGGC, and the merge rule with its exact counterpart.
 DEFAULT_METHODS = ("greedy", "cpsat", "merge", "cpsat-merge", "pca-hdbscan", "lsr")
-#: Methods that need the visual distances of a trace.
-VISUAL_METHODS = ("greedy", "cpsat", "merge", "cpsat-merge")
 
 
 # ---------------------------------------------------------------- configuration
@@ -135,8 +142,6 @@ class BenchmarkConfig:
 
         for b in self.benchmarks:
             get_spec(b)
-        from vggc_cp.experiments.table1_methods import METHODS
-
         for m in self.methods:
             lookup(METHODS, m, "method")
         if not self.benchmarks or not self.methods or not self.seeds:
@@ -156,10 +161,8 @@ class BenchmarkConfig:
                             f"{self.novel} and {self.i2p_queries}")
         lookup({b: b for b in BACKENDS}, self.backend, "backend")
         if self.attention != "auto":
-            try:
-                from vggc_cp.vision.attention import ATTENTION_BACKENDS
-            except ImportError:
-                ATTENTION_BACKENDS = {self.attention: None}
+            from vggc_cp.vision.attention import ATTENTION_BACKENDS
+
             lookup({**ATTENTION_BACKENDS, "auto": None}, self.attention,
                    "attention backend")
 
@@ -190,35 +193,6 @@ class BenchmarkConfig:
         return Path(self.out) / "i2p" / f"{cell}.json"
 
 
-@dataclass(frozen=True)
-class CellJob:
-    """Everything a worker needs for one (benchmark, method, seed) cell (picklable).
-
-    Attributes
-    ----------
-    benchmark, method : str
-    seed : int
-    trace_path, distances_path, solution_path, cell_path : Path
-    queries : int
-    options : dict
-        The method's options.
-    key : dict
-        The settings a cached row must match to be reused.
-    """
-
-    benchmark: str
-    method: str
-    seed: int
-    trace_path: Path
-    distances_path: Path
-    solution_path: Path
-    cell_path: Path
-    queries: int
-    options: dict
-    key: dict
-    attention: str = "saliency"
-
-
 def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
     """Every cell of the run, benchmark-major then seed then method."""
     out = Path(cfg.out)
@@ -234,7 +208,7 @@ def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
                 options = dict(cfg.options.get(method, {}))
                 key = {"format": CELL_FORMAT, "benchmark": bench, "method": method,
                        "seed": int(seed), "transitions": cfg.n_transitions(bench),
-                       "queries": cfg.queries, "options": _jsonable(options)}
+                       "queries": cfg.queries, "options": jsonable(options)}
                 if method in VISUAL_METHODS:
                     key["distances"] = dist_key
                 jobs.append(CellJob(bench, method, int(seed), tpath,
@@ -247,15 +221,12 @@ def cell_jobs(cfg: BenchmarkConfig) -> list[CellJob]:
 
 def _distance_key(attention: str = "saliency") -> tuple[dict, str]:
     """The distance settings (default but for the attention backend; part of a colouring
-    cell's key) and a short tag of them for file names; ``({}, "none")`` without
-    :mod:`vggc_cp.vision`."""
+    cell's key) and a short tag of them for file names."""
     import hashlib
 
-    try:
-        from vggc_cp.vision import DistanceConfig
-    except ImportError:
-        return {}, "none"
-    key = _jsonable(DistanceConfig(backend=attention).key())
+    from vggc_cp.vision import DistanceConfig
+
+    key = jsonable(DistanceConfig(backend=attention).key())
     return key, hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
 
 
@@ -282,8 +253,11 @@ def _cached(path: Path, key: dict, member: str) -> dict | None:
 
 
 def cached_row(job: CellJob) -> dict | None:
-    """The cached row of ``job`` when it was made with the same settings, else None."""
-    return _cached(job.cell_path, job.key, "row")
+    """The cached row of ``job`` when it was made with the same settings from the trace now on
+    disk and its fields can be trusted (:mod:`vggc_cp.experiments.cells`), else None."""
+    from vggc_cp.experiments.cells import TABLE1_REQUIRED, read_cell
+
+    return read_cell(job.cell_path, job.key, job.trace_path, TABLE1_REQUIRED)
 
 
 def exploration_of(benchmark: str) -> dict:
@@ -368,7 +342,7 @@ def i2p_jobs(cfg: BenchmarkConfig, rows: list[dict]) -> list[I2PJob]:
         name = cell.cell_path.stem
         key = {"format": I2P_FORMAT, "cell": cell.key, "novel": cfg.novel,
                "queries": cfg.i2p_queries,
-               "train": _jsonable(TrainConfig(seed=cell.seed).as_dict())}
+               "train": jsonable(TrainConfig(seed=cell.seed).as_dict())}
         jobs.append(I2PJob(cell.benchmark, cell.method, cell.seed, cell.trace_path,
                            cfg.novel_path(cell.benchmark, cell.seed), cell.solution_path,
                            cfg.model_path(name), cfg.i2p_path(name),
@@ -392,9 +366,9 @@ def run_i2p(job: I2PJob) -> tuple[tuple[str, str, int], dict]:
                "i2p_plan_found": m.plan_found, "seconds_localizer": round(seconds, 3),
                "i2p_images": m.images, "i2p_queries": m.queries, "i2p_dynamics": m.dynamics,
                "model": str(job.model_path)}
-    write_text(job.i2p_path, json.dumps({"key": job.key, "figures": _jsonable(figures)},
+    write_text(job.i2p_path, json.dumps({"key": job.key, "figures": jsonable(figures)},
                                         indent=1) + "\n")
-    return (job.benchmark, job.method, job.seed), _jsonable(figures)
+    return (job.benchmark, job.method, job.seed), jsonable(figures)
 
 
 def attach_i2p(cfg: BenchmarkConfig, rows: list[dict]) -> list[dict]:
@@ -411,8 +385,6 @@ def _run_i2p_phase(cfg: BenchmarkConfig, rows: list[dict], progress: bool) -> li
     todo = [j for j in i2p_jobs(cfg, rows) if cfg.force or cached_i2p(j) is None]
     novel = sorted({(j.benchmark, cfg.n_transitions(j.benchmark), j.seed, cfg.novel,
                      str(j.novel_path)) for j in todo if not j.novel_path.is_file()})
-    from vggc_cp.experiments.table1_methods import render_novel
-
     list(_spread(render_novel, novel, cfg, "novel renders", progress))
     list(_spread(run_i2p, todo, cfg, "localizers", progress))
     return attach_i2p(cfg, rows)
@@ -471,15 +443,11 @@ def run_benchmark(cfg: BenchmarkConfig, progress: bool = True) -> BenchmarkRun:
                               cfg.force)
     traces = sorted({(j.benchmark, j.seed, str(j.trace_path)) for j in todo
                      if not j.trace_path.is_file()})
-    from vggc_cp.experiments.table1_methods import generate_trace, store_distances
-
     list(_spread(generate_trace, [(b, cfg.n_transitions(b), s, p) for b, s, p in traces], cfg,
                  "traces", progress))
     dist = sorted({(str(j.trace_path), str(j.distances_path), j.attention) for j in todo
                    if j.method in VISUAL_METHODS and not j.distances_path.is_file()})
     list(_spread(store_distances, dist, cfg, "distances", progress))
-    from vggc_cp.experiments.table1_methods import run_cell
-
     for row in _spread(run_cell, todo, cfg, "cells", progress):
         rows[(row["benchmark"], row["method"], row["seed"])] = row
     ordered = [rows[(j.benchmark, j.method, j.seed)] for j in jobs]
@@ -511,20 +479,7 @@ def collect_rows(cfg: BenchmarkConfig) -> tuple[list[dict], int]:
 
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, Path):
-        return str(obj)
-    if isinstance(obj, float) and math.isnan(obj):
-        return None
-    if hasattr(obj, "item"):
-        return _jsonable(obj.item())
-    return obj
-
 
 def config_record(cfg: BenchmarkConfig) -> dict:
     """The run's settings as JSON values."""
-    return _jsonable(asdict(cfg))
+    return jsonable(asdict(cfg))

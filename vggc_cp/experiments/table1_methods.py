@@ -1,6 +1,9 @@
 """The methods of the Table 1 run (:mod:`vggc_cp.experiments.table1`) and one cell: learn a
 graph with a method, write its solution, evaluate it against ground truth, cache the row.
 
+The run imports this module, never the other way round: a cell's job (:class:`CellJob`) and
+the phase workers live here, the run's configuration and scheduling there.
+
 Methods (:data:`METHODS`, by name): ``greedy``, ``cpsat``, ``merge``, ``cpsat-merge``,
 ``pca-hdbscan`` and ``lsr``; see :mod:`vggc_cp.experiments.table1`.
 """
@@ -18,9 +21,41 @@ import numpy as np
 from vggc_cp.atomic import write_bytes, write_text
 from vggc_cp.errors import VggcError, lookup
 from vggc_cp.evaluate.paper import PAPER_METRICS
-from vggc_cp.experiments.table1 import VISUAL_METHODS, CellJob, _jsonable
+from vggc_cp.solution import jsonable
 from vggc_cp.solvers.base import SolveResult
 from vggc_cp.trace import Trace, load_trace, save_trace
+
+#: Methods that need the visual distances of a trace.
+VISUAL_METHODS = ("greedy", "cpsat", "merge", "cpsat-merge")
+
+
+@dataclass(frozen=True)
+class CellJob:
+    """Everything a worker needs for one (benchmark, method, seed) cell (picklable).
+
+    Attributes
+    ----------
+    benchmark, method : str
+    seed : int
+    trace_path, distances_path, solution_path, cell_path : Path
+    queries : int
+    options : dict
+        The method's options.
+    key : dict
+        The settings a cached row must match to be reused.
+    """
+
+    benchmark: str
+    method: str
+    seed: int
+    trace_path: Path
+    distances_path: Path
+    solution_path: Path
+    cell_path: Path
+    queries: int
+    options: dict
+    key: dict
+    attention: str = "saliency"
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,15 +88,10 @@ def compute_trace_distances(trace_path: Path, distances_path: Path,
     On a cache hit the seconds are those the cache file recorded when it was computed
     (attention + Sinkhorn); the stored file says ``cached``.
     """
-    try:
-        from vggc_cp.vision import DistanceConfig
-    except ImportError:
-        raise VggcError("the colouring methods need vggc_cp.vision (visual distances), which "
-                        "is not installed here; run the baselines only (--methods "
-                        "pca-hdbscan,lsr)") from None
     import io
 
     from vggc_cp.pipeline import visual_problem
+    from vggc_cp.vision import DistanceConfig
 
     vp = visual_problem(load_trace(trace_path), DistanceConfig(backend=attention),
                         cache_dir=distances_path.parent / "cache")
@@ -95,28 +125,21 @@ def _solved(problem, best: SolveResult, seconds: dict, **extra) -> MethodRun:
 def _colouring(trace: Trace, job: CellJob, solver_name: str) -> MethodRun:
     import vggc_cp.solvers.cpsat  # noqa: F401  (registers the solvers)
     import vggc_cp.solvers.greedy  # noqa: F401
-    from vggc_cp.pipeline import greedy_then_exact
+    from vggc_cp.pipeline import grid_sweep
     from vggc_cp.solvers import get_solver
-    from vggc_cp.solvers.sweep import default_grid, run_sweep
 
     problem, t_dist, cached = _visual_problem(trace, job)
     try:
         solver = get_solver(solver_name, **job.options)
     except TypeError as exc:
         raise VggcError(f"method {solver_name}: bad option ({exc})") from None
-    kp, kq = default_grid(problem)
-    if solver_name == "cpsat":
-        sweeps = greedy_then_exact(problem, kp, kq, solver)
-        sweep, search_seconds = sweeps.exact, sweeps.seconds
-    else:
-        sweep = run_sweep(problem, solver, kp, kq, jobs=1, select="fewest")
-        search_seconds = sweep.seconds
-    seconds = {"distances": round(t_dist, 3), "method": round(search_seconds, 3),
+    grid = grid_sweep(problem, solver, select="fewest")
+    seconds = {"distances": round(t_dist, 3), "method": round(grid.seconds, 3),
                "distances_cached": cached}
-    best = sweep.best
+    best = grid.best
     if best is None:
         return MethodRun(None, None, seconds)
-    return _solved(problem, best, seconds, select="fewest", grid=sweep.records())
+    return _solved(problem, best, seconds, select="fewest", grid=grid.sweep.records())
 
 
 @register_method("greedy")
@@ -249,9 +272,11 @@ def run_cell(job: CellJob) -> dict:
                 row[k] = run.solution[k]
     row["seconds_evaluate"] = round(time.perf_counter() - t0, 3)
     row["seconds"] = round(row["seconds_distances"] + row["seconds_method"], 3)
-    write_text(job.cell_path, json.dumps({"key": job.key, "row": _jsonable(row)}, indent=1)
-               + "\n")
-    return _jsonable(row)
+    from vggc_cp.experiments.cells import file_sha256
+
+    record = {"key": job.key, "trace_sha256": file_sha256(job.trace_path), "row": jsonable(row)}
+    write_text(job.cell_path, json.dumps(record, indent=1) + "\n")
+    return jsonable(row)
 
 
 # ---------------------------------------------------------------- phase workers

@@ -8,14 +8,13 @@ so a checkpoint needs only the name, the config and the state dict.
 * ``cnn`` (default): a small convolutional network trained from scratch on the trace; no
   pretrained weights. The spatial feature map is flattened (not pooled), so *where* an
   object lies on the table stays in the embedding.
-* ``dinov2``: the DINOv2 ViT of :mod:`vggc_cp.vision` (imported lazily), loaded from a local
+* ``dinov2``: the DINOv2 ViT of :mod:`vggc_cp.vision.dinov2` (imported when built), loaded from a local
   weights file and frozen except its last block and final norm; the embedding is the
   normalised CLS token.
 """
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 
 import torch
@@ -101,7 +100,8 @@ class Dinov2Backbone(nn.Module):
     def __init__(self, input_size: int = 112, arch: dict | None = None,
                  weights: str | None = None) -> None:
         super().__init__()
-        vision = _dinov2_module()
+        from vggc_cp.vision import dinov2 as vision
+
         if weights is None and arch is None:  # training: the weights file of the environment
             weights = str(vision.resolve_weights(None))
         if weights is not None:
@@ -139,15 +139,6 @@ class Dinov2Backbone(nn.Module):
 
 BACKBONES: dict[str, type[nn.Module]] = {"cnn": CnnBackbone, "dinov2": Dinov2Backbone}
 DEFAULT_BACKBONE = "cnn"
-
-
-def _dinov2_module():
-    """The vision package's DINOv2 module, imported lazily."""
-    try:
-        return importlib.import_module("vggc_cp.vision.dinov2")
-    except ImportError as exc:
-        raise VggcError(f"dinov2 backbone: the vision package's DINOv2 ViT is unavailable "
-                        f"({exc})") from None
 
 
 def backbone_names() -> tuple[str, ...]:

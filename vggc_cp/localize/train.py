@@ -23,6 +23,12 @@ from vggc_cp.localize.model import Augment, LocalizerNet, to_unit_tensor
 from vggc_cp.solution import Solution
 from vggc_cp.trace import ROLE_NAMES, Trace
 
+#: caps of the training settings (a NaN or absurd value is refused, not trained)
+MAX_LR = 10.0
+MAX_GAMMA = 1e4
+MAX_EPOCHS = 10_000
+MAX_FOLDS = 100
+
 
 @dataclass(frozen=True)
 class TrainConfig:
@@ -63,12 +69,33 @@ class TrainConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        if not self.learning_rates or any(lr <= 0 for lr in self.learning_rates):
-            raise VggcError("learning rates must be positive")
-        if not self.epoch_grid or any(e < 1 for e in self.epoch_grid):
-            raise VggcError("epoch counts must be positive")
-        if self.folds < 2:
-            raise VggcError(f"cross-validation needs at least 2 folds, got {self.folds}")
+        import math
+
+        from vggc_cp.safeio import CAPS, cap
+
+        if not self.learning_rates or any(not (math.isfinite(lr) and 0 < lr <= MAX_LR)
+                                          for lr in self.learning_rates):
+            raise VggcError(f"--lr {','.join(f'{x:g}' for x in self.learning_rates)}: learning "
+                            f"rates must be finite, positive and at most {MAX_LR:g}")
+        if not (math.isfinite(self.gamma) and 0 < self.gamma <= MAX_GAMMA):
+            raise VggcError(f"--gamma {self.gamma:g}: the cosine-head temperature must be "
+                            f"finite, positive and at most {MAX_GAMMA:g}")
+        if not self.epoch_grid or any(not 1 <= e <= MAX_EPOCHS for e in self.epoch_grid):
+            raise VggcError(f"--epochs {','.join(map(str, self.epoch_grid))}: epoch counts must "
+                            f"be from 1 to {MAX_EPOCHS:,}")
+        if not 2 <= self.folds <= MAX_FOLDS:
+            raise VggcError(f"--folds {self.folds}: cross-validation needs 2 to {MAX_FOLDS} "
+                            f"folds")
+        if self.input_size is not None:
+            lo = cap("min_side")
+            if self.input_size < lo or self.input_size ** 2 > cap("max_pixels"):
+                raise VggcError(f"--input-size {self.input_size}: the network input side must "
+                                f"be from {lo} ({CAPS['min_side'][1]}) to "
+                                f"{math.isqrt(cap('max_pixels'))} "
+                                f"({CAPS['max_pixels'][1]} = {cap('max_pixels'):,} pixels)")
+        if not (math.isfinite(self.weight_decay) and self.weight_decay >= 0):
+            raise VggcError(f"weight decay must be finite and non-negative, got "
+                            f"{self.weight_decay}")
         if self.batch_size < 1:
             raise VggcError(f"batch size must be positive, got {self.batch_size}")
 

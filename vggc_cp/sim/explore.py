@@ -17,13 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vggc_cp import __version__
 from vggc_cp.errors import VggcError
 from vggc_cp.sim.arrange import arrangement_after, fresh_arrangement
 from vggc_cp.sim.dynamics import Benchmark
 from vggc_cp.sim.looks import CLEAN, check_look, finish_frame, make_look
 from vggc_cp.sim.tasks import get_benchmark, spec_dict
 from vggc_cp.trace import Trace
+from vggc_cp.version import __version__
 
 #: Smallest and largest image side accepted by :func:`generate` (pixels).
 MIN_SIZE = 16

@@ -62,7 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vggc_cp.errors import lookup
+from vggc_cp.errors import VggcError, lookup
 from vggc_cp.score import affinity
 from vggc_cp.solvers.base import FEASIBLE, UNKNOWN, Problem, Solver, SolveResult, register_solver
 from vggc_cp.trace import PICK, PLACE
@@ -461,8 +461,8 @@ class GreedySolver(Solver):
     def __init__(self, tau: float | None = None,
                  open_when: str = "dissimilar", node_limit: int = DEFAULT_NODE_LIMIT,
                  time_limit: float = DEFAULT_TIME_LIMIT):
-        if tau is not None and not tau > 0:
-            raise ValueError("tau must be positive")
+        if tau is not None and not 0 < tau < float("inf"):
+            raise VggcError(f"--tau must be positive and finite, got {tau}")
         lookup({w: w for w in OPEN_WHEN}, open_when, "open_when policy")
         self.tau = tau
         self.open_when = open_when

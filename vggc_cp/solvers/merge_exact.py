@@ -89,13 +89,16 @@ class MergeCounterpart:
         return self.sweep.best
 
     def summary(self) -> str:
+        def _nodes(n: int) -> str:
+            return f"{n} node{'' if n == 1 else 's'}"
+
         if self.skipped:
             return f"not decided: {self.skipped}"
         if self.minimal_nodes is None:
             return "no colouring in the window"
         verdict = ("merge is node-minimal" if self.minimal_nodes == self.merge_nodes
-                   else f"{self.merge_nodes - self.minimal_nodes} nodes fewer than merge")
-        return (f"{self.minimal_nodes} nodes ({verdict}; "
+                   else f"{_nodes(self.merge_nodes - self.minimal_nodes)} fewer than merge")
+        return (f"{_nodes(self.minimal_nodes)} ({verdict}; "
                 f"{'proved' if self.proved else 'not proved'}), cannot-link {self.cannot_link:.4f}")
 
 

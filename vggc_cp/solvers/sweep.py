@@ -81,6 +81,10 @@ def default_grid(problem: Problem) -> tuple[range, range]:
     return range(lo_pick, hi_pick + 1), range(lo_place, hi_place + 1)
 
 
+#: largest k of a --k-pick / --k-place range (each k is a row or column of the grid)
+MAX_K = 1000
+
+
 def parse_range(text: str, what: str = "range") -> range:
     """``"A:B"`` (inclusive) or ``"A"`` as a range of positive integers.
 
@@ -101,6 +105,9 @@ def parse_range(text: str, what: str = "range") -> range:
         raise VggcError(f"{what} {text!r} is not A:B or A (integers)") from None
     if lo < 1 or hi < lo:
         raise VggcError(f"{what} {text!r} must satisfy 1 <= A <= B")
+    if hi > MAX_K:
+        raise VggcError(f"{what} {text!r}: B = {hi:,} is above the cap of {MAX_K:,} "
+                        f"(solvers.sweep.MAX_K)")
     return range(lo, hi + 1)
 
 

@@ -273,9 +273,14 @@ def resolve_weights(path: str | None) -> Path:
         raise VggcError("attention backend 'dinov2' needs local DINOv2 weights: pass --weights "
                         f"PATH or set {WEIGHTS_ENV} (e.g. the facebookresearch "
                         "dinov2_vits14_pretrain.pth); nothing is downloaded")
+    from vggc_cp.safeio import check_input
+
     p = Path(chosen).expanduser()
-    if not p.is_file():
-        raise VggcError(f"DINOv2 weights file {str(p)!r} does not exist")
+    where = "--weights" if path else f"${WEIGHTS_ENV}"
+    try:
+        check_input(p, "DINOv2 weights file")
+    except VggcError as exc:
+        raise VggcError(f"{exc} ({where})") from None
     return p
 
 

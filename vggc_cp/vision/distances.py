@@ -63,6 +63,8 @@ from vggc_cp.vision.attention import (
 from vggc_cp.vision.sinkhorn import DEVICES, cost_matrix, sinkhorn_divergence_matrix
 
 CACHE_FORMAT = "vggc-distances/1"
+#: most Sinkhorn threads (--sinkhorn-threads)
+MAX_THREADS = 1024
 #: Bumped whenever a backend or the solver changes its numbers (part of the cache key).
 ALGORITHM_VERSION = 2
 COLOUR_MODES = ("auto", "off")
@@ -140,12 +142,12 @@ class DistanceConfig:
         lookup(ATTENTION_BACKENDS, self.backend, "attention backend")
         if self.grid < 2:
             raise VggcError(f"--grid must be at least 2, got {self.grid}")
-        if not self.eps > 0:
-            raise VggcError(f"--eps must be positive, got {self.eps}")
+        if not 0 < self.eps < float("inf"):
+            raise VggcError(f"--eps must be positive and finite, got {self.eps}")
         if not 0 < self.floor < 1:
             raise VggcError(f"--floor must lie in (0, 1), got {self.floor}")
-        if not self.tol > 0:
-            raise VggcError(f"--sinkhorn-tol must be positive, got {self.tol}")
+        if not 0 < self.tol < float("inf"):
+            raise VggcError(f"--sinkhorn-tol must be positive and finite, got {self.tol}")
         if not 1 <= self.omega < 2:
             raise VggcError(f"--omega must lie in [1, 2), got {self.omega}")
         if self.colour not in COLOUR_MODES:
@@ -159,6 +161,8 @@ class DistanceConfig:
         lookup({d: d for d in DEVICES}, self.device, "device")
         if self.rows is not None and self.rows < 1:
             raise VggcError(f"--distance-rows must be at least 1, got {self.rows}")
+        if self.threads is not None and not 1 <= self.threads <= MAX_THREADS:
+            raise VggcError(f"--sinkhorn-threads {self.threads}: expected 1 to {MAX_THREADS}")
 
     def attention_params(self) -> AttentionConfig:
         return AttentionConfig(grid=self.grid, floor=self.floor, noise_k=self.noise_k,

@@ -4,13 +4,15 @@ A pick or a place changes the scene in one place, and the trace says which actio
 what. Everything below is learned from the trace's observations and actions; nothing reads
 ground-truth states and nothing needs weights, so the same code adapts to another table,
 camera, lighting or object set. Frames are first divided by their per-channel median, so a
-per-frame lighting gain and tint cancel.
+per-frame lighting gain and tint cancel, and moved back by their camera shake
+(:mod:`vggc_cp.vision.registration`).
 
 **Footprints.** The mean ``|o_{t+1} - o_t|`` over the transitions of action ``a``, less the
 per-pixel median over all actions, gives the area ``a`` acts on, its footprint ``F_a``
 (shape ``(H, W)``, summing to 1). The gripper is removed from every footprint: it changes in
-*every* transition (pixels whose median change over the actions exceeds ``gripper`` times
-their largest one), and what it holds varies only while holding (pixels whose spread over the
+*every* transition alike (pixels whose median change over the actions exceeds ``gripper``
+times their largest one; an arm that rests above the place it last acted on changes that
+place's pixels most under that place's actions, so it is not removed there), and what it holds varies only while holding (pixels whose spread over the
 place-role observations exceeds ``held`` times their spread over the hand-empty pick-role
 observations, plus the typical such spread), with a fringe of ``fringe`` of the image size.
 The faint floor that sensor noise leaves
@@ -47,6 +49,12 @@ other colours' actions that overlap it, ``G_a = F_a + sum_b ov(a, b) F_b`` with
   examples (bandwidth ``bandwidth``), equal priors: a class of several looks (an apple and a
   strawberry are both red) keeps every look. With one colour, colour carries no information.
 
+**Settled by the actions.** Between two actions at one place nothing changes there: where
+an episode's actions state what a site holds, that is its presence and colour, and elsewhere a
+run of observations between actions at the site takes its median presence and mean colour
+(:func:`vggc_cp.vision.occupancy.settle`), so a frame in which an arm, the object it holds or a
+distractor hides the site cannot mislead.
+
 **Nuisance.** Across a transition of an action that acts elsewhere, a site should not change;
 what it does change there is noise, lighting and gripper residue. ``nu_a`` is the
 ``nuisance_quantile`` of ``d_a(o_t, o_{t+1})`` over the transitions of each action, then the
@@ -69,9 +77,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from vggc_cp.errors import VggcError
+from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
-from vggc_cp.vision.occupancy import refine_presence
+from vggc_cp.vision.occupancy import refine_presence, settle
+from vggc_cp.vision.registration import steady
 
 
 @dataclass(frozen=True)
@@ -82,7 +91,7 @@ class FootprintConfig:
     ----------
     gripper : float
         Pixels whose median change over the actions exceeds this share of their largest
-        change are the gripper's (every transition changes it).
+        change are the gripper's (every transition changes it alike).
     held : float
         Pixels whose spread while holding exceeds this multiple of their spread with the hand
         empty (plus the median such spread) are the gripper's (what it holds varies).
@@ -102,7 +111,7 @@ class FootprintConfig:
         Quantile of a site's change across one action's transitions that is nuisance.
     """
 
-    gripper: float = 0.5
+    gripper: float = 0.8
     held: float = 2.0
     fringe: float = 1 / 64
     support: float = 0.2
@@ -420,35 +429,60 @@ def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
     return mag, chroma
 
 
+def run_ends(actions: np.ndarray, starts: np.ndarray, touches: np.ndarray) -> np.ndarray:
+    """For every observation of ``starts``, the last observation of its run: the episode goes
+    on while its actions do not touch the place (``touches``, bool of shape (A,)), so what the
+    place holds stays the same and whatever acted there last (a hand at rest) has moved on.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+    starts : ndarray of int
+    touches : ndarray of bool, shape (A,)
+
+    Returns
+    -------
+    ndarray of int, the same shape as ``starts``.
+    """
+    out = np.asarray(starts, dtype=np.int64).copy()
+    for i, t in enumerate(out):
+        while t < len(actions) and actions[t] >= 0 and not touches[actions[t]]:
+            t += 1
+        out[i] = t
+    return out
+
+
 def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
 
     Raises
     ------
-    VggcError
+    EvidenceNotApplicable
         When the trace has no transition, or no action changes the images in one place.
     """
     params = params or FootprintConfig()
     src, act, dst = trace.transitions()
     if len(act) == 0:
-        raise VggcError("footprint evidence needs at least one transition")
-    x = normalise_frames(trace.observations)
+        raise EvidenceNotApplicable("footprint evidence needs at least one transition")
+    x = steady(normalise_frames(trace.observations))   # a shaking camera held still
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():
-        raise VggcError("no action changes the images in one place of its own (every pixel "
+        raise EvidenceNotApplicable("no action changes the images in one place of its own (every pixel "
                         "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
+    ov = overlaps(maps)
     empty_of, occupied_of = {}, {}
     for a in np.flatnonzero(counts):
         sel = act == a
-        before, after = src[sel], dst[sel]
+        # right after an action the hand is still at its place: the site is read where the
+        # run of observations it begins ends (no action at the place in between)
+        before, after = src[sel], run_ends(trace.actions, dst[sel], ov[a] > 0)
         empty_of[int(a)], occupied_of[int(a)] = ((after, before) if kinds[a] == PICK
                                                  else (before, after))
     _, own_chroma = describe(x, maps, empty_of)
     colour = action_colours(own_chroma, counts, action_classes(trace), occupied_of, params)
-    ov = overlaps(maps)
     sites = site_maps(maps, ov, colour)
     mag, chroma = describe(x, sites, empty_of)
     presence = np.zeros((trace.n_obs, n_act))
@@ -466,6 +500,9 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None) -> Fo
     # a site that shares its pixels with another slot of its colour has many empty looks
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
                                   params.site_overlap)
+    # what the actions state a site holds, and one look per run between actions at it
+    presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
+                                 params.site_overlap)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts)
 

@@ -240,3 +240,69 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
             presence[:, a] = look
             refined[a] = True
     return presence, refined
+
+
+def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.ndarray,
+           colour: np.ndarray, counts: np.ndarray, site_overlap: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Every site's presence and colour as the trace's actions settle them.
+
+    Between two actions at one place nothing changes there (module docstring), so:
+
+    * where the actions of an episode state what a site holds (:func:`site_labels`), that is
+      its presence (0 empty, 1 occupied) and its colour (the colour of the class that was put
+      there or is about to be picked); the pixels are not needed there, and whatever hides the
+      site in a frame (a robot arm resting above the place it last acted on, the object it
+      holds, a passing distractor) cannot mislead;
+    * elsewhere (an episode that never acts at the site, or whose actions contradict each
+      other there) the site holds one thing from one action at it to the next: every
+      observation of such a run takes the run's median presence and mean colour posterior,
+      so a frame in which the site is hidden is outvoted by the frames in which it is seen.
+
+    Parameters
+    ----------
+    trace : Trace
+        Its actions and episodes (never its states).
+    presence : ndarray, shape (N, A)
+    posterior : ndarray, shape (N, A, C)
+    ov : ndarray, shape (A, A)
+    colour, counts : ndarray, shape (A,)
+    site_overlap : float
+
+    Returns
+    -------
+    presence, posterior : ndarray
+        Settled copies.
+    """
+    presence, posterior = presence.copy(), posterior.copy()
+    kinds = trace.action_kinds()
+    twin = twins(ov, colour, kinds)
+    episodes = trace.episodes()
+    actions = trace.actions
+    n_col = posterior.shape[2]
+    start = np.zeros(trace.n_obs, dtype=bool)
+    start[0] = True
+    start[1:] = actions < 0
+    for a in np.flatnonzero((counts > 0) & (colour >= 0)):
+        acting = acting_at(int(a), ov, colour, twin, site_overlap)
+        labels = site_labels(actions, episodes, acting, kinds, colour)
+        known = labels != UNLABELLED
+        presence[known, a] = (labels[known] >= 0).astype(np.float64)
+        full = np.flatnonzero(labels >= 0)
+        if n_col > 1 and len(full):
+            posterior[full, a] = np.eye(n_col)[labels[full]]
+        # runs of observations between actions at the site (episodes start runs too)
+        is_acting = np.zeros(len(kinds), dtype=bool)
+        is_acting[acting] = True
+        cut = start.copy()
+        cut[1:] |= (actions >= 0) & is_acting[np.maximum(actions, 0)]
+        run = np.cumsum(cut) - 1
+        loose = np.flatnonzero(~known)
+        if not len(loose):
+            continue
+        ids, inv = np.unique(run[loose], return_inverse=True)
+        for k in range(len(ids)):
+            members = loose[inv == k]
+            presence[members, a] = np.median(presence[members, a])
+            posterior[members, a] = posterior[members, a].mean(axis=0)
+    return presence, posterior

@@ -7,12 +7,15 @@ model's symmetry-breaking order and writes a complete hint (every variable) for 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.parameters import CpSatConfig
+
+if TYPE_CHECKING:  # OR-Tools is imported where a model is built or solved
+    from ortools.sat.python import cp_model
 
 
 @dataclass(frozen=True)

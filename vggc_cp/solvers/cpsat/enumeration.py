@@ -25,7 +25,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.cell import CellModel
@@ -159,6 +158,8 @@ def enumerate_colourings(problem: Problem, k_pick: int, k_place: int,
         index.append(ids)
     scorers = [_role_scorer(problem.dist_pick, cm.roles[0].k),
                _role_scorer(problem.dist_place, cm.roles[1].k)]
+
+    from ortools.sat.python import cp_model
 
     class _Visit(cp_model.CpSolverSolutionCallback):
         def __init__(self):

@@ -70,7 +70,6 @@ Y. C. Law, J. H. M. Lee. *Global constraints for integer and set value precedenc
 from __future__ import annotations
 
 import numpy as np
-from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.cell import CellModel, RoleVars
@@ -168,6 +167,8 @@ def build_cell_model(problem: Problem, k_pick: int, k_place: int,
                 order = np.concatenate([np.array(clique, dtype=np.int64), rest])
         orders.append(order)
         fixed.append(clique if len(clique) > 1 else [])
+
+    from ortools.sat.python import cp_model
 
     model = cp_model.CpModel()
     roles: list[RoleVars] = []

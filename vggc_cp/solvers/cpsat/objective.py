@@ -46,12 +46,16 @@ the lower J of the CP-SAT solution and its hint is kept), and the status is at m
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from ortools.sat.python import cp_model
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.cpsat.parameters import CpSatConfig
 from vggc_cp.trace import PICK, PLACE
+
+if TYPE_CHECKING:  # OR-Tools is imported where a model is built or solved
+    from ortools.sat.python import cp_model
 
 #: The largest symmetrized distance becomes this integer.
 RESOLUTION = 1000

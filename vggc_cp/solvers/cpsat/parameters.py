@@ -4,9 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from google.protobuf import text_format
-from ortools.sat import sat_parameters_pb2
-
 from vggc_cp.errors import VggcError
 from vggc_cp.solvers.brute import CellConstraints
 
@@ -31,6 +28,9 @@ def parse_cpsat_params(text: str | None) -> str:
     """
     if not text or not text.strip():
         return ""
+    from google.protobuf import text_format
+    from ortools.sat import sat_parameters_pb2
+
     msg = sat_parameters_pb2.SatParameters()
     items = [s.strip() for chunk in text.split("\n") for s in chunk.split(",")]
     for item in items:
@@ -99,6 +99,9 @@ class CpSatConfig:
 
     def sat_parameters_text(self) -> str:
         """Default parameters with the user's merged over them, as protobuf text."""
+        from google.protobuf import text_format
+        from ortools.sat import sat_parameters_pb2
+
         msg = sat_parameters_pb2.SatParameters()
         text_format.Merge(parse_cpsat_params(DEFAULT_PARAMS), msg)
         text_format.Merge(parse_cpsat_params(self.params), msg)

@@ -15,9 +15,6 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-from google.protobuf import text_format
-from ortools.sat import sat_parameters_pb2
-from ortools.sat.python import cp_model
 
 from vggc_cp.errors import VggcError
 from vggc_cp.solvers.base import (
@@ -48,8 +45,12 @@ def greedy_result(problem: Problem, k_pick: int, k_place: int,
     return GreedySolver(**(options or {})).solve(problem, k_pick, k_place)
 
 
-_CP_STATUS = {cp_model.OPTIMAL: OPTIMAL, cp_model.FEASIBLE: FEASIBLE,
-              cp_model.INFEASIBLE: INFEASIBLE, cp_model.UNKNOWN: UNKNOWN}
+def _cp_status(code) -> str:
+    """Our status of a CP-SAT status code."""
+    from ortools.sat.python import cp_model
+
+    return {cp_model.OPTIMAL: OPTIMAL, cp_model.FEASIBLE: FEASIBLE,
+            cp_model.INFEASIBLE: INFEASIBLE, cp_model.UNKNOWN: UNKNOWN}[code]
 
 
 @register_solver
@@ -111,6 +112,10 @@ class CpSatSolver(Solver):
 
     def _solve_hinted(self, problem: Problem, k_pick: int, k_place: int,
                       hints: list[tuple[str, np.ndarray]]) -> SolveResult:
+        from google.protobuf import text_format
+        from ortools.sat import sat_parameters_pb2
+        from ortools.sat.python import cp_model
+
         t0 = time.perf_counter()
         hints = list(hints) + self.hints
         params = sat_parameters_pb2.SatParameters()
@@ -168,7 +173,7 @@ class CpSatSolver(Solver):
         code = solver.solve(cm.model)
         if code == cp_model.MODEL_INVALID:
             raise RuntimeError(f"CP-SAT model invalid: {cm.model.validate()}")
-        status = _CP_STATUS[code]
+        status = _cp_status(code)
         stats.update(status_name=solver.status_name(code), wall_time=solver.wall_time,
                      conflicts=int(solver.num_conflicts), branches=int(solver.num_branches))
         labels = None
