@@ -91,20 +91,23 @@ def test_bad_doubts_are_refused_in_one_line(trace, tmp_path, capsys, bad, field)
 
 
 @pytest.mark.slow
-def test_solve_suggest_append_solve(tmp_path, capsys):
-    """The loop on the shipped trace: solve prints its doubts, suggest proposes episodes for
-    them, generate records them, and solve runs again on the longer trace."""
+def test_solve_suggest_append_solve(trace, tmp_path, capsys):
+    """The loop on the shipped trace: solve prints its doubts table (or says there is none),
+    suggest proposes episodes for a doubt, generate records them, and solve runs again on the
+    longer trace, whose first observations are the shipped ones."""
     s0, t1, s1 = tmp_path / "s0.json", tmp_path / "t1.npz", tmp_path / "s1.json"
     nxt = tmp_path / "next.json"
     assert main(["solve", str(SHIPPED), "-o", str(s0), "--evidence", "footprints",
                  "--quiet"]) == 0
-    text = capsys.readouterr().out
-    doubts = json.loads(s0.read_text())["doubts"]
-    assert "doubts" in text and len(doubts) >= 1
-    assert main(["suggest", str(s0), str(SHIPPED), "-o", str(nxt)]) == 0
+    assert "\ndoubts " in capsys.readouterr().out
+    assert isinstance(json.loads(s0.read_text())["doubts"], list)
+    _, labels = _solution(trace, tmp_path)
+    sol, _ = _solution(trace, tmp_path, [_merge_doubt(trace, labels)], "d.json")
+    assert main(["suggest", str(sol), str(SHIPPED), "-o", str(nxt)]) == 0
     assert json.loads(nxt.read_text())["episodes"]
     assert main(["generate", "--episodes", str(nxt), "--append", str(SHIPPED), "-o",
                  str(t1), "--quiet"]) == 0
     longer = load_trace(t1)
-    assert longer.n_transitions > load_trace(SHIPPED).n_transitions
+    assert longer.n_transitions > trace.n_transitions
+    np.testing.assert_array_equal(longer.observations[:trace.n_obs], trace.observations)
     assert main(["solve", str(t1), "-o", str(s1), "--evidence", "footprints", "--quiet"]) == 0
