@@ -15,6 +15,8 @@
   path: no threshold rule fitted to a benchmark.
 * **Confidence.** Margin, plateau and held-out prediction
   (:mod:`vggc_cp.solvers.confidence`); the graph is flagged *suspect* with reasons.
+* **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
+  (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
 
 Everything here reads observations and actions only, never ground-truth ``states``.
 """
@@ -37,6 +39,7 @@ from vggc_cp.solvers.confidence import (
     heldout_prediction,
     plateau_length,
 )
+from vggc_cp.solvers.doubts import Doubt, find_doubts
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
@@ -256,6 +259,8 @@ class Learned:
     skipped: tuple[str, ...] = ()
     options: LearnConfig | None = None
     trace: Trace | None = None
+    #: the chosen graph's doubtful decisions (:mod:`vggc_cp.solvers.doubts`), closest first
+    doubts: tuple[Doubt, ...] = ()
 
     @property
     def labels(self) -> np.ndarray:
@@ -307,7 +312,8 @@ class Learned:
                 "candidates": [{"evidence": c.evidence, "nodes": c.best.n_nodes,
                                 "description_length": round(c.description_length, 4),
                                 "suspect": c.confidence.suspect} for c in self.candidates],
-                "grid": self.path_records()}
+                "grid": self.path_records(),
+                "doubts": [d.as_dict() for d in self.doubts]}
 
     def solution_record(self, **extra) -> dict:
         """The solution JSON object of ``vggc-cp solve`` (required fields, the settings of the
@@ -498,8 +504,9 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                             + ")")
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
+    doubts = find_doubts(chosen.problem, chosen.path, chosen.best.labels)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
-                   options, trace)
+                   options, trace, doubts)
 
 
 def choose(candidates: list[Candidate]) -> Candidate:

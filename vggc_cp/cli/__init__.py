@@ -28,6 +28,7 @@ COMMAND_MODULES = [
     "vggc_cp.cli.robustness_cmds",
     "vggc_cp.cli.import_cmds",
     "vggc_cp.cli.graph_cmds",
+    "vggc_cp.cli.verdict_cmds",
 ]
 
 

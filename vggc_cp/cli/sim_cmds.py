@@ -45,6 +45,14 @@ def register(sub) -> None:
                         "per frame, all from --seed; robot: randomized plus a Panda arm resting "
                         "above the region it last acted on, a camera shake of up to 2 px, a slow "
                         "lighting drift and a mug that moves between some frames")
+    p.add_argument("--episodes", default=None, metavar="JSON",
+                   help="with --append: record exactly these episodes (vggc-episodes/1, e.g. "
+                        "from `vggc-cp suggest`), each from the true state of its start "
+                        "observation, in the trace's look; an illegal action ends its episode")
+    p.add_argument("--append", default=None, metavar="TRACE",
+                   help="with --episodes: a trace written by generate; the output holds its "
+                        "observations, then the recorded episodes (BENCH may be omitted: "
+                        "the trace's meta['benchmark'])")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 
@@ -101,6 +109,8 @@ def _task_name(args) -> str:
 
 
 def cmd_generate(args) -> int:
+    if args.episodes is not None or args.append is not None:
+        return _generate_append(args)
     from vggc_cp.sim import get_benchmark
     from vggc_cp.sim.explore import generate
     from vggc_cp.sim.looks import check_look
@@ -142,6 +152,44 @@ def cmd_generate(args) -> int:
               f"{width}x{height} px, seed {args.seed}, {args.look} look")
         for path in written:
             print(f"wrote {path}")
+    return 0
+
+
+def _generate_append(args) -> int:
+    """``generate [BENCH] --episodes next.json --append t.npz -o t2.npz``."""
+    from vggc_cp.safeio import check_input
+    from vggc_cp.sim.append import append_episodes, read_episodes
+    from vggc_cp.trace import load_trace, save_trace
+
+    if args.episodes is None or args.append is None:
+        raise VggcError("--episodes and --append go together")
+    for opt, given in (("--task", args.task is not None), ("--novel", args.novel != 0),
+                       ("--transitions", args.transitions is not None),
+                       ("--task-seed", args.task_seed is not None)):
+        if given:
+            raise VggcError(f"{opt} does not apply with --append (the trace fixes the task, "
+                            f"its look and its seed)")
+    check_input(args.append, "append")
+    check_input(args.episodes, "episodes")
+    trace = load_trace(args.append)
+    bench = trace.meta.get("benchmark")
+    if args.bench is not None and args.bench != bench:
+        raise VggcError(f"{args.append}: field 'meta.benchmark' is {bench!r}, not BENCH "
+                        f"{args.bench!r}")
+    requests, sha = read_episodes(args.episodes, trace)
+    appended = append_episodes(trace, requests, episodes_sha256=sha)
+    save_trace(appended.trace, args.output)
+    if not args.quiet:
+        for k, rec in enumerate(appended.recorded):
+            if rec.illegal_action is not None:
+                print(f"episode {k}: action {rec.illegal_at} ({rec.illegal_action}) is illegal "
+                      f"in state {rec.state}: episode ended after {len(rec.executed)} "
+                      f"action(s)")
+        kept = sum(1 for r in appended.recorded if r.executed)
+        print(f"{bench}: appended {kept} of {len(requests)} episodes, "
+              f"{appended.added_transitions} transitions, to {trace.n_obs} observations "
+              f"-> {appended.trace.n_obs}")
+        print(f"wrote {args.output}")
     return 0
 
 

@@ -393,10 +393,25 @@ def _solve_merge(args) -> int:
           f"J {best.J:.4f}, {best.status}")
     print(f"wrote          {args.output}")
     print(f"confidence     {conf.summary()}")
+    _print_doubts(learned.doubts)
     if conf.suspect:
         print("vggc-cp: warning: the learned graph is suspect (" + "; ".join(conf.reasons)
               + "); check it before planning on it", file=sys.stderr)
     return 0
+
+
+def _print_doubts(doubts) -> None:
+    """The doubts table after the summary (``vggc-cp doubts`` draws them, ``suggest``
+    proposes episodes to settle them)."""
+    from vggc_cp.solvers.doubts import format_doubts
+
+    if not doubts:
+        print("doubts         none: the images and the actions settle every decision")
+        return
+    print(f"doubts         {len(doubts)} decision(s) the trace does not settle, closest first "
+          f"(draw: vggc-cp doubts; settle: vggc-cp suggest)")
+    for line in format_doubts(doubts):
+        print(f"  {line}")
 
 
 

@@ -68,3 +68,49 @@ def contact_sheet(trace: Trace, path: str | Path, max_images: int = 48, columns:
     finally:
         plt.close(fig)
     return count
+
+
+def pair_sheet(trace: Trace, rows: list[tuple[list[int], list[int], str]], path: str | Path,
+               ) -> int:
+    """One row per ``(left observations, right observations, title)``: the left ones, a gap,
+    the right ones, each tile titled with its observation index, the row with ``title``
+    (a sheet a person judges at a glance: are the two sides one situation?).
+
+    Returns
+    -------
+    int
+        Number of rows drawn.
+    """
+    if not rows:
+        raise VggcError("nothing to draw")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    width = max(len(a) for a, _, _ in rows) + 1 + max(len(b) for _, b, _ in rows)
+    left = max(len(a) for a, _, _ in rows)
+    fig, axes = plt.subplots(len(rows), width, figsize=(max(1.6 * width, 7.0), 2.1 * len(rows)),
+                             squeeze=False)
+    for r, (a, b, title) in enumerate(rows):
+        for ax in axes[r]:
+            ax.axis("off")
+        for c, o in enumerate(a):
+            axes[r][c].imshow(trace.observations[o], interpolation="nearest")
+            axes[r][c].set_title(f"{o}", fontsize=7)
+        for c, o in enumerate(b):
+            axes[r][left + 1 + c].imshow(trace.observations[o], interpolation="nearest")
+            axes[r][left + 1 + c].set_title(f"{o}", fontsize=7)
+        axes[r][0].text(0.0, 1.25, title, transform=axes[r][0].transAxes, fontsize=7,
+                        ha="left", va="bottom")
+    fig.subplots_adjust(left=0.02, right=0.98, bottom=0.02, top=1 - 0.45 / (2.1 * len(rows)),
+                        wspace=0.1, hspace=0.8)
+    target = Path(path)
+    try:
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, dpi=80, format=target.suffix.lstrip(".") or "png")
+    except ValueError as exc:
+        raise VggcError(f"{target}: cannot write an image ({exc})") from None
+    finally:
+        plt.close(fig)
+    return len(rows)

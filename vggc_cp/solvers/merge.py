@@ -484,3 +484,59 @@ def threshold_path(problem: Problem, thresholds: Sequence[float] | None = None,
     results = tuple(_solve_prefix(problem, float(t), d, ci, cj) for t in iterator)
     return ThresholdPath(tuple(float(t) for t in ts), results, fn(results, problem), rule,
                          time.perf_counter() - t0)
+
+
+# ------------------------------------------------------------------ closure on a partition
+
+
+class PartitionClosure:
+    """The congruence closure of joining two nodes of a given partition, with no threshold.
+
+    The partition ``labels`` is committed once (as :func:`congruence_merge` would have built
+    it); :meth:`join` then closes the merge of two of its nodes exactly as the merge does
+    (determinism, co-determinism, transitively) and says which nodes would have to become
+    one, or that Exactly-One (or the work cap) forbids it. Nothing is committed by
+    :meth:`join`: queries are independent.
+
+    Parameters
+    ----------
+    problem : Problem
+    labels : ndarray of int, shape (N,)
+        A partition in which every node holds one role.
+    max_work : int
+        Cap on forced merges examined per query (a larger closure is refused as ``work``).
+    """
+
+    def __init__(self, problem: Problem, labels: np.ndarray, max_work: int = 2_000):
+        self.labels = np.asarray(labels, dtype=np.int64)
+        self.max_work = int(max_work)
+        self._cl = _Clusters(problem)
+        groups: dict[int, list[int]] = {}
+        first: dict[int, int] = {}
+        for x, u in enumerate(self.labels.tolist()):
+            h = first.setdefault(u, x)
+            if h != x:
+                groups.setdefault(h, []).append(x)
+        self._cl.commit(groups)
+        self.first = first  # node -> an observation of it (its root)
+
+    def join(self, a: int, b: int) -> tuple[list[list[int]] | None, str]:
+        """Close the merge of nodes ``a`` and ``b`` (node ids of ``labels``).
+
+        Returns
+        -------
+        groups : list of list of int, or None
+            The node groups that become one node (each sorted, ``[a, b, ...]``'s group
+            first), or None when the merge is forbidden.
+        reason : str
+            ``""``, or why it is forbidden: ``exactly_one``, ``distance`` (two roles) or
+            ``work``.
+        """
+        res, why = _try_merge(self._cl, self.first[int(a)], self.first[int(b)], float("inf"),
+                              self.max_work)
+        if res is None:
+            return None, why
+        lab = self.labels
+        groups = [sorted({int(lab[h]), *(int(lab[r]) for r in rs)}) for h, rs in res.items()]
+        groups.sort(key=lambda g: (int(a) not in g, g))
+        return groups, ""

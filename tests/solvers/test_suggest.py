@@ -1,0 +1,83 @@
+"""``suggest`` (:mod:`vggc_cp.solvers.suggest`): every proposal starts at an episode start and
+its actions execute under the benchmark's dynamics from the true state there (the plan
+always; the probe too where the doubt's two nodes are truly one state)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vggc_cp.sim.tasks import get_benchmark
+from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
+from vggc_cp.solvers.suggest import episodes_document, suggest_episodes
+from vggc_cp.trace import load_trace
+
+SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
+
+
+def _true_labels(trace):
+    _, labels = np.unique(trace.states, return_inverse=True)
+    return labels.astype(np.int64)
+
+
+def _legal(bench, state, actions):
+    valid, _ = bench.apply(str(state), actions)
+    return valid
+
+
+def test_merge_doubt_of_one_state_split_in_two_is_probed_with_legal_actions():
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    # over-split: the later renders of the most visited pick state become a node of their own
+    roles = trace.roles()
+    keys, counts = np.unique(trace.states[roles == 0], return_counts=True)
+    state = keys[np.argmax(counts)]
+    obs = np.flatnonzero(trace.states == state)
+    a = int(labels[obs[0]])
+    b = int(labels.max()) + 1
+    labels[obs[len(obs) // 2:]] = b
+    doubt = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(obs[-2:])), {})
+    proposals = suggest_episodes(trace.without_states(), labels, [doubt])
+    assert proposals, "a merge doubt between two nodes of one state gets probes"
+    starts = {first for first, _ in trace.episodes()}
+    for p in proposals:
+        assert p.start_observation in starts and p.doubt == 0 and p.actions
+        assert p.probe_node in (a, b)
+        assert all(_legal(bench, trace.states[p.start_observation], p.actions)), p
+    doc = episodes_document(trace, proposals, "s.json")
+    assert doc["format"] == "vggc-episodes/1"
+    assert doc["trace_sha256"] == trace.content_hash()
+    assert [e["actions"] for e in doc["episodes"]] == [list(p.actions) for p in proposals]
+    assert len(proposals[0].actions) == min(len(p.actions) for p in proposals)
+    assert {p.probe_node for p in proposals} == {a, b}  # both directions are probed
+
+
+def test_plans_to_doubtful_nodes_of_a_right_graph_execute():
+    """Doubts between distinct states of the true graph: the plan to the probe's node is
+    legal from the start; the probe may be illegal (that is the answer it asks for)."""
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    roles = trace.roles()
+    pick_nodes = sorted({int(u) for u in labels[roles == 0]})
+    place_nodes = sorted({int(u) for u in labels[roles == 1]})
+    node_obs = {u: tuple(np.flatnonzero(labels == u)[:3]) for u in pick_nodes + place_nodes}
+    doubts = [Doubt(MERGE, (pick_nodes[0], pick_nodes[1]),
+                    (node_obs[pick_nodes[0]], node_obs[pick_nodes[1]]), {}),
+              Doubt(MERGE, (place_nodes[0], place_nodes[2]),
+                    (node_obs[place_nodes[0]], node_obs[place_nodes[2]]), {}),
+              Doubt(SPLIT, (pick_nodes[2],),
+                    (node_obs[pick_nodes[2]][:2], node_obs[pick_nodes[2]][2:]), {}),
+              # halves that took the same actions (find_doubts' evidence says so)
+              Doubt(SPLIT, (pick_nodes[1],),
+                    (node_obs[pick_nodes[1]][:2], node_obs[pick_nodes[1]][2:]),
+                    {"only_a": [], "only_b": []})]
+    proposals = suggest_episodes(trace.without_states(), labels, doubts, max_episodes=50)
+    assert {p.doubt for p in proposals} == {0, 1, 2, 3}
+    for p in proposals:
+        valid = _legal(bench, trace.states[p.start_observation], p.actions)
+        assert all(valid[:-1]), p
+        if p.doubt in (2, 3):  # a split doubt of a true node: every action is legal
+            assert all(valid), p

@@ -1,0 +1,243 @@
+"""What to record next: episodes whose outcomes would settle a graph's doubts.
+
+For every doubt (:mod:`vggc_cp.solvers.doubts`) of a learned graph, :func:`suggest_episodes`
+proposes episodes a robot can run:
+
+* **start** -- an episode start of the trace (a state the robot can be put in, as the
+  trace shows it; its observation index is recorded), the one from which the learned
+  graph's shortest plan (:func:`vggc_cp.graph.shortest_plan`, BFS) to the probe's node is
+  shortest (ties: the lowest observation index);
+* **plan** -- that plan's actions;
+* **probe** -- one action whose outcome tells the two readings apart:
+
+  - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
+    and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
+    ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
+    simulator reports it), they differ. An illegal action is not recorded, so each such
+    probe comes with a confirming one that is: the same action again from ``A`` (more
+    renders of ``A`` doing what ``B`` was never seen to do). When both nodes afford the same actions, an action
+    they share is repeated from each (those whose outcomes differ first): do they lead to
+    one node?
+  - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
+    a typical observation of one side (the same predecessor node and action, or the same
+    episode start), then an action taken from the other side only is tried, and (the
+    confirming probe) one taken from this side only.
+
+Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
+settle per transition (``1 / len(actions)``), then by the doubt's rank, then by start
+observation -- the best of every (doubt, direction) first, so that no side of a doubt is
+left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.graph import TaskGraph, bfs_distances, shortest_plan
+from vggc_cp.solvers.doubts import MERGE
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """One episode to record.
+
+    Attributes
+    ----------
+    start_observation : int
+        An episode start of the trace.
+    actions : tuple of str
+        The plan, then the probe (the last action).
+    doubt : int
+        Index of the doubt it tests (in the solution's ``doubts``).
+    probe_node : int
+        The node the probe is taken from (as the learned graph predicts it).
+    why : str
+    """
+
+    start_observation: int
+    actions: tuple[str, ...]
+    doubt: int
+    probe_node: int
+    why: str
+
+    @property
+    def score(self) -> float:
+        """Doubtful (node, action) pairs tested per transition."""
+        return 1.0 / max(len(self.actions), 1)
+
+    def as_dict(self) -> dict:
+        return {"start_observation": int(self.start_observation),
+                "actions": list(self.actions), "doubt": int(self.doubt),
+                "probe_node": int(self.probe_node), "score": round(self.score, 4),
+                "why": self.why}
+
+
+class _Router:
+    """Shortest plans on the learned graph from the trace's episode starts."""
+
+    def __init__(self, graph: TaskGraph, labels: np.ndarray, starts: list[int]):
+        self.graph = graph
+        self.start_of: dict[int, int] = {}
+        for o in sorted(starts):
+            self.start_of.setdefault(int(labels[o]), int(o))
+
+    def route(self, target: int) -> tuple[int, list[str]] | None:
+        """``(start observation, plan action names)`` to ``target``, or None."""
+        dist = bfs_distances(self.graph, target, reverse=True)
+        best = min(((dist[u], o, u) for u, o in self.start_of.items() if u in dist),
+                   default=None)
+        if best is None:
+            return None
+        _, obs, node = best
+        plan = shortest_plan(self.graph, node, target)
+        if plan is None:
+            return None
+        return obs, [self.graph.action_names[a] for _, a, _ in plan]
+
+
+def _actions_of(graph: TaskGraph, u: int) -> dict[str, int]:
+    return {graph.action_names[a]: v for a, v in graph.successors(u)}
+
+
+def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: int = 3
+                     ) -> list[Proposal]:
+    """Episodes to record for ``doubts`` of the graph ``labels`` induces on ``trace``
+    (module docstring).
+
+    Parameters
+    ----------
+    trace : Trace
+        Observations' actions and episodes only are read.
+    labels : ndarray of int, shape (N,)
+    doubts : sequence of Doubt
+    max_episodes : int
+        Most proposals returned (best first).
+    per_doubt : int
+        Most probes per doubt and direction.
+
+    Returns
+    -------
+    list of Proposal
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    src, act, dst = trace.transitions()
+    graph = TaskGraph.from_labels(labels, trace.roles(), src, act, dst, trace.action_names)
+    starts = [first for first, _ in trace.episodes()]
+    router = _Router(graph, labels, starts)
+    start_set = set(starts)
+    out: list[Proposal] = []
+    for k, doubt in enumerate(doubts):
+        if any(u not in graph.members for u in doubt.nodes):
+            continue
+        for side, (fixed, target, tail, probe_node, probe, why) in _probes(
+                graph, trace, labels, doubt, per_doubt, start_set):
+            if fixed is not None:
+                start, plan = fixed, []
+            else:
+                r = router.route(target)
+                if r is None:
+                    continue
+                start, plan = r
+            out.append(((k, side), Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
+    # the best episode of every (doubt, side) first, then the others; each part by length
+    order = sorted(out, key=lambda gp: (len(gp[1].actions), gp[1].doubt,
+                                        gp[1].start_observation, gp[1].actions))
+    firsts, rest, groups, seen = [], [], set(), set()
+    for group, p in order:
+        key = (p.start_observation, p.actions)
+        if key in seen:
+            continue
+        seen.add(key)
+        (rest if group in groups else firsts).append(p)
+        groups.add(group)
+    return (firsts + rest)[:max_episodes]
+
+
+def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int]):
+    """Yield ``(side, (start, target, tail, probe node, probe action, why))``: the episode
+    starts at observation ``start`` (when not None) or at the best start for a plan to node
+    ``target``; then ``tail`` actions, then the probe. ``side`` names the direction tested
+    (the node probed, or the half of a split node entered)."""
+    if doubt.kind == MERGE:
+        a, b = doubt.nodes
+        acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
+        only_a = sorted(set(acts_a) - set(acts_b))
+        only_b = sorted(set(acts_b) - set(acts_a))
+        for x, y, only in ((b, a, only_a), (a, b, only_b)):
+            for name in only[:per_doubt]:
+                yield x, (None, x, (), x, name,
+                          f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
+                       f"node {x}; legal from {x}: they may be one state, illegal: they "
+                       f"differ")
+                yield x, (None, y, (), y, name,
+                          f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
+                       f"saw take it: more renders of {y} doing what {x} was never seen to do")
+        if not only_a and not only_b:
+            # both afford the same actions: repeat them from each (those whose outcomes
+            # differ first): more renders of both and of where they lead
+            shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
+            for name in shared[:per_doubt]:
+                for x in (a, b):
+                    yield x, (None, x, (), x, name,
+                              f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
+                           f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
+        return
+    (u,) = doubt.nodes
+    sides = [tuple(side) for side in doubt.observations]
+    ev = doubt.evidence or {}
+    if isinstance(ev.get("only_a"), list) and isinstance(ev.get("only_b"), list):
+        # the actions each whole side took and the other never did (find_doubts)
+        names = set(graph.action_names)
+        only = (sorted(a for a in ev["only_b"] if a in names),
+                sorted(a for a in ev["only_a"] if a in names))
+    else:  # from the listed observations only
+        side_acts = []
+        for side in sides:
+            seen = set()
+            for o in side:
+                if o < trace.n_obs - 1 and trace.actions[o] >= 0:
+                    seen.add(trace.action_names[int(trace.actions[o])])
+            side_acts.append(seen)
+        only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
+    if not only[0] and not only[1]:
+        shared = sorted(_actions_of(graph, u))[:per_doubt]  # the node's actions
+        only = (shared, shared)
+    for s in (0, 1):
+        entry = _entry(trace, labels, sides[s], start_set)
+        if entry is None:
+            continue
+        start, target, tail, o = entry
+        for name in only[s][:per_doubt]:
+            yield s, (start, target, tail, u, name,
+                      f"split doubt {u}: node {u} entered as the trace entered observation {o} "
+                      f"(one side), then {name}, taken in the trace from the other side only: "
+                   f"legal and alike -> one state; illegal -> two")
+        for name in only[1 - s][:per_doubt]:
+            yield s, (start, target, tail, u, name,
+                      f"split doubt {u}: node {u} entered as the trace entered observation {o} "
+                      f"(one side), then {name}, which only that side took in the trace: "
+                   f"more renders of that side doing what the other was never seen to do")
+
+
+def _entry(trace, labels, side, start_set):
+    """How to reach ``side``'s situation: ``(start, target, tail, observation)`` -- the
+    side's observation is an episode start (``start``), or its predecessor node
+    (``target``) and the action that entered it (``tail``); None if neither."""
+    for o in side:
+        if o in start_set:
+            return int(o), None, (), int(o)
+    for o in side:
+        if o > 0 and trace.actions[o - 1] >= 0:
+            return (None, int(labels[o - 1]),
+                    (trace.action_names[int(trace.actions[o - 1])],), int(o))
+    return None
+
+
+def episodes_document(trace, proposals: list[Proposal], solution: str = "") -> dict:
+    """The ``vggc-episodes/1`` JSON object of ``proposals`` (``docs/FORMATS.md``)."""
+    from vggc_cp.sim.append import EPISODES_FORMAT
+
+    return {"format": EPISODES_FORMAT, "trace_sha256": trace.content_hash(),
+            "solution": str(solution), "episodes": [p.as_dict() for p in proposals]}
