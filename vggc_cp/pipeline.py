@@ -46,7 +46,7 @@ from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_thre
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
-from vggc_cp.vision.evidence import evidence_names, get_evidence
+from vggc_cp.vision.evidence import evidence_names, footprint_evidence, get_evidence
 from vggc_cp.vision.footprints import FootprintConfig, action_footprints, footprint_codes
 
 #: The first evidence ``auto`` tries (the others only when its graph is suspect).
@@ -397,7 +397,8 @@ def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
     else a :class:`Problem` of the distance matrices. ``executor``
     (:func:`vggc_cp.parallel.open_executor`, e.g. a dask cluster) converts the frames in
     blocks (footprints) or computes the distance row blocks (attention); same numbers."""
-    if evidence == FOOTPRINTS and options.candidates == "codes":
+    if (evidence == FOOTPRINTS and options.candidates == "codes"
+            and get_evidence(evidence).distances is footprint_evidence):  # the built-in one
         fp = action_footprints(trace, options.footprint, executor)
         codes, tables = footprint_codes(fp, trace.roles())
         coded = CodedProblem.from_trace(trace, codes, tables)
@@ -504,9 +505,26 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                             + ")")
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
-    doubts = find_doubts(chosen.problem, chosen.path, chosen.best.labels)
+    doubts = learned_doubts(chosen)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
                    options, trace, doubts)
+
+
+#: Largest trace (observations) whose doubts are looked for on a problem of descriptor codes:
+#: they read the within-role distance matrices, which such a problem builds for them.
+DOUBTS_MAX_OBS = 8000
+
+
+def learned_doubts(chosen: Candidate) -> tuple[Doubt, ...]:
+    """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
+    of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
+    (none beyond: the matrices would cost what the codes save)."""
+    problem = chosen.problem
+    if isinstance(problem, CodedProblem):
+        if problem.n_obs > DOUBTS_MAX_OBS:
+            return ()
+        problem = problem.dense()
+    return find_doubts(problem, chosen.path, chosen.best.labels)
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
