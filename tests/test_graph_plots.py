@@ -1,5 +1,6 @@
 """``vggc-cp show``: the learned graph as PNG, SVG (one element per node) and HTML, on the
-shipped trace and on generated multifruit-2x3 and blocks-2 traces; plan and doubts drawn."""
+shipped trace and on a generated trace of every other benchmark and of a drawn task; plan and
+doubts drawn."""
 
 from __future__ import annotations
 
@@ -20,8 +21,10 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data" / "fruit-2x3.npz"
 
 
-BENCHMARKS = ["fruit-2x3", pytest.param("multifruit-2x3", marks=pytest.mark.slow),
-              pytest.param("blocks-2", marks=pytest.mark.slow)]
+#: the shipped trace in the quick run; every other benchmark and a drawn task in the full run
+BENCHMARKS = ["fruit-2x3", *[pytest.param(b, marks=pytest.mark.slow) for b in (
+    "multifruit-2x3", "fruit-4x6", "multifruit-4x6", "fruit-6x8", "blocks-2", "blocks-3",
+    "random-7")]]
 
 
 def node_ids(svg: Path) -> set[int]:

@@ -175,7 +175,8 @@ STAGES = {
                                       o / "m.pt", "--threads", "1"], r"cross-validation"),
     "robustness": (lambda i, o: ["robustness", "--out", o / "study", "--benchmarks",
                                  "fruit-2x3", "--seeds", "0:1", "--looks", "clean",
-                                 "--transitions", "30", "-Q", "10", "--jobs", "2"],
+                                 "--tasks", "none", "--transitions", "30", "-Q", "10",
+                                 "--jobs", "2"],
                    r"robustness cells"),
 }
 LATENCIES: dict[str, float] = {}

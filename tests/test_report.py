@@ -38,8 +38,9 @@ def parse(text: str) -> Collect:
 
 
 @pytest.mark.parametrize("bench", ["fruit-2x3",
-                                   pytest.param("multifruit-2x3", marks=pytest.mark.slow),
-                                   pytest.param("blocks-2", marks=pytest.mark.slow)])
+                                   *[pytest.param(b, marks=pytest.mark.slow) for b in (
+                                       "multifruit-2x3", "fruit-4x6", "multifruit-4x6",
+                                       "fruit-6x8", "blocks-2", "blocks-3", "random-7")]])
 def test_report_of_every_benchmark(solved_benchmark, tmp_path, bench):
     solution, trace = solved_benchmark(bench)
     out = tmp_path / "r.html"

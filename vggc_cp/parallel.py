@@ -52,7 +52,9 @@ def parse_address(text: str, backend: str, source: str = "--scheduler") -> str:
 
     dask: ``tcp://HOST:PORT``, ``tls://HOST:PORT`` or ``HOST:PORT`` (read as tcp); ray:
     ``auto``, ``ray://HOST:PORT`` or ``HOST:PORT``. HOST is a host name, an IPv4 address or an
-    IPv6 address in brackets; PORT is 1..65535. Anything else (``inproc://``, ``udp://``,
+    IPv6 address in brackets; PORT is 1..65535. dask's in-process address of a cluster in this
+    very process (``inproc://HOST/PID/N``, what ``LocalCluster(processes=False)`` gives a
+    notebook or a test) is taken as it is. Anything else (``inproc://x``, ``udp://``,
     ``http://``, a path, a missing port, control characters) is refused naming ``source``.
 
     Returns
@@ -71,6 +73,9 @@ def parse_address(text: str, backend: str, source: str = "--scheduler") -> str:
         raise bad("holds spaces or control characters")
     allowed = DASK_SCHEMES if backend == "dask" else ("ray",)
     if backend == "ray" and text == "auto":
+        return text
+    if backend == "dask" and re.fullmatch(r"inproc://[A-Za-z0-9.\-]+/[0-9]{1,10}/[0-9]{1,10}",
+                                          text):
         return text
     scheme, sep, rest = text.partition("://")
     if not sep:

@@ -300,7 +300,8 @@ def test_an_unwritable_out_folder_is_refused_before_any_work(tmp_path, capsys, m
 
     monkeypatch.setattr(safeio, "temp_file", read_only)
     out = tmp_path / "study"
-    rc = main(["robustness", "--out", str(out), "--benchmarks", "fruit-2x3", "--seeds", "0"])
+    rc = main(["robustness", "--out", str(out), "--benchmarks", "fruit-2x3", "--seeds", "0",
+               "--tasks", "none"])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "Read-only file system" in err
     assert not out.exists()
