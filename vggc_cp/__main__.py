@@ -1,5 +1,3 @@
-import sys
+from vggc_cp.cli import run
 
-from vggc_cp.cli import main
-
-sys.exit(main())
+run()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import importlib
+import os
 import re
 import signal
 import sys
@@ -182,6 +183,27 @@ def main(argv: list[str] | None = None) -> int:
             return code
     except KeyboardInterrupt:  # a second Ctrl-C while unwinding
         return exit_code(received() or signal.SIGINT)
+
+
+def run() -> None:
+    """The command-line entry point (``vggc-cp``, ``python -m vggc_cp``): :func:`main`, then
+    the exit. After a signal the process ends at once (``os._exit``, streams flushed): a
+    stage's worker threads may still be running, and the interpreter's shutdown would wait for
+    them or abort on them."""
+    try:
+        code = main()
+    except KeyboardInterrupt:  # a Ctrl-C that reached the top while the command unwound
+        code = 130
+    from vggc_cp.interrupts import received
+
+    if received() is not None:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+    sys.exit(code)
 
 
 def _one_line(text: str) -> str:
