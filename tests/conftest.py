@@ -117,3 +117,30 @@ def solved_benchmark(tmp_path_factory):
             made[name] = (out, trace)
         return made[name]
     return get
+
+
+#: Tests of more than about a second each on the 2 shared cores (``--durations``, measured
+#: after this version's suite grew) that the quick run (``-m "not slow and not notebook"``,
+#: at most 90 s) leaves to the full run, by node id prefix.
+SLOW_IN_QUICK = (
+    "tests/baselines/test_baselines.py::test_baseline_progress_bar_has_its_total_and_quiet",
+    "tests/test_notebook_runner.py::test_failing_cell_is_a_clear_error",
+    "tests/solvers/test_cpsat_sweep.py::test_sweep_with_undecided_cells_stays_sound",
+    "tests/solvers/test_cpsat_sweep.py::test_exact_sweep_decides_every_cell_like_brute_force",
+    "tests/vision/test_vision_sinkhorn.py::test_agrees_with_pot",
+    "tests/vision/test_vision_sinkhorn.py::test_shift_by_one_patch_is_farther_than_noise",
+    "tests/fuzz/test_hardening.py::test_hypothesis_solutions",
+    "tests/fuzz/test_hardening.py::test_hypothesis_traces",
+    "tests/experiments/test_table1.py::test_attention_auto_gives_fruit_keypoints_and_blocks",
+    "tests/experiments/test_table1.py::test_merge_and_its_exact_counterpart",
+    "tests/experiments/test_table1.py::test_run_resume_and_tables",
+    "tests/experiments/test_studies.py::test_heatmap_data_and_proofs",
+    "tests/experiments/test_studies.py::test_scalability_rows",
+    "tests/evaluate/test_metrics_reference.py::test_product_search_equals_enumeration",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.nodeid.startswith(SLOW_IN_QUICK):
+            item.add_marker(pytest.mark.slow)
