@@ -230,3 +230,22 @@ def solved_graph(trace_path: Path, out: Path) -> dict:
     sol = json.loads(out.read_text(encoding="utf-8"))
     return {k: sol[k] for k in ("labels", "roles", "edges", "k_pick", "k_place", "J",
                                 "threshold", "evidence")}
+
+
+def run(capsys, *argv):
+    """``vggc-cp import ARGV``: ``(exit code, stdout, stderr)``."""
+    from vggc_cp.cli import main
+
+    rc = main(["import", *map(str, argv)])
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err
+
+
+def refused(capsys, out, *argv) -> str:
+    """Run ``import ARGV -o out`` and check it is refused with one line and writes nothing;
+    returns the line."""
+    rc, _, err = run(capsys, *argv, "-o", out)
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
+    assert "Traceback" not in err and not out.exists()
+    return lines[0]

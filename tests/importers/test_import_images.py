@@ -11,6 +11,8 @@ from recordings import (
     SHIPPED,
     after,
     assert_same_trace,
+    refused,
+    run,
     solved_graph,
     write_images_layout,
     write_log,
@@ -23,27 +25,8 @@ from vggc_cp.trace import load_trace
 
 
 @pytest.fixture(scope="module")
-def original():
-    return load_trace(SHIPPED)
-
-
-@pytest.fixture(scope="module")
 def layout(original, tmp_path_factory):
     return write_images_layout(original, tmp_path_factory.mktemp("images"), states=True)
-
-
-def run(capsys, *argv):
-    rc = main(["import", *map(str, argv)])
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
-
-
-def refused(capsys, out, *argv) -> str:
-    rc, _, err = run(capsys, *argv, "-o", out)
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
-    assert "Traceback" not in err and not out.exists()
-    return lines[0]
 
 
 def test_round_trip_is_bit_exact_and_solves_to_the_same_graph(original, layout, tmp_path,

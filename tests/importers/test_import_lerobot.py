@@ -9,31 +9,11 @@ import json
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from recordings import CAMERA, SHIPPED, assert_same_trace, solved_graph, write_lerobot
+from recordings import CAMERA, SHIPPED, assert_same_trace, refused, run, solved_graph, write_lerobot
 
-from vggc_cp.cli import main
 from vggc_cp.trace import load_trace
 
 ARGS = ("--camera", CAMERA, "--labels", "action_label")
-
-
-@pytest.fixture(scope="module")
-def original():
-    return load_trace(SHIPPED)
-
-
-def run(capsys, *argv):
-    rc = main(["import", *map(str, argv)])
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
-
-
-def refused(capsys, out, *argv) -> str:
-    rc, _, err = run(capsys, *argv, "-o", out)
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
-    assert "Traceback" not in err and not out.exists()
-    return lines[0]
 
 
 @pytest.mark.slow

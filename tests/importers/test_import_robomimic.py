@@ -7,31 +7,11 @@ from __future__ import annotations
 import h5py
 import numpy as np
 import pytest
-from recordings import SHIPPED, assert_same_trace, solved_graph, write_robomimic
+from recordings import SHIPPED, assert_same_trace, refused, run, solved_graph, write_robomimic
 
-from vggc_cp.cli import main
 from vggc_cp.trace import load_trace
 
 ARGS = ("--camera", "agentview_image", "--labels", "action_labels")
-
-
-@pytest.fixture(scope="module")
-def original():
-    return load_trace(SHIPPED)
-
-
-def run(capsys, *argv):
-    rc = main(["import", *map(str, argv)])
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
-
-
-def refused(capsys, out, *argv) -> str:
-    rc, _, err = run(capsys, *argv, "-o", out)
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
-    assert "Traceback" not in err and not out.exists()
-    return lines[0]
 
 
 @pytest.mark.slow

@@ -10,33 +10,15 @@ from recordings import (
     SHIPPED,
     assert_same_trace,
     encode_video,
+    refused,
+    run,
     solved_graph,
     write_log,
     write_video_layout,
 )
 
-from vggc_cp.cli import main
 from vggc_cp.importers.decode import frames_by_index, frames_by_time
 from vggc_cp.trace import load_trace
-
-
-@pytest.fixture(scope="module")
-def original():
-    return load_trace(SHIPPED)
-
-
-def run(capsys, *argv):
-    rc = main(["import", *map(str, argv)])
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
-
-
-def refused(capsys, out, *argv) -> str:
-    rc, _, err = run(capsys, *argv, "-o", out)
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
-    assert "Traceback" not in err and not out.exists()
-    return lines[0]
 
 
 @pytest.mark.parametrize("by", ["frame", pytest.param("time", marks=pytest.mark.slow)])
