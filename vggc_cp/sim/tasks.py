@@ -434,8 +434,7 @@ def read_task_argument(value: str) -> str:
     """The task name of ``generate --task VALUE``: ``random-S``, a spec string, or a JSON file
     holding ``{"spec": "task:..."}`` (as ``meta['task']`` records it)."""
     if is_task_name(value) or value in SPECS:
-        get_spec(value)
-        return value if not value.startswith(SPEC_PREFIX) else get_spec(value).name
+        return get_spec(value).name  # a spec string's canonical form
     path = Path(value)
     if path.suffix == ".json":
         from vggc_cp.safeio import read_json
