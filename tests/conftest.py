@@ -119,6 +119,16 @@ def solved_benchmark(tmp_path_factory):
     return get
 
 
+@pytest.fixture(scope="module")
+def original():
+    """The shipped fruit-2x3 trace (what the import tests write in every recording layout)."""
+    from pathlib import Path
+
+    from vggc_cp.trace import load_trace
+
+    return load_trace(Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz")
+
+
 #: Tests of more than about a second each on the 2 shared cores (``--durations``, measured
 #: after this version's suite grew) that the quick run (``-m "not slow and not notebook"``,
 #: at most 90 s) leaves to the full run, by node id prefix.

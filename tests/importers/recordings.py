@@ -249,3 +249,4 @@ def refused(capsys, out, *argv) -> str:
     assert rc == 2 and len(lines) == 1 and lines[0].startswith("vggc-cp: error: "), err
     assert "Traceback" not in err and not out.exists()
     return lines[0]
+
