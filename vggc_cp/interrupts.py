@@ -76,15 +76,36 @@ def _handler(signum, _frame):
     raise SystemExit(exit_code(signum))
 
 
+#: seconds worker processes have to stop as a Ctrl-C stops them before they are terminated
+CHILD_GRACE = 0.4
+
+
+def end_children(grace: float = CHILD_GRACE) -> None:
+    """Stop every worker process: first as a Ctrl-C does (``SIGINT``: a write in progress
+    removes its temporary file on the way out), then, ``grace`` seconds later, terminate the
+    ones still running."""
+    import time
+
+    with contextlib.suppress(Exception):
+        children = multiprocessing.active_children()
+        for child in children:
+            with contextlib.suppress(OSError, TypeError):
+                os.kill(child.pid, signal.SIGINT)
+        deadline = time.monotonic() + grace
+        for child in children:
+            child.join(max(deadline - time.monotonic(), 0.0))
+        for child in children:
+            if child.is_alive():
+                child.terminate()
+
+
 def _finish(signum: int) -> None:
     """End the process now: temporary files, worker processes, then ``os._exit``."""
     if _state["received"] is None:
         _state["received"] = signum
     cleanup_temps()
     announce(_state["received"])
-    with contextlib.suppress(Exception):
-        for child in multiprocessing.active_children():
-            child.terminate()
+    end_children()
     cleanup_temps()
     with contextlib.suppress(Exception):
         sys.stderr.flush()

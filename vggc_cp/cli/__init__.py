@@ -194,9 +194,13 @@ def run() -> None:
         code = main()
     except KeyboardInterrupt:  # a Ctrl-C that reached the top while the command unwound
         code = 130
-    from vggc_cp.interrupts import received
+    from vggc_cp.interrupts import end_children, received
 
     if received() is not None:
+        end_children()  # workers stop as a Ctrl-C stops them: no temporary file left
+        from vggc_cp.safeio import cleanup_temps
+
+        cleanup_temps()
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
