@@ -76,6 +76,19 @@ def _handler(signum, _frame):
     raise SystemExit(exit_code(signum))
 
 
+def _worker_exit(signum, _frame):
+    cleanup_temps()
+    os._exit(exit_code(signum))
+
+
+def worker_signals() -> None:
+    """Initializer of a worker process: SIGINT, SIGTERM and SIGHUP remove the worker's own
+    temporary files and end it at once (no traceback of a worker idle in its queue)."""
+    for sig in SIGNALS:
+        with contextlib.suppress(ValueError, OSError):
+            signal.signal(sig, _worker_exit)
+
+
 #: seconds worker processes have to stop as a Ctrl-C stops them before they are terminated
 CHILD_GRACE = 0.4
 

@@ -195,7 +195,10 @@ class ProcessExecutor(Executor):
         methods = multiprocessing.get_all_start_methods()
         ctx = multiprocessing.get_context(self.start or ("fork" if "fork" in methods
                                                          else "spawn"))
-        with ProcessPoolExecutor(max_workers=min(self.jobs, len(items)), mp_context=ctx) as pool:
+        from vggc_cp.interrupts import worker_signals
+
+        with ProcessPoolExecutor(max_workers=min(self.jobs, len(items)), mp_context=ctx,
+                                 initializer=worker_signals) as pool:
             futures = {pool.submit(fn, item): i for i, item in enumerate(items)}
             for fut in as_completed(futures):
                 yield futures[fut], fut.result()
