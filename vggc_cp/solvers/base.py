@@ -27,6 +27,20 @@ UNKNOWN = "unknown"
 STATUSES = (OPTIMAL, FEASIBLE, INFEASIBLE, UNKNOWN)
 
 
+def set_role_index(problem) -> tuple[np.ndarray, np.ndarray]:
+    """Give a frozen problem its ``roles`` (int8), ``pick_obs``, ``place_obs`` and ``local``
+    (each observation's row in its role's distances); returns ``(pick_obs, place_obs)``."""
+    roles = np.asarray(problem.roles, dtype=np.int8)
+    pick, place = np.flatnonzero(roles == PICK), np.flatnonzero(roles == PLACE)
+    local = np.empty(len(roles), dtype=np.int64)
+    local[pick] = np.arange(len(pick))
+    local[place] = np.arange(len(place))
+    for name, value in (("roles", roles), ("pick_obs", pick), ("place_obs", place),
+                        ("local", local)):
+        object.__setattr__(problem, name, value)
+    return pick, place
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """What a solver may see: roles, transitions, action names and within-role distances.
@@ -56,16 +70,7 @@ class Problem:
     local: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        roles = np.asarray(self.roles, dtype=np.int8)
-        object.__setattr__(self, "roles", roles)
-        pick = np.flatnonzero(roles == PICK)
-        place = np.flatnonzero(roles == PLACE)
-        local = np.empty(len(roles), dtype=np.int64)
-        local[pick] = np.arange(len(pick))
-        local[place] = np.arange(len(place))
-        object.__setattr__(self, "pick_obs", pick)
-        object.__setattr__(self, "place_obs", place)
-        object.__setattr__(self, "local", local)
+        pick, place = set_role_index(self)
         for name, d, n in (("dist_pick", self.dist_pick, len(pick)),
                            ("dist_place", self.dist_place, len(place))):
             if np.shape(d) != (n, n):

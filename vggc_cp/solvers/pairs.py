@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vggc_cp.graph import TaskGraph
-from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult
+from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult, set_role_index
 from vggc_cp.solvers.merge import (
     MergeStats,
     ThresholdPath,
@@ -90,15 +90,7 @@ class CodedProblem:
     local: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        roles = np.asarray(self.roles, dtype=np.int8)
-        object.__setattr__(self, "roles", roles)
-        pick, place = np.flatnonzero(roles == PICK), np.flatnonzero(roles == PLACE)
-        local = np.empty(len(roles), dtype=np.int64)
-        local[pick] = np.arange(len(pick))
-        local[place] = np.arange(len(place))
-        object.__setattr__(self, "pick_obs", pick)
-        object.__setattr__(self, "place_obs", place)
-        object.__setattr__(self, "local", local)
+        pick, place = set_role_index(self)
         for name, codes, table, n in (("pick", self.codes_pick, self.table_pick, len(pick)),
                                       ("place", self.codes_place, self.table_place,
                                        len(place))):
