@@ -38,7 +38,11 @@ from vggc_cp.errors import VggcError
 #: name -> (default, environment variable, what it bounds)
 CAPS: dict[str, tuple[int, str, str]] = {
     "max_bytes": (1 << 30, "VGGC_CP_MAX_BYTES",
-                  "uncompressed bytes of one input file's arrays (npz members, checkpoints)"),
+                  "uncompressed bytes of one input file's arrays held in memory (npz members, "
+                  "checkpoints)"),
+    "max_frame_bytes": (64 << 30, "VGGC_CP_MAX_FRAME_BYTES",
+                        "uncompressed bytes of a trace's frames read from the file in chunks "
+                        "(vggc_cp.frames), beyond max_bytes"),
     "max_pixels": (4096 * 4096, "VGGC_CP_MAX_PIXELS", "pixels (height x width) of one image"),
     "min_side": (4, "VGGC_CP_MIN_SIDE", "smallest image height or width accepted"),
     "max_json_bytes": (256 << 20, "VGGC_CP_MAX_JSON_BYTES", "bytes of one JSON file or field"),
@@ -370,16 +374,19 @@ def check_image_size(height: int, width: int, source: str) -> None:
 # ------------------------------------------------------------------ npz
 
 
-def npz_headers(path, source: str | None = None) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+def npz_headers(path, source: str | None = None, streamed: tuple[str, ...] = ()
+                ) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
     """``{key: (shape, dtype)}`` of every ``.npy`` member of ``path``, read from the headers.
 
     Refuses (naming the file and the field) a file that is not a zip, a member that is not an
     array, an object (pickle) member, a declared size above ``max_bytes`` or above what the
-    member holds, and a total uncompressed size above ``max_bytes``. Nothing is inflated
-    beyond the few bytes of each header.
+    member holds, and a total uncompressed size above ``max_bytes``. Members named in
+    ``streamed`` (read in chunks, :mod:`vggc_cp.frames`) are bounded by ``max_frame_bytes``
+    instead and left out of the total. Nothing is inflated beyond the few bytes of each header.
     """
     source = str(path) if source is None else source
     limit = cap("max_bytes")
+    stream_limit = cap("max_frame_bytes")
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
@@ -387,7 +394,8 @@ def npz_headers(path, source: str | None = None) -> dict[str, tuple[tuple[int, .
     out = {}
     with zf:
         infos = zf.infolist()
-        total = sum(i.file_size for i in infos)
+        total = sum(i.file_size for i in infos if i.filename.removesuffix(".npy")
+                    not in streamed)
         if total > limit:
             raise fail(source, "uncompressed size " + _too_big("bytes", total, "max_bytes"))
         for info in infos:
@@ -411,9 +419,11 @@ def npz_headers(path, source: str | None = None) -> dict[str, tuple[tuple[int, .
             for s in shape:
                 n *= int(s)
             declared = n * dtype.itemsize
-            if declared > limit:
+            own, own_name = (stream_limit, "max_frame_bytes") if key in streamed \
+                else (limit, "max_bytes")
+            if declared > own:
                 raise fail(source, f"field {key!r} declares shape {tuple(shape)} of {dtype}: "
-                           + _too_big("bytes", declared, "max_bytes"))
+                           + _too_big("bytes", declared, own_name))
             if declared > info.file_size - header_len:
                 raise fail(source, f"field {key!r} declares shape {tuple(shape)} of {dtype} "
                                    f"({declared:,} bytes) but holds "

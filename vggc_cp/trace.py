@@ -115,10 +115,12 @@ class Trace:
 
         Ground-truth ``states`` and ``meta`` are excluded, so removing them keeps caches valid.
         """
+        from vggc_cp.frames import frame_bytes_chunks
+
         h = hashlib.sha256()
-        obs = np.ascontiguousarray(self.observations)
-        h.update(repr(obs.shape).encode())
-        h.update(obs.tobytes())
+        h.update(repr(tuple(self.observations.shape)).encode())
+        for piece in frame_bytes_chunks(self.observations):
+            h.update(piece)
         h.update(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
         h.update("\x00".join(self.action_names).encode())
         return h.hexdigest()
@@ -132,9 +134,13 @@ class Trace:
             h.update(len(b).to_bytes(8, "little"))
             h.update(b)
 
-        obs = np.ascontiguousarray(self.observations)
-        part(repr(obs.shape).encode())
-        part(obs.tobytes())
+        from vggc_cp.frames import frame_bytes_chunks
+
+        obs = self.observations
+        part(repr(tuple(obs.shape)).encode())
+        h.update(int(obs.nbytes).to_bytes(8, "little"))  # part() of the frames, in pieces
+        for piece in frame_bytes_chunks(obs):
+            h.update(piece)
         part(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
         part(len(self.action_names).to_bytes(8, "little"))
         for name in self.action_names:
@@ -164,8 +170,10 @@ def validate(trace: Trace, source: str = "<trace>") -> None:
 
     The message names the source file, the field and the index.
     """
+    from vggc_cp.frames import StreamedFrames
+
     obs, actions, names = trace.observations, trace.actions, trace.action_names
-    if not isinstance(obs, np.ndarray) or obs.dtype != np.uint8:
+    if not isinstance(obs, (np.ndarray, StreamedFrames)) or obs.dtype != np.uint8:
         dt = getattr(obs, "dtype", type(obs).__name__)
         raise _fail(source, f"field 'observations' has dtype {dt}, expected uint8")
     if obs.ndim != 4 or obs.shape[3] != 3:
@@ -239,21 +247,29 @@ def _read_member(data, key: str, source: str) -> np.ndarray:
 def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
     """Load and validate ``trace.npz`` (never unpickles).
 
+    Frames of more than ``max_bytes`` (:data:`vggc_cp.safeio.CAPS`) are not loaded: the
+    trace's ``observations`` is then a :class:`vggc_cp.frames.StreamedFrames` that reads them
+    from the file as a stage asks for them (bounded by ``max_frame_bytes``); every other field
+    is held in memory as before.
+
     Raises
     ------
     TraceError
         Naming the file, the field and the index of the first problem.
     """
-    from vggc_cp.safeio import check_image_size, check_input, loads_json, npz_headers
+    from vggc_cp.frames import StreamedFrames
+    from vggc_cp.safeio import cap, check_image_size, check_input, loads_json, npz_headers
 
     path = Path(path)
     source = str(path)
     try:
         check_input(path, "trace")
-        headers = npz_headers(path, source)
-        obs_shape = headers.get("observations", ((), None))[0]
+        headers = npz_headers(path, source, streamed=("observations",))
+        obs_shape, obs_dtype = headers.get("observations", ((), None))
         if len(obs_shape) == 4:
             check_image_size(obs_shape[1], obs_shape[2], f"{source}: field 'observations'")
+        stream = obs_dtype is not None and \
+            int(np.prod(obs_shape)) * obs_dtype.itemsize > cap("max_bytes")
     except TraceError:
         raise
     except VggcError as exc:
@@ -269,13 +285,14 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
         for key in REQUIRED_KEYS:
             if key not in keys:
                 raise _fail(source, f"missing field {key!r}")
-        obs = _read_member(data, "observations", source)
+        obs = StreamedFrames(path, "observations", source) if stream else \
+            _read_member(data, "observations", source)
         actions = _read_member(data, "actions", source)
         names_arr = _read_member(data, "action_names", source)
         states = _read_member(data, "states", source) if "states" in keys else None
         meta_arr = _read_member(data, "meta", source) if "meta" in keys else None
         # read every other member too, so pickles or corruption anywhere are refused
-        for key in keys - set(REQUIRED_KEYS) - {"states", "meta"}:
+        for key in keys - set(REQUIRED_KEYS) - {"states", "meta"}:  # (frames: read later)
             _read_member(data, key, source)
     if names_arr.dtype.kind != "U" or names_arr.ndim != 1:
         raise _fail(source, f"field 'action_names' has dtype {names_arr.dtype} and rank "

@@ -436,7 +436,7 @@ def _study(t: Path, sub: str, what: str) -> Path:
 
 
 def _env_cases() -> list[Case]:
-    caps = ("VGGC_CP_MAX_BYTES", "VGGC_CP_MAX_PIXELS", "VGGC_CP_MIN_SIDE",
+    caps = ("VGGC_CP_MAX_BYTES", "VGGC_CP_MAX_FRAME_BYTES", "VGGC_CP_MAX_PIXELS", "VGGC_CP_MIN_SIDE",
             "VGGC_CP_MAX_JSON_BYTES", "VGGC_CP_MAX_JSON_DEPTH", "VGGC_CP_STALE_TEMP_MINUTES")
     out = [Case("inspect", f"env-{var}-{i}", lambda w, t: ["inspect", w["trace"]], (),
                 (var,), {var: value})

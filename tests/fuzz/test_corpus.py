@@ -121,14 +121,17 @@ def test_bad_trace(world, capsys, tmp_path, cmd, name):
 
 @pytest.mark.parametrize("cmd", ["inspect", "solve", "evaluate", "distances"])
 def test_zip_bomb_refused_before_inflating(world, capsys, tmp_path, monkeypatch, cmd):
-    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(2 << 20))
+    # frames above max_bytes are read from the file in chunks (vggc_cp.frames); what bounds
+    # them then is max_frame_bytes
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(1 << 20))
+    monkeypatch.setenv("VGGC_CP_MAX_FRAME_BYTES", str(2 << 20))
     path = tmp_path / "bomb.npz"
     path.write_bytes(zip_bomb(3 << 20))  # a few kB inflating to 3 MB > the 2 MB cap
     assert path.stat().st_size < 100_000
     out = tmp_path / "out"
     out.mkdir()
     expect_refusal(capsys, TRACE_COMMANDS[cmd](path, world, out), [path],
-                   (path, "VGGC_CP_MAX_BYTES"))
+                   (path, "VGGC_CP_MAX_FRAME_BYTES"))
 
 
 @pytest.mark.parametrize("cmd", ["inspect", "render"])

@@ -77,7 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from vggc_cp.errors import EvidenceNotApplicable, VggcError
+from vggc_cp.errors import EvidenceNotApplicable, TraceError, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.registration import steady
@@ -244,8 +244,24 @@ def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
     return normalise_frames(observations, factor)
 
 
+def check_working_bytes(observations, factor: int, source: str | None = None) -> None:
+    """Refuse frames whose working-resolution float copy (what the footprints hold) would
+    exceed ``max_bytes``, naming the trace, the sizes and the cap (a 640x480 recording of
+    1,628 frames holds 121 MB at factor 7, whatever its 1.5 GB of pixels in the file)."""
+    from vggc_cp.safeio import CAPS, cap
+
+    n, h, w = (int(v) for v in observations.shape[:3])
+    held = n * (h // factor) * (w // factor) * 3 * 4
+    if held > cap("max_bytes"):
+        source = source or getattr(observations, "source", None) or "the trace"
+        raise TraceError(f"{source}: field 'observations': {n:,} frames of {w}x{h} hold "
+                         f"{held:,} bytes at the footprints' working resolution "
+                         f"({w // factor}x{h // factor}, float32), above the cap of "
+                         f"{cap('max_bytes'):,} ({CAPS['max_bytes'][1]})")
+
+
 def working_frames(observations: np.ndarray, executor=None,
-                   block: int | None = None) -> np.ndarray:
+                   block: int | None = None, source: str | None = None) -> np.ndarray:
     """:func:`normalise_frames` at the :func:`working_factor` of the frames' size; with an
     ``executor`` (e.g. a dask cluster), blocks of ``block`` (default :data:`BLOCK_FRAMES`)
     frames are converted on its workers (each frame on its own: the same numbers as here).
@@ -255,6 +271,7 @@ def working_frames(observations: np.ndarray, executor=None,
     ndarray of float32, shape (N, H // f, W // f, 3)
     """
     factor = working_factor(*observations.shape[1:3])
+    check_working_bytes(observations, factor, source)
     block = int(block or BLOCK_FRAMES)
     if executor is None or len(observations) <= block:
         return normalise_frames(observations, factor)
@@ -539,7 +556,8 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise EvidenceNotApplicable("footprint evidence needs at least one transition")
-    x = steady(working_frames(trace.observations, executor))   # a shaking camera held still
+    # a shaking camera held still
+    x = steady(working_frames(trace.observations, executor, source=trace.source))
     n_act = trace.n_actions
     maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
     if not maps.any():

@@ -1,0 +1,149 @@
+"""Frames read from the trace file on demand (issue 27): vggc_cp.frames and load_trace."""
+
+from __future__ import annotations
+
+import pickle
+import tracemalloc
+import zipfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vggc_cp.errors import TraceError
+from vggc_cp.frames import StreamedFrames, frame_bytes_chunks
+from vggc_cp.trace import load_trace, npz_bytes, save_trace
+
+DATA = Path(__file__).resolve().parent.parent / "data" / "fruit-2x3.npz"
+
+
+@pytest.fixture()
+def frames(tmp_path):
+    rng = np.random.default_rng(3)
+    arr = rng.integers(0, 256, (23, 6, 5, 3), dtype=np.uint8)
+    path = tmp_path / "f.npz"
+    path.write_bytes(npz_bytes({"observations": arr, "actions": np.zeros(22, np.int64)}))
+    s = StreamedFrames(path, "observations")
+    yield arr, s
+    s.close()
+
+
+@pytest.mark.parametrize("key", [
+    0, 22, -1, np.int64(7), slice(None), slice(3, 9), slice(20, 40), slice(9, 3),
+    slice(1, 20, 4), [5, 1, 5, 22, 0], np.array([-2, 3]), (slice(2, 6), slice(1, 4)),
+    (4, slice(None), 2), ([9, 2], slice(0, 3), slice(None), 1),
+])
+def test_indexing_reads_what_memory_holds(frames, key):
+    arr, s = frames
+    got = s[key]
+    assert isinstance(got, np.ndarray) and got.dtype == np.uint8
+    assert np.array_equal(got, arr[key])
+    got[...] = 0  # an ordinary writable array; the file is untouched
+    assert np.array_equal(s[key], arr[key])
+
+
+def test_boolean_mask_chunks_and_bytes(frames):
+    arr, s = frames
+    mask = np.arange(23) % 3 == 0
+    assert np.array_equal(s[mask], arr[mask])
+    assert np.array_equal(np.concatenate(list(s.chunks(s.frame_bytes * 4))), arr)
+    assert b"".join(frame_bytes_chunks(s, 100)) == arr.tobytes()
+    assert b"".join(frame_bytes_chunks(arr[:, ::2], 7)) == np.ascontiguousarray(
+        arr[:, ::2]).tobytes()
+    with pytest.raises(IndexError):
+        s[[23]]
+
+
+def test_reads_forward_and_back_and_after_pickling(frames):
+    arr, s = frames
+    for key in (slice(15, 20), slice(0, 2), 22, 3):
+        assert np.array_equal(s[key], arr[key])
+    t = pickle.loads(pickle.dumps(s))
+    assert t._fh is None and np.array_equal(t[10:12], arr[10:12])
+    t.close()
+
+
+def test_all_frames_at_once_are_refused_above_the_cap(frames, monkeypatch):
+    arr, s = frames
+    assert np.array_equal(np.asarray(s), arr)
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(arr.nbytes - 1))
+    with pytest.raises(TraceError, match=r"f\.npz: field 'observations' holds 2,070 bytes.*"
+                                         r"VGGC_CP_MAX_BYTES"):
+        np.asarray(s)
+
+
+def test_a_damaged_member_names_the_file_field_and_frame(tmp_path):
+    arr = np.arange(40 * 8 * 8 * 3, dtype=np.uint8).reshape(40, 8, 8, 3)
+    good = tmp_path / "g.npz"
+    good.write_bytes(npz_bytes({"observations": arr}))
+    bad = tmp_path / "b.npz"
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(bad, "w") as dst:
+        info = src.getinfo("observations.npy")
+        raw = src.read(info)
+        dst.writestr(info, raw[: len(raw) // 2])  # a member cut in half, header intact
+    # the zip's own size field now says half: the frames past it are missing
+    s = StreamedFrames(bad, "observations")
+    assert np.array_equal(s[:3], arr[:3])
+    with pytest.raises(TraceError, match=r"b\.npz: field 'observations' is corrupt or "
+                                         r"truncated near frame 30"):
+        s[30:32]
+    with pytest.raises(TraceError, match="Fortran order"):
+        f = tmp_path / "f.npz"
+        f.write_bytes(npz_bytes({"observations": np.asfortranarray(arr)}))
+        StreamedFrames(f, "observations")
+
+
+def test_load_trace_streams_frames_above_the_cap(monkeypatch):
+    held = load_trace(DATA)
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(held.observations.nbytes // 2))
+    streamed = load_trace(DATA)
+    assert isinstance(streamed.observations, StreamedFrames)
+    assert streamed.observations.shape == held.observations.shape
+    assert np.array_equal(streamed.actions, held.actions)
+    assert np.array_equal(streamed.states, held.states)
+    assert streamed.content_hash() == held.content_hash()
+    assert streamed.identity_hash() == held.identity_hash()
+    monkeypatch.setenv("VGGC_CP_MAX_FRAME_BYTES", str(held.observations.nbytes - 1))
+    with pytest.raises(TraceError, match="VGGC_CP_MAX_FRAME_BYTES"):
+        load_trace(DATA)
+
+
+def test_streamed_frames_give_the_same_distances_holding_a_fraction(tmp_path, monkeypatch):
+    """The footprints of a trace streamed from its file equal those of the trace in memory,
+    and converting its frames holds a fraction of them: this fails if every frame were
+    inflated (or converted to float) at once."""
+    from vggc_cp.vision.footprints import footprint_distances, normalise_frames
+
+    small = load_trace(DATA).without_states()
+    big = replace(small, observations=small.observations.repeat(4, axis=1).repeat(4, axis=2))
+    path = tmp_path / "big.npz"
+    save_trace(big, path)
+    frames_bytes = big.observations.nbytes
+    want = footprint_distances(big)
+    want_x = normalise_frames(big.observations, 4)
+    del big
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(frames_bytes // 4))
+    trace = load_trace(path)
+    assert isinstance(trace.observations, StreamedFrames)
+    for a, b in zip(footprint_distances(trace), want):
+        assert np.array_equal(a, b)
+    tracemalloc.start()
+    try:
+        x = normalise_frames(trace.observations, 4, chunk_bytes=1 << 20)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert np.array_equal(x, want_x)
+    assert peak < frames_bytes / 3, (peak, frames_bytes)
+
+
+def test_the_working_copy_is_what_the_cap_bounds(monkeypatch):
+    from vggc_cp.vision.footprints import footprint_distances
+
+    trace = load_trace(DATA).without_states()
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(trace.observations.nbytes))  # < float copy
+    with pytest.raises(TraceError, match=r"fruit-2x3\.npz: field 'observations': 56 frames of "
+                                         r"64x64 hold 2,752,512 bytes at the footprints' "
+                                         r"working resolution.*VGGC_CP_MAX_BYTES"):
+        footprint_distances(load_trace(DATA))

@@ -1,0 +1,251 @@
+"""Frames read from the trace file as they are needed, not all held in memory (issue 27).
+
+A camera-sized recording does not fit the memory cap: 1,628 frames of 640x480 RGB are 1.5 GB
+of uint8 before any float copy. :func:`vggc_cp.trace.load_trace` therefore returns the
+``observations`` of a trace whose frames exceed ``max_bytes`` (:data:`vggc_cp.safeio.CAPS`) as
+a :class:`StreamedFrames`: an array-like over the ``observations`` member of the ``.npz`` that
+inflates the frames an index asks for, in one forward pass of the member (a deflated zip member
+is read front to back; a read behind the last one starts again from the front). What a stage
+holds is then what it asks for: the footprint evidence reads chunks of frames and keeps only its
+working-resolution copy (:func:`vggc_cp.vision.footprints.normalise_frames`).
+
+A stage that needs every frame at full size at once (``np.asarray(frames)``: training a
+localizer, writing the trace again) is refused with the file, the field, the size and the cap,
+never left to exhaust memory.
+
+Examples
+--------
+>>> import numpy as np, tempfile, os
+>>> from vggc_cp.trace import npz_bytes
+>>> frames = np.arange(5 * 4 * 4 * 3, dtype=np.uint8).reshape(5, 4, 4, 3)
+>>> path = os.path.join(tempfile.mkdtemp(), "t.npz")
+>>> _ = open(path, "wb").write(npz_bytes({"observations": frames}))
+>>> s = StreamedFrames(path, "observations")
+>>> s.shape, s.dtype, len(s)
+((5, 4, 4, 3), dtype('uint8'), 5)
+>>> bool(np.array_equal(s[1:3], frames[1:3])), bool(np.array_equal(s[[4, 0]], frames[[4, 0]]))
+(True, True)
+>>> s.close()
+"""
+
+from __future__ import annotations
+
+import zipfile
+from collections.abc import Iterator
+
+import numpy as np
+
+from vggc_cp.errors import TraceError
+
+#: bytes read from the member at once while skipping or filling a request
+READ_BYTES = 64 << 20
+
+
+class StreamedFrames:
+    """The uint8 frames of one ``.npz`` member, read on demand (module docstring).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.npz`` file.
+    key : str
+        The member's name without ``.npy`` (``"observations"``).
+    source : str, optional
+        How error messages name the file (default: ``path``).
+
+    Attributes
+    ----------
+    shape : tuple of int, (N, H, W, C)
+    dtype : numpy.dtype (uint8)
+    ndim, size, nbytes : int
+
+    Notes
+    -----
+    Indexing takes an integer, a slice of step 1, a sequence or array of integers (one forward
+    pass over the sorted indices, the result in the order asked) or a tuple whose first item is
+    one of those and whose other items index every frame (``frames[a:b, :h, :w]``). The result
+    is an ordinary writable ``ndarray``. Pickling keeps the path, not an open file: a worker
+    process reads the frames it is sent for itself.
+    """
+
+    def __init__(self, path, key: str = "observations", source: str | None = None):
+        self.path = str(path)
+        self.key = key
+        self.source = self.path if source is None else str(source)
+        self._zf = None
+        self._fh = None
+        self._pos = 0
+        with zipfile.ZipFile(self.path) as zf:
+            self._member = self._find(zf)
+            with zf.open(self._member) as fh:
+                shape, fortran, dtype = _read_header(fh, self._where())
+        if fortran or dtype != np.uint8 or len(shape) != 4:
+            raise TraceError(f"{self._where()} holds {dtype} of shape {tuple(shape)}"
+                             f"{' in Fortran order' if fortran else ''}; frames are read "
+                             f"from the file only as C-ordered uint8 [N, H, W, 3]")
+        self.shape = tuple(int(s) for s in shape)
+        self.dtype = np.dtype(np.uint8)
+        self.ndim = 4
+        self.frame_bytes = int(np.prod(self.shape[1:]))
+        self.size = int(np.prod(self.shape))
+        self.nbytes = self.size
+
+    # ------------------------------------------------------------------ reading
+
+    def _where(self) -> str:
+        return f"{self.source}: field {self.key!r}"
+
+    def _find(self, zf: zipfile.ZipFile) -> zipfile.ZipInfo:
+        try:
+            return zf.getinfo(self.key + ".npy")
+        except KeyError:
+            raise TraceError(f"{self.source}: missing field {self.key!r}") from None
+
+    def _open(self) -> None:
+        self.close()
+        self._zf = zipfile.ZipFile(self.path)
+        self._fh = self._zf.open(self._find(self._zf))
+        _read_header(self._fh, self._where())
+        self._pos = 0
+
+    def _read_range(self, a: int, b: int, out: np.ndarray) -> None:
+        """Frames ``a:b`` into ``out`` (shape ``(b - a, H, W, C)``), reading forward."""
+        if self._fh is None or a < self._pos:
+            self._open()
+        try:
+            skip = (a - self._pos) * self.frame_bytes
+            while skip > 0:
+                got = len(self._fh.read(min(skip, READ_BYTES)))
+                if got == 0:
+                    raise EOFError
+                skip -= got
+            view = memoryview(out.reshape(-1))
+            done = 0
+            while done < len(view):
+                got = self._fh.readinto(view[done:done + READ_BYTES])
+                if not got:
+                    raise EOFError
+                done += got
+        except (EOFError, OSError, zipfile.BadZipFile) as exc:
+            self.close()
+            raise TraceError(f"{self._where()} is corrupt or truncated near frame {a} "
+                             f"({type(exc).__name__})") from None
+        except Exception as exc:  # zlib.error on a damaged member
+            self.close()
+            raise TraceError(f"{self._where()} is corrupt or truncated near frame {a} "
+                             f"({type(exc).__name__})") from None
+        self._pos = b
+
+    def take(self, indices) -> np.ndarray:
+        """The frames ``indices`` (ints, any order, repeats allowed) in one forward pass."""
+        idx = np.asarray(indices)
+        if idx.dtype == bool:
+            if idx.shape != (self.shape[0],):
+                raise IndexError(f"boolean index of shape {idx.shape} for {self.shape[0]} frames")
+            idx = np.flatnonzero(idx)
+        idx = idx.astype(np.int64).reshape(-1)
+        n = self.shape[0]
+        if idx.size and (idx.min() < -n or idx.max() >= n):
+            raise IndexError(f"frame index out of range for {n} frames")
+        idx = np.where(idx < 0, idx + n, idx)
+        want, inverse = np.unique(idx, return_inverse=True)
+        got = np.empty((len(want), *self.shape[1:]), dtype=np.uint8)
+        k = 0
+        while k < len(want):  # runs of consecutive frames, read in one go each
+            e = k + 1
+            while e < len(want) and want[e] == want[e - 1] + 1:
+                e += 1
+            self._read_range(int(want[k]), int(want[e - 1]) + 1, got[k:e])
+            k = e
+        return got[inverse.reshape(-1)]
+
+    def __getitem__(self, key):
+        rest = ()
+        if isinstance(key, tuple):
+            key, rest = key[0], key[1:]
+        if isinstance(key, (int, np.integer)):
+            out = self.take([int(key)])[0]
+        elif isinstance(key, slice):
+            start, stop, step = key.indices(self.shape[0])
+            if step == 1:
+                out = np.empty((max(stop - start, 0), *self.shape[1:]), dtype=np.uint8)
+                if stop > start:
+                    self._read_range(start, stop, out)
+            else:
+                out = self.take(np.arange(start, stop, step))
+        else:
+            out = self.take(key)
+        if not rest:
+            return out
+        return out[rest] if isinstance(key, (int, np.integer)) else out[(slice(None), *rest)]
+
+    def chunks(self, chunk_bytes: int = READ_BYTES) -> Iterator[np.ndarray]:
+        """The frames in order, about ``chunk_bytes`` at a time (one pass over the member)."""
+        step = max(1, int(chunk_bytes) // self.frame_bytes)
+        for s in range(0, self.shape[0], step):
+            yield self[s:s + step]
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __array__(self, dtype=None, copy=None):
+        from vggc_cp.safeio import CAPS, cap
+
+        limit = cap("max_bytes")
+        if self.nbytes > limit:
+            raise TraceError(f"{self._where()} holds {self.nbytes:,} bytes of frames; this "
+                             f"step needs all of them in memory at once, above the cap of "
+                             f"{limit:,} ({CAPS['max_bytes'][1]}): raise it if the machine "
+                             f"has the memory, or record at a smaller size")
+        out = self[:]
+        return out if dtype is None else out.astype(dtype, copy=False)
+
+    # ------------------------------------------------------------------ lifetime
+
+    def close(self) -> None:
+        """Close the open member and file (reopened by the next read)."""
+        for h in (self._fh, self._zf):
+            if h is not None:
+                h.close()
+        self._fh = self._zf = None
+        self._pos = 0
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.update(_zf=None, _fh=None, _pos=0)
+        return state
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
+
+    def __repr__(self) -> str:
+        return f"StreamedFrames({self.source!r}, shape={self.shape})"
+
+
+def _read_header(fh, where: str) -> tuple[tuple[int, ...], bool, np.dtype]:
+    try:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            return np.lib.format.read_array_header_1_0(fh)
+        if version in ((2, 0), (3, 0)):
+            return np.lib.format.read_array_header_2_0(fh)
+        raise ValueError(f"npy version {version}")
+    except Exception as exc:  # noqa: BLE001 - any damage in a header is a refusal
+        raise TraceError(f"{where} is not a readable array ({type(exc).__name__})") from None
+
+
+def frame_bytes_chunks(frames, chunk_bytes: int = READ_BYTES) -> Iterator[bytes]:
+    """The C-order bytes of ``frames`` (an ndarray or :class:`StreamedFrames`) in pieces:
+    their concatenation is ``np.ascontiguousarray(frames).tobytes()``."""
+    if isinstance(frames, StreamedFrames):
+        for block in frames.chunks(chunk_bytes):
+            yield block.tobytes()
+        return
+    arr = np.ascontiguousarray(frames)
+    flat = arr.reshape(-1).view(np.uint8) if arr.size else arr.reshape(-1)
+    step = max(1, int(chunk_bytes))
+    for s in range(0, max(flat.size, 1), step):
+        yield flat[s:s + step].tobytes()
