@@ -124,3 +124,46 @@ def test_visual_score_and_restriction():
     assert np.array_equal(sub.dense().dist_pick,
                           dense.dist_pick[np.ix_(dense.local[kept[sub.roles == 0]],
                                                  dense.local[kept[sub.roles == 0]])])
+
+
+@pytest.mark.parametrize("seed,levels,n_codes,batch", [
+    (0, 0, 3, None), (6, 4, 1, 40),
+    *(pytest.param(*p, marks=pytest.mark.slow) for p in (
+        (0, 0, 3, 40), (6, 4, 1, None), (2, 16, 3, None), (2, 16, 3, 40), (1, 8, 2, None),
+        (4, 4, 3, 40)))])
+def test_pairs_of_clusters_give_the_dense_path(monkeypatch, seed, levels, n_codes, batch):
+    """Batches scanned from their pairs of clusters (one pair per two clusters, regenerated
+    after every accepted merge) always, never, or by the default rule: the dense partitions
+    at every threshold, in one threshold alone too."""
+    from vggc_cp.solvers import pairs
+
+    rng = np.random.default_rng(seed)
+    trace = make_trace([fruit_episode(rng, 8) for _ in range(6)], NAMES)
+    coded = coded_problem(trace, n_codes, levels, seed)
+    ts = np.geomspace(0.01, 0.9, 12)
+    want = threshold_path(coded.dense(), ts, "mdl")
+    if batch:
+        monkeypatch.setattr(pairs, "BATCH", batch)
+    compressed = []
+    real = pairs._PairStream.compressed
+
+    def spy(self, *a):
+        out = real(self, *a)
+        compressed.append(out is not None)
+        return out
+
+    monkeypatch.setattr(pairs._PairStream, "compressed", spy)
+    for share, regens in ((1e9, 10**9), (0.0, 0), (pairs.COMPRESS_SHARE, pairs.COMPRESS_REGENS)):
+        monkeypatch.setattr(pairs, "COMPRESS_SHARE", share)
+        monkeypatch.setattr(pairs, "COMPRESS_REGENS", regens)
+        compressed.clear()
+        got = coded_threshold_path(coded, ts, "mdl")
+        for x, y in zip(want.results, got.results):
+            assert np.array_equal(x.labels, y.labels)
+        assert want.selected == got.selected
+        if share > 1:
+            assert compressed and all(compressed)
+        if regens == 0:
+            assert not any(compressed)
+        t = float(ts[6])
+        assert np.array_equal(congruence_merge(coded.dense(), t)[0], coded_merge(coded, t)[0])

@@ -27,11 +27,21 @@ closure. Across thresholds the closure is kept: the run at the next threshold ``
 the run at ``t`` exactly up to the first attempt whose veto was an average linkage in
 ``(t, t']`` (the only place a threshold enters a closure; :func:`_try_merge` reports it), so
 the pass continues from there, or from the end when there is none, replaying the accepted
-merges before it. The partitions are the dense path's (``tests/solvers/test_pairs.py`` on
-random code tables, ``tests/test_pipeline_pairs.py`` on rendered traces); the counters in
-``stats`` count this pass's attempts. What still grows faster than the trace is the closure
-work at thresholds below the noise, where most attempts cascade and are vetoed (README, *Long
-recordings*): the same work the dense path does there at each threshold, done once.
+merges before it.
+
+**Pairs of clusters.** Until a merge is accepted the clusters do not change, and between two
+clusters only the first pair is tried; so where a batch's observations already lie in few
+clusters, the batch is scanned from one pair per two clusters present in each pair of codes
+(:meth:`_PairStream.compressed`: the first pair of clusters ``A`` and ``B`` among codes ``g``
+and ``h`` is made of the two codes' smallest members in them), regenerated after each
+accepted merge. At the high thresholds, where nearly every attempt is vetoed, that is a few
+thousand pairs where the batch holds tens of millions; where clusters are still mostly
+singletons (or merges keep being accepted) the batch is scanned pair by pair as before
+(:data:`COMPRESS_SHARE`, :data:`COMPRESS_REGENS`).
+
+The partitions are the dense path's (``tests/solvers/test_pairs.py`` on random code tables,
+with and without pairs of clusters; ``tests/test_pipeline_pairs.py`` on rendered traces); the
+counters in ``stats`` count this pass's attempts.
 """
 
 from __future__ import annotations
@@ -58,6 +68,11 @@ from vggc_cp.trace import PICK, PLACE
 BATCH = 1 << 20
 #: Candidate pairs of the batches kept for the next thresholds.
 CACHED = 4 << 20
+#: A batch is scanned from its pairs of clusters (:meth:`_PairStream.compressed`) while that
+#: list is under this share of the batch's pairs of observations ...
+COMPRESS_SHARE = 0.25
+#: ... and until this many merges were accepted in it (each one regenerates the list).
+COMPRESS_REGENS = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -302,6 +317,10 @@ class _PairStream:
     def __init__(self, problem: CodedProblem, top: float, batch: int | None = None):
         batch = int(batch or BATCH)
         self.n = problem.n_obs
+        self.role_of = problem.roles
+        self.code_of = np.empty(self.n, dtype=np.int64)
+        self.code_of[problem.pick_obs] = problem.codes_pick
+        self.code_of[problem.place_obs] = problem.codes_place
         self.members: dict[int, list[np.ndarray]] = {}
         vals, roles, gs, hs, ns = [], [], [], [], []
         for role in (PICK, PLACE):
@@ -326,6 +345,7 @@ class _PairStream:
         self.g = np.concatenate(gs)[order]
         self.h = np.concatenate(hs)[order]
         npairs = np.concatenate(ns)[order].astype(np.float64)
+        self._npairs = npairs
         cum = np.cumsum(npairs)
         # batches (code pairs [a, b), first ids [i0, i1)): whole levels up to about ``batch``
         # pairs, or a level of more split into ranges of first ids of about ``batch`` pairs
@@ -375,6 +395,116 @@ class _PairStream:
             self._cache.pop(next(iter(self._cache)))
         return hit
 
+    def batch_pairs(self, k: int) -> float:
+        """Pairs of observations in batch ``k`` (an upper bound where a level is split)."""
+        a, b, _, _ = self.bounds[k]
+        return float(self._npairs[a:b].sum())
+
+    def compressed(self, k: int, after: tuple[float, int, int], roots: np.ndarray,
+                   limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The pairs of batch ``k`` at or after the key ``after`` that the scan can try before
+        the next accepted merge, sorted like the dense candidates; None when they would be
+        more than ``limit``.
+
+        Until a merge is accepted the clusters stay as they are (``roots``), and of all
+        pairs between two clusters only the first is tried (the others meet a veto of the same
+        epoch, or one cluster). Among the pairs of codes ``g`` and ``h`` whose both ids are at
+        least ``L`` (which is what "first id at least ``L``" means for pairs ``i < j``), the
+        first between clusters ``A`` and ``B`` is ``(min(a, b), max(a, b))`` with ``a`` the
+        smallest member of ``g`` in ``A`` and ``b`` that of ``h`` in ``B``, so one pair per
+        pair of clusters present in the two codes suffices; the rest of the row of ``after``'s
+        first id is added pair by pair the same way. Pairs inside one cluster are left out."""
+        a, b, i0, i1 = self.bounds[k]
+        d0, ia, ja = after
+        mins: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+        def cluster_mins(role: int, g: int, low: int) -> tuple[np.ndarray, np.ndarray]:
+            key = (role, g, low)
+            hit = mins.get(key)
+            if hit is None:
+                mg = self.members[role][g]
+                mg = mg[np.searchsorted(mg, low):]
+                r = roots[mg]
+                u, first = np.unique(r, return_index=True)
+                hit = mins[key] = (u, mg[first])
+            return hit
+
+        ds, iis, jjs = [], [], []
+        one_d, one_i, one_j = [], [], []  # pairs of codes of one cluster each (most of them)
+        total = 0
+        row_code = (int(self.role_of[ia]), int(self.code_of[ia])) if 0 <= ia < self.n \
+            else (-1, -1)
+        lo = int(np.searchsorted(self.v[a:b], d0, side="left")) + a
+        for v, role, g, h in zip(self.v[lo:b].tolist(), self.role[lo:b].tolist(),
+                                 self.g[lo:b].tolist(), self.h[lo:b].tolist()):
+            at_row = v == d0 and i0 <= ia < i1 and row_code[0] == role \
+                and row_code[1] in (g, h)
+            low = max(i0, ia + 1) if v == d0 else i0
+            ug, mg = cluster_mins(role, g, low)
+            uh, mh = (ug, mg) if g == h else cluster_mins(role, h, low)
+            if len(ug) == 1 and len(uh) == 1 and g != h and not at_row:
+                if ug[0] != uh[0]:
+                    x, y = int(mg[0]), int(mh[0])
+                    if min(x, y) < i1:
+                        one_d.append(v)
+                        one_i.append(min(x, y))
+                        one_j.append(max(x, y))
+                        total += 1
+                continue
+            if total + (len(ug) * (len(ug) - 1) // 2 if g == h else len(ug) * len(uh)) \
+                    > limit:
+                return None
+            if g == h:
+                order = np.argsort(mg)
+                m = mg[order]
+                p, q = np.triu_indices(len(m), 1)
+                i, j = m[p], m[q]
+            else:
+                live = ug[:, None] != uh[None, :]
+                x = np.broadcast_to(mg[:, None], live.shape)[live]
+                y = np.broadcast_to(mh[None, :], live.shape)[live]
+                i, j = np.minimum(x, y), np.maximum(x, y)
+            keep = i < i1
+            i, j = i[keep], j[keep]
+            if at_row:  # the rest of the row of ``after``'s first id
+                i, j = self._row_rest(role, g, h, ia, ja, roots, i, j)
+            total += len(i)
+            if total > limit:
+                return None
+            if len(i):
+                ds.append(np.full(len(i), v))
+                iis.append(i)
+                jjs.append(j)
+        if one_d:
+            ds.append(np.asarray(one_d, dtype=np.float64))
+            iis.append(np.asarray(one_i, dtype=np.int64))
+            jjs.append(np.asarray(one_j, dtype=np.int64))
+        if not ds:
+            empty = np.zeros(0, dtype=np.int64)
+            return np.zeros(0), empty, empty
+        d, i, j = np.concatenate(ds), np.concatenate(iis), np.concatenate(jjs)
+        order = np.lexsort((j, i, d))
+        return d[order], i[order], j[order]
+
+    def _row_rest(self, role: int, g: int, h: int, row: int, low: int, roots: np.ndarray,
+                  i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(i, j)`` and the first pair ``(row, y)``, ``y >= low``, ``y > row``, per cluster
+        of ``y`` other than ``row``'s, with ``y`` in the code that ``row`` is paired with."""
+        mg, mh = self.members[role][g], self.members[role][h]
+        k = int(np.searchsorted(mg, row))
+        if k < len(mg) and mg[k] == row:
+            others = mh
+        else:
+            k = int(np.searchsorted(mh, row))
+            if not (k < len(mh) and mh[k] == row):
+                return i, j
+            others = mg
+        ys = others[np.searchsorted(others, max(low, row + 1)):]
+        r = roots[ys]
+        u, first = np.unique(r, return_index=True)
+        ys = ys[first[u != roots[row]]]
+        return np.concatenate([np.full(len(ys), row), i]), np.concatenate([ys, j])
+
     def _generate(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         a, b, i0, i1 = self.bounds[k]
         ds, iis, jjs = [], [], []
@@ -407,9 +537,11 @@ class _PairStream:
 class _Pass:
     """Congruence-closure merging along ascending thresholds (module docstring)."""
 
-    def __init__(self, problem: CodedProblem, top: float, max_work: int = 2_000):
+    def __init__(self, problem: CodedProblem, top: float, max_work: int = 2_000,
+                 compress: bool = True):
         self.problem = problem
         self.stream = _PairStream(problem, top)
+        self.compress = compress
         self.max_work = max_work
         self.commits: list[tuple[tuple[float, int, int], dict[int, list[int]]]] = []
         self.linkage_vetoes: list[tuple[tuple[float, int, int], float]] = []
@@ -443,9 +575,30 @@ class _Pass:
         if late:
             self._rewind(min(late))
         k = self.stream.batch_of(self.at[0], self.at[1])
+        regens = 0
         while k < len(self.stream.bounds):
             if self.stream.first_level(k) > threshold:
                 break
+            short = None
+            if self.compress and regens < COMPRESS_REGENS:
+                short = self.stream.compressed(k, self.at, self.cl.root_of,
+                                               COMPRESS_SHARE * self.stream.batch_pairs(k))
+            if short is not None:  # pairs of clusters, until a merge is accepted
+                d, i, j = short
+                stop = int(np.searchsorted(d, threshold, side="right"))
+                accepted = self._scan(d, i, j, 0, stop, threshold, until_accepted=True)
+                if accepted is not None:
+                    self.at = (float(d[accepted]), int(i[accepted]), int(j[accepted]) + 1)
+                    regens += 1
+                    continue
+                if stop < len(d):
+                    self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
+                    break
+                k += 1
+                regens = 0
+                self.at = ((*self.stream.starts[k], -1) if k < len(self.stream.bounds)
+                           else (np.inf, -1, -1))
+                continue
             d, i, j = self.stream.pairs(k)
             lo = int(np.searchsorted(d, self.at[0], side="left"))
             hi = int(np.searchsorted(d, self.at[0], side="right"))
@@ -457,6 +610,7 @@ class _Pass:
                 self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
                 break
             k += 1
+            regens = 0
             self.at = ((*self.stream.starts[k], -1) if k < len(self.stream.bounds)
                        else (np.inf, -1, -1))
         cl = self.cl
@@ -470,9 +624,10 @@ class _Pass:
         return labels, stats
 
     def _scan(self, d: np.ndarray, i: np.ndarray, j: np.ndarray, start: int, stop: int,
-              threshold: float) -> None:
+              threshold: float, until_accepted: bool = False) -> int | None:
         """Merge the pairs ``start:stop`` of a batch: per window, only the first pair between
-        two clusters since the last accepted merge is tried (the others would be skipped)."""
+        two clusters since the last accepted merge is tried (the others would be skipped).
+        With ``until_accepted``, stop at the first accepted merge and return its index."""
         cl = self.cl
         n = self.stream.n
         window = 1024
@@ -496,9 +651,12 @@ class _Pass:
             if accepted is None:
                 o = end
                 window = min(window * 2, 1 << 18)
+            elif until_accepted:
+                return accepted
             else:
                 o = accepted + 1
                 window = 1024
+        return None
 
     def _attempt(self, ri: int, rj: int, pair: tuple[float, int, int], threshold: float
                  ) -> bool:
