@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import pickle
 import tracemalloc
 import zipfile
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 
 from vggc_cp.errors import TraceError
-from vggc_cp.frames import StreamedFrames, frame_bytes_chunks
+from vggc_cp.frames import StreamedFrames
 from vggc_cp.trace import load_trace, npz_bytes, save_trace
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "fruit-2x3.npz"
@@ -48,9 +49,12 @@ def test_boolean_mask_chunks_and_bytes(frames):
     mask = np.arange(23) % 3 == 0
     assert np.array_equal(s[mask], arr[mask])
     assert np.array_equal(np.concatenate(list(s.chunks(s.frame_bytes * 4))), arr)
-    assert b"".join(frame_bytes_chunks(s, 100)) == arr.tobytes()
-    assert b"".join(frame_bytes_chunks(arr[:, ::2], 7)) == np.ascontiguousarray(
-        arr[:, ::2]).tobytes()
+    s.close()
+    s.track(b"p")
+    s[:10], s[10:]  # noqa: B018 - one pass in order: hashed on the way
+    assert s.hashed(b"p").hexdigest() == hashlib.sha256(b"p" + arr.tobytes()).hexdigest()
+    s[3:5], s[:2], s[5:]  # noqa: B018 - out of order: hashed by a pass of its own
+    assert s.hashed(b"q").hexdigest() == hashlib.sha256(b"q" + arr.tobytes()).hexdigest()
     with pytest.raises(IndexError):
         s[[23]]
 
@@ -122,12 +126,20 @@ def test_streamed_frames_give_the_same_distances_holding_a_fraction(tmp_path, mo
     frames_bytes = big.observations.nbytes
     want = footprint_distances(big)
     want_x = normalise_frames(big.observations, 4)
+    want_hash = big.content_hash()
     del big
     monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(frames_bytes // 4))
     trace = load_trace(path)
     assert isinstance(trace.observations, StreamedFrames)
     for a, b in zip(footprint_distances(trace), want):
         assert np.array_equal(a, b)
+    # the footprints' pass hashed the frames on the way: the content hash reads nothing more
+    opened = []
+    monkeypatch.setattr(StreamedFrames, "_open", lambda self: opened.append(1))
+    assert trace.content_hash() == want_hash
+    assert not opened
+    monkeypatch.undo()
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(frames_bytes // 4))
     tracemalloc.start()
     try:
         x = normalise_frames(trace.observations, 4, chunk_bytes=1 << 20)

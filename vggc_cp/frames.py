@@ -30,6 +30,7 @@ Examples
 
 from __future__ import annotations
 
+import hashlib
 import zipfile
 from collections.abc import Iterator
 
@@ -75,6 +76,9 @@ class StreamedFrames:
         self._zf = None
         self._fh = None
         self._pos = 0
+        self._wanted: list[bytes] = []      # prefixes of the digests kept (:meth:`track`)
+        self._tracking: dict | None = None  # hashers of the pass under way, if from frame 0
+        self._digests: dict = {}            # finished hashers, by prefix
         with zipfile.ZipFile(self.path) as zf:
             self._member = self._find(zf)
             with zf.open(self._member) as fh:
@@ -107,11 +111,15 @@ class StreamedFrames:
         self._fh = self._zf.open(self._find(self._zf))
         _read_header(self._fh, self._where())
         self._pos = 0
+        todo = [p for p in self._wanted if p not in self._digests]
+        self._tracking = {p: hashlib.sha256(p) for p in todo} or None
 
     def _read_range(self, a: int, b: int, out: np.ndarray) -> None:
         """Frames ``a:b`` into ``out`` (shape ``(b - a, H, W, C)``), reading forward."""
         if self._fh is None or a < self._pos:
             self._open()
+        if a != self._pos:
+            self._tracking = None  # frames skipped: this pass hashes nothing
         try:
             skip = (a - self._pos) * self.frame_bytes
             while skip > 0:
@@ -135,6 +143,32 @@ class StreamedFrames:
             raise TraceError(f"{self._where()} is corrupt or truncated near frame {a} "
                              f"({type(exc).__name__})") from None
         self._pos = b
+        if self._tracking:
+            for h in self._tracking.values():
+                h.update(out.reshape(-1))
+            if b == self.shape[0]:
+                self._digests.update(self._tracking)
+                self._tracking = None
+
+    # ------------------------------------------------------------------ digests
+
+    def track(self, prefix: bytes) -> None:
+        """Keep the SHA-256 of ``prefix`` followed by every frame's bytes, computed on the
+        next pass that reads all frames in order from the first (the footprints' pass, so a
+        trace's content hash costs no second inflation of the member)."""
+        if prefix not in self._wanted:
+            self._wanted.append(prefix)
+
+    def hashed(self, prefix: bytes):
+        """A ``hashlib`` SHA-256 object that has consumed ``prefix`` and the C-order bytes of
+        all frames (a copy: update it further); one pass over the member unless a pass
+        tracked it (:meth:`track`)."""
+        if prefix not in self._digests:
+            self.track(prefix)
+            self.close()
+            for _ in self.chunks():
+                pass
+        return self._digests[prefix].copy()
 
     def take(self, indices) -> np.ndarray:
         """The frames ``indices`` (ints, any order, repeats allowed) in one forward pass."""
@@ -209,10 +243,11 @@ class StreamedFrames:
                 h.close()
         self._fh = self._zf = None
         self._pos = 0
+        self._tracking = None
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_zf=None, _fh=None, _pos=0)
+        state.update(_zf=None, _fh=None, _pos=0, _tracking=None, _digests={})
         return state
 
     def __del__(self):
@@ -235,17 +270,3 @@ def _read_header(fh, where: str) -> tuple[tuple[int, ...], bool, np.dtype]:
         raise ValueError(f"npy version {version}")
     except Exception as exc:  # noqa: BLE001 - any damage in a header is a refusal
         raise TraceError(f"{where} is not a readable array ({type(exc).__name__})") from None
-
-
-def frame_bytes_chunks(frames, chunk_bytes: int = READ_BYTES) -> Iterator[bytes]:
-    """The C-order bytes of ``frames`` (an ndarray or :class:`StreamedFrames`) in pieces:
-    their concatenation is ``np.ascontiguousarray(frames).tobytes()``."""
-    if isinstance(frames, StreamedFrames):
-        for block in frames.chunks(chunk_bytes):
-            yield block.tobytes()
-        return
-    arr = np.ascontiguousarray(frames)
-    flat = arr.reshape(-1).view(np.uint8) if arr.size else arr.reshape(-1)
-    step = max(1, int(chunk_bytes))
-    for s in range(0, max(flat.size, 1), step):
-        yield flat[s:s + step].tobytes()

@@ -115,12 +115,15 @@ class Trace:
 
         Ground-truth ``states`` and ``meta`` are excluded, so removing them keeps caches valid.
         """
-        from vggc_cp.frames import frame_bytes_chunks
+        from vggc_cp.frames import StreamedFrames
 
-        h = hashlib.sha256()
-        h.update(repr(tuple(self.observations.shape)).encode())
-        for piece in frame_bytes_chunks(self.observations):
-            h.update(piece)
+        obs = self.observations
+        prefix = content_prefix(obs.shape)
+        if isinstance(obs, StreamedFrames):
+            h = obs.hashed(prefix)
+        else:
+            h = hashlib.sha256(prefix)
+            h.update(np.ascontiguousarray(obs).reshape(-1))
         h.update(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
         h.update("\x00".join(self.action_names).encode())
         return h.hexdigest()
@@ -128,24 +131,31 @@ class Trace:
     def identity_hash(self) -> str:
         """SHA-256 of what solvers see, every part prefixed by its length (no two traces share
         it, whatever their action names hold); the distance cache's key."""
-        h = hashlib.sha256(b"vggc-trace-identity/1")
-
         def part(b: bytes) -> None:
             h.update(len(b).to_bytes(8, "little"))
             h.update(b)
 
-        from vggc_cp.frames import frame_bytes_chunks
+        from vggc_cp.frames import StreamedFrames
 
         obs = self.observations
-        part(repr(tuple(obs.shape)).encode())
-        h.update(int(obs.nbytes).to_bytes(8, "little"))  # part() of the frames, in pieces
-        for piece in frame_bytes_chunks(obs):
-            h.update(piece)
+        shape = repr(tuple(obs.shape)).encode()
+        prefix = (b"vggc-trace-identity/1" + len(shape).to_bytes(8, "little") + shape
+                  + int(obs.nbytes).to_bytes(8, "little"))  # part() of the frames, in pieces
+        if isinstance(obs, StreamedFrames):
+            h = obs.hashed(prefix)
+        else:
+            h = hashlib.sha256(prefix)
+            h.update(np.ascontiguousarray(obs).reshape(-1))
         part(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
         part(len(self.action_names).to_bytes(8, "little"))
         for name in self.action_names:
             part(name.encode("utf-8", "surrogatepass"))
         return h.hexdigest()
+
+
+def content_prefix(shape) -> bytes:
+    """What :meth:`Trace.content_hash` hashes before the frames' bytes."""
+    return repr(tuple(int(v) for v in shape)).encode()
 
 
 def compute_roles(actions: np.ndarray, action_names) -> np.ndarray:
@@ -285,8 +295,11 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
         for key in REQUIRED_KEYS:
             if key not in keys:
                 raise _fail(source, f"missing field {key!r}")
-        obs = StreamedFrames(path, "observations", source) if stream else \
-            _read_member(data, "observations", source)
+        if stream:
+            obs = StreamedFrames(path, "observations", source)
+            obs.track(content_prefix(obs.shape))  # the solution's trace_sha256, in the same pass
+        else:
+            obs = _read_member(data, "observations", source)
         actions = _read_member(data, "actions", source)
         names_arr = _read_member(data, "action_names", source)
         states = _read_member(data, "states", source) if "states" in keys else None
