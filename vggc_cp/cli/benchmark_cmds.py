@@ -248,7 +248,7 @@ def cmd_bench_scale(args) -> int:
         camera = parse_image_size(args.camera, "--camera")
     gib = float(1 << 30)
     print(f"scale          {cfg.bench}, seed {cfg.seed}, traces in {cache}")
-    print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'evidence':>15} {'merge path':>15} "
+    print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'load':>15} {'evidence':>15} {'merge path':>15} "
           f"{'confidence':>15} {'total':>8} {'cpu':>8} {'peak':>8} nodes")
 
     def show(rec) -> None:
@@ -273,10 +273,11 @@ def cmd_bench_scale(args) -> int:
                                     image=(h, w)), show)[0]
         cam_records.append(cam)
         ref = next((r for r in records if r.transitions == args.camera_transitions), None)
-        line = f"camera         {w}x{h} at |D| = {cam.transitions}: {cam.seconds:.1f} s, " \
-               f"peak {cam.peak_bytes / gib:.2f} GiB"
+        line = f"camera         {w}x{h} at |D| = {cam.transitions}: {cam.seconds:.1f} s " \
+               f"({cam.cpu_seconds:.1f} s CPU), peak {cam.peak_bytes / gib:.2f} GiB"
         if ref is not None:
-            line += f" ({cam.seconds / ref.seconds:.2f}x the {ref.image[1]} px time)"
+            line += (f": {cam.seconds / ref.seconds:.2f}x the {ref.image[1]} px wall time, "
+                     f"{cam.cpu_seconds / ref.cpu_seconds:.2f}x its CPU time")
         print(line)
     if args.csv:
         from vggc_cp.atomic import write_text

@@ -137,14 +137,14 @@ def trace_path(cfg: ScaleConfig, transitions: int) -> Path:
     return cfg.cache / f"{cfg.bench}-d{transitions}-s{cfg.seed}{shape}.npz"
 
 
-def cached_trace(cfg: ScaleConfig, transitions: int):
-    """The trace of ``transitions`` (generated and saved on first use) and the generation's
-    seconds (0 when it was cached)."""
-    from vggc_cp.trace import load_trace, save_trace
+def cached_trace(cfg: ScaleConfig, transitions: int) -> tuple[Path, float]:
+    """The file of the trace of ``transitions`` (generated and saved on first use) and the
+    generation's seconds (0 when it was cached)."""
+    from vggc_cp.trace import save_trace
 
     path = trace_path(cfg, transitions)
     if path.is_file():
-        return load_trace(path), 0.0
+        return path, 0.0
     from vggc_cp.sim.explore import generate
 
     kw = {} if cfg.image is None else {"size": cfg.image}
@@ -153,14 +153,16 @@ def cached_trace(cfg: ScaleConfig, transitions: int):
     seconds = time.perf_counter() - t0
     path.parent.mkdir(parents=True, exist_ok=True)
     save_trace(trace, path)
-    return trace, seconds
+    return path, seconds
 
 
-def measure(trace, generate_seconds: float = 0.0) -> SizeRecord:
-    """The default learning's stages on ``trace`` (footprint evidence, its states unread)."""
+def measure(path: Path, generate_seconds: float = 0.0) -> SizeRecord:
+    """The default learning's stages on the trace file ``path``: loading it (frames above
+    ``max_bytes`` stay in the file and are inflated by the evidence, :mod:`vggc_cp.frames`),
+    the footprint evidence, the merge path and the confidence (its states unread)."""
     from vggc_cp.pipeline import FOOTPRINTS, LearnConfig, assess_path, evidence_problem, merge_path
+    from vggc_cp.trace import load_trace
 
-    trace = trace.without_states()
     options = LearnConfig(evidence=FOOTPRINTS)
     stages = []
 
@@ -172,11 +174,12 @@ def measure(trace, generate_seconds: float = 0.0) -> SizeRecord:
         stages.append(StageRecord(name, seconds, mem.peak, cpu))
         return out
 
+    trace = timed("load", lambda: load_trace(path).without_states())
     problem = timed("evidence", lambda: evidence_problem(trace, FOOTPRINTS, options))
-    path = timed("merge path", lambda: merge_path(problem, options))
-    _, conf = timed("confidence", lambda: assess_path(trace, problem, path, options))
+    learned = timed("merge path", lambda: merge_path(problem, options))
+    _, conf = timed("confidence", lambda: assess_path(trace, problem, learned, options))
     return SizeRecord(trace.n_transitions, trace.n_obs, trace.image_shape, generate_seconds,
-                      tuple(stages), path.best.n_nodes, conf.suspect)
+                      tuple(stages), learned.best.n_nodes, conf.suspect)
 
 
 def growth_exponent(sizes, seconds) -> float:
@@ -191,9 +194,7 @@ def run_scale(cfg: ScaleConfig, on_record=None) -> list[SizeRecord]:
     """Measure every size of ``cfg`` (``on_record(record)`` after each)."""
     out = []
     for n in cfg.sizes:
-        trace, gen = cached_trace(cfg, n)
-        rec = measure(trace, gen)
-        del trace
+        rec = measure(*cached_trace(cfg, n))
         out.append(rec)
         if on_record is not None:
             on_record(rec)
