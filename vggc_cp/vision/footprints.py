@@ -265,15 +265,21 @@ def working_frames(observations: np.ndarray, executor=None,
     """:func:`normalise_frames` at the :func:`working_factor` of the frames' size; with an
     ``executor`` (e.g. a dask cluster), blocks of ``block`` (default :data:`BLOCK_FRAMES`)
     frames are converted on its workers (each frame on its own: the same numbers as here).
+    Frames read from the trace file (:class:`vggc_cp.frames.StreamedFrames`) are converted
+    here, in one pass over the file: a deflated member is read from its start, so blocks
+    shipped to workers would each inflate everything before them, or be held here at once.
 
     Returns
     -------
     ndarray of float32, shape (N, H // f, W // f, 3)
     """
+    from vggc_cp.frames import StreamedFrames
+
     factor = working_factor(*observations.shape[1:3])
     check_working_bytes(observations, factor, source)
     block = int(block or BLOCK_FRAMES)
-    if executor is None or len(observations) <= block:
+    if executor is None or len(observations) <= block or isinstance(observations,
+                                                                    StreamedFrames):
         return normalise_frames(observations, factor)
     items = [(np.ascontiguousarray(observations[s:s + block]), factor)
              for s in range(0, len(observations), block)]
