@@ -66,11 +66,10 @@ def test_candidates_setting_is_validated():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("bench,transitions,look", [
-    # sites settled by the actions make exact ties of the distances common; on this trace the
-    # coded path orders tied pairs otherwise than the dense one and some thresholds' partitions
-    # differ (measured: the same node counts along the path, 38 nodes chosen on both, Exec 98 %)
-    pytest.param("fruit-4x6", 400, "clean", marks=pytest.mark.xfail(
-        reason="tied pairs ordered otherwise on the coded path (issue 27, open)", strict=False)),
+    # sites settled by the actions make exact ties common: here an average linkage equal to
+    # the top threshold, summed in another order on each path, fell on either side of it
+    # (21 nodes against 23) until the test took a relative tolerance (merge.LINK_RTOL)
+    ("fruit-4x6", 400, "clean"),
     ("blocks-2", 300, "clean"), ("multifruit-2x3", 300, "clean"),
     ("fruit-2x3", 300, "randomized"), ("fruit-4x6", 400, "randomized")])
 def test_generated_traces_same_graphs_on_both_paths(bench, transitions, look, monkeypatch):

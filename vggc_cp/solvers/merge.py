@@ -157,6 +157,17 @@ class _Clusters:
                 sig[head] = self._compress(pairs)
 
 
+#: Relative tolerance of the average-linkage test: sums of the same distances taken in another
+#: order (per code on the candidate-pair path, per observation on the dense one) differ in the
+#: last bits, and where sites are settled an average equal to the threshold is common.
+LINK_RTOL = 1e-9
+
+
+def within(average: float, threshold: float) -> bool:
+    """Whether an average linkage is within ``threshold`` (up to :data:`LINK_RTOL`)."""
+    return average <= threshold * (1.0 + LINK_RTOL)
+
+
 def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
                read: set[int] | None = None, linkage: list[float] | None = None
                ) -> tuple[dict[int, list[int]] | None, str]:
@@ -211,7 +222,7 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
         average = cl.link_sum(ra, rb) / (na * nb)
-        if average > threshold:  # average linkage
+        if not within(average, threshold):  # average linkage
             if linkage is not None:
                 linkage.append(average)
             return None, "distance"

@@ -60,6 +60,7 @@ from vggc_cp.solvers.merge import (
     _Clusters,
     _try_merge,
     get_selection,
+    within,
 )
 from vggc_cp.solvers.selection import PATH
 from vggc_cp.trace import PICK, PLACE
@@ -571,7 +572,7 @@ class _Pass:
 
     def advance(self, threshold: float) -> tuple[np.ndarray, MergeStats]:
         """Labels and counters of the merge at ``threshold`` (not below the previous one)."""
-        late = [k for k, link in self.linkage_vetoes if link <= threshold]
+        late = [k for k, link in self.linkage_vetoes if within(link, threshold)]
         if late:
             self._rewind(min(late))
         k = self.stream.batch_of(self.at[0], self.at[1])
