@@ -81,3 +81,22 @@ def test_report_refuses_a_non_html_output(solved_benchmark, tmp_path, capsys):
     solution, trace = solved_benchmark("fruit-2x3")
     assert main(["report", str(solution), str(trace), "-o", str(tmp_path / "r.png")]) == 2
     assert "a report is an .html file" in capsys.readouterr().err
+
+
+def test_report_and_show_of_a_trace_read_from_its_file(solved_benchmark, tmp_path, monkeypatch):
+    """Frames above the memory cap stay in the file (vggc_cp.frames): the pictures read the
+    images they show in one pass and come out the same."""
+    solution, trace = solved_benchmark("fruit-2x3")
+    held = tmp_path / "held.html"
+    assert main(["report", str(solution), str(trace), "-o", str(held)]) == 0
+    assert main(["show", str(solution), str(trace), "-o", str(tmp_path / "held.svg")]) == 0
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", "200000")  # below the trace's frames
+    from vggc_cp.frames import StreamedFrames
+    from vggc_cp.trace import load_trace
+
+    assert isinstance(load_trace(trace).observations, StreamedFrames)
+    streamed = tmp_path / "streamed.html"
+    assert main(["report", str(solution), str(trace), "-o", str(streamed)]) == 0
+    assert streamed.read_text() == held.read_text()
+    assert main(["show", str(solution), str(trace), "-o", str(tmp_path / "s.svg")]) == 0
+    assert (tmp_path / "s.svg").read_bytes() == (tmp_path / "held.svg").read_bytes()

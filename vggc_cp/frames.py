@@ -320,3 +320,16 @@ def _read_header(fh, where: str) -> tuple[tuple[int, ...], bool, np.dtype]:
         raise ValueError(f"npy version {version}")
     except Exception as exc:  # noqa: BLE001 - any damage in a header is a refusal
         raise TraceError(f"{where} is not a readable array ({type(exc).__name__})") from None
+
+
+def gather(frames, indices, group: int = 64) -> dict[int, np.ndarray]:
+    """``{index: frame}`` of ``frames`` (an ndarray or :class:`StreamedFrames`) at
+    ``indices``, read in ascending groups of ``group``: one forward pass over a file, holding
+    only the frames asked for (a picture's medoids and thumbnails)."""
+    want = np.unique(np.asarray(list(indices), dtype=np.int64))
+    out: dict[int, np.ndarray] = {}
+    for s in range(0, len(want), group):
+        idx = want[s:s + group]
+        for i, frame in zip(idx.tolist(), frames[idx]):
+            out[i] = frame
+    return out

@@ -56,12 +56,23 @@ def pixel_medoids(observations: np.ndarray, members: dict[int, np.ndarray],
     """``{node: observation}``: each node's member of least summed Euclidean distance between
     subsampled images, among at most ``sample`` evenly spaced members (the first of equal
     ones)."""
-    out = {}
+    chosen = {}
     for u, mem in members.items():
         mem = np.asarray(mem)
         if len(mem) > sample:
             mem = mem[np.linspace(0, len(mem) - 1, sample).round().astype(int)]
-        f = small_images(observations[mem])
+        chosen[u] = mem
+    # every sampled image read once, in order (one pass over a trace read from its file)
+    want = np.unique(np.concatenate([np.asarray(m, dtype=np.int64) for m in chosen.values()]
+                                    or [np.zeros(0, np.int64)]))
+    small = {}
+    for s in range(0, len(want), 64):
+        idx = want[s:s + 64]
+        for i, f in zip(idx.tolist(), small_images(observations[idx])):
+            small[i] = f
+    out = {}
+    for u, mem in chosen.items():
+        f = np.stack([small[int(i)] for i in mem])
         sq = (f * f).sum(1)
         d = np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2 * f @ f.T, 0))
         out[int(u)] = int(mem[int(np.argmin(d.sum(axis=1)))])
@@ -114,7 +125,7 @@ class GraphPicture:
     Attributes
     ----------
     graph : TaskGraph
-    observations : ndarray, uint8, shape (N, H, W, 3), or None
+    observations : ndarray, uint8, shape (N, H, W, 3), a mapping {index: image}, or None
         The trace's images (nodes are drawn as their medoid when given).
     medoids : dict[int, int]
     plan : list of (u, action index, v)

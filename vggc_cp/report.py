@@ -88,6 +88,16 @@ def _items(value) -> list[str]:
     return [str(value)]
 
 
+def strip_members(members, medoid: int | None, strip: int = STRIP) -> list[int]:
+    """The observations of a node's thumbnail strip: its medoid first, then evenly spaced
+    members, ``strip`` in all."""
+    mem = np.asarray(members)
+    pick = mem if len(mem) <= strip else mem[np.linspace(0, len(mem) - 1, strip)
+                                             .round().astype(int)]
+    first = [int(medoid)] if medoid is not None else []
+    return first + [int(i) for i in pick if int(i) not in first][:strip - len(first)]
+
+
 def report_html(pic: GraphPicture, extra: dict, *, solution_name: str, trace_name: str,
                 strip: int = STRIP) -> str:
     """The report page (module docstring) of ``pic`` and the solution's other fields
@@ -158,10 +168,7 @@ def report_html(pic: GraphPicture, extra: dict, *, solution_name: str, trace_nam
         mem = np.asarray(graph.members[u])
         strip_html = ""
         if pic.observations is not None:
-            pick = mem if len(mem) <= strip else mem[np.linspace(0, len(mem) - 1, strip)
-                                                     .round().astype(int)]
-            first = [pic.medoids[u]] if u in pic.medoids else []
-            shown = first + [int(i) for i in pick if int(i) not in first][:strip - len(first)]
+            shown = strip_members(mem, pic.medoids.get(u), strip)
             strip_html = "".join(
                 f'<img title="observation {i}" alt="observation {i}" '
                 f'src="{png_data_uri(image_png(pic.observations[i], 56))}">' for i in shown)

@@ -67,11 +67,16 @@ def _solution_and_trace(args):
 
 
 def _picture(args, solution, trace, graph, plan=()):
+    from vggc_cp.frames import StreamedFrames, gather
     from vggc_cp.graph_plots import GraphPicture, doubt_pairs, pixel_medoids
+    from vggc_cp.report import strip_members
 
-    return GraphPicture(graph, trace.observations, pixel_medoids(trace.observations,
-                                                                 graph.members),
-                        list(plan), doubt_pairs(solution.extra, graph),
+    medoids = pixel_medoids(trace.observations, graph.members)
+    frames = trace.observations
+    if isinstance(frames, StreamedFrames):  # the images shown, read in one pass of the file
+        frames = gather(frames, [i for u in graph.nodes for i in
+                                 strip_members(graph.members[u], medoids.get(u))])
+    return GraphPicture(graph, frames, medoids, list(plan), doubt_pairs(solution.extra, graph),
                         f"{Path(args.trace).name}: {graph.n_nodes} nodes, {graph.n_edges} edges")
 
 
