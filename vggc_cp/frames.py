@@ -149,10 +149,12 @@ class StreamedFrames:
         self._pos = b
         return out
 
-    def _read(self, a: int, b: int) -> np.ndarray:
-        """Frames ``a:b``; the next as many are inflated meanwhile in a thread (a pass in
-        order costs the larger of inflating and using the frames, not their sum), and a pass
-        in order from the first frame feeds the digests of :meth:`track`."""
+    def _read(self, a: int, b: int, ahead: bool = True) -> np.ndarray:
+        """Frames ``a:b``; with ``ahead`` the next as many are inflated meanwhile in a thread
+        (a pass in order costs the larger of inflating and using the frames, not their sum;
+        scattered reads go without, or the frames read ahead would overshoot the next ones
+        and send the next read back to the start). A pass in order from the first frame feeds
+        the digests of :meth:`track`."""
         ahead, self._ahead = self._ahead, None
         out = None
         if ahead is not None:
@@ -162,7 +164,7 @@ class StreamedFrames:
                 out = got
         if out is None:
             out = self._fill(a, b)
-        if b < self.shape[0] and b > a:
+        if ahead and self.shape[0] > b > a:
             nb = min(self.shape[0], b + (b - a))
             if self._pool is None:
                 from concurrent.futures import ThreadPoolExecutor
@@ -228,7 +230,7 @@ class StreamedFrames:
             e = k + 1
             while e < len(want) and want[e] == want[e - 1] + 1:
                 e += 1
-            got[k:e] = self._read(int(want[k]), int(want[e - 1]) + 1)
+            got[k:e] = self._read(int(want[k]), int(want[e - 1]) + 1, ahead=False)
             k = e
         return got[inverse.reshape(-1)]
 
