@@ -83,6 +83,7 @@ def test_report_refuses_a_non_html_output(solved_benchmark, tmp_path, capsys):
     assert "a report is an .html file" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_report_and_show_of_a_trace_read_from_its_file(solved_benchmark, tmp_path, monkeypatch):
     """Frames above the memory cap stay in the file (vggc_cp.frames): the pictures read the
     images they show in one pass and come out the same."""
