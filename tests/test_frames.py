@@ -94,7 +94,7 @@ def test_a_damaged_member_names_the_file_field_and_frame(tmp_path):
         s[30:32]
     with pytest.raises(TraceError, match="Fortran order"):
         f = tmp_path / "f.npz"
-        f.write_bytes(npz_bytes({"observations": np.asfortranarray(arr)}))
+        np.savez(f, observations=np.asfortranarray(arr))
         StreamedFrames(f, "observations")
 
 
@@ -159,3 +159,17 @@ def test_the_working_copy_is_what_the_cap_bounds(monkeypatch):
                                          r"64x64 hold 2,752,512 bytes at the footprints' "
                                          r"working resolution.*VGGC_CP_MAX_BYTES"):
         footprint_distances(load_trace(DATA))
+
+
+def test_saving_a_streamed_trace_writes_the_same_bytes_in_pieces(tmp_path, monkeypatch):
+    from vggc_cp import trace as trace_module
+
+    held = load_trace(DATA)
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(held.observations.nbytes // 2))
+    monkeypatch.setattr(trace_module, "WRITE_BYTES", 50_000)  # many pieces per member
+    streamed = load_trace(DATA)
+    assert isinstance(streamed.observations, StreamedFrames)
+    save_trace(streamed, tmp_path / "again.npz")
+    assert (tmp_path / "again.npz").read_bytes() == DATA.read_bytes()
+    with pytest.raises(TraceError, match="VGGC_CP_MAX_BYTES"):  # all at once: refused
+        np.ascontiguousarray(streamed.observations)

@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 
-from vggc_cp.atomic import write_bytes
 from vggc_cp.errors import TraceError, VggcError
 
 PICK = 0
@@ -328,23 +327,67 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
     return trace
 
 
-def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
-    """Deterministic ``.npz`` bytes of ``arrays`` (fixed zip timestamps, no pickles)."""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+#: bytes of a member written to the zip at once
+WRITE_BYTES = 64 << 20
+
+
+def _npy_header(shape, dtype) -> bytes:
+    """The ``.npy`` header :func:`numpy.lib.format.write_array` writes for a C-ordered array
+    of ``shape`` and ``dtype`` (version 1.0, or 2.0 where 1.0 cannot hold it)."""
+    d = {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)), "fortran_order": False,
+         "shape": tuple(int(v) for v in shape)}
+    head = io.BytesIO()
+    try:
+        np.lib.format.write_array_header_1_0(head, d)
+    except ValueError:
+        head = io.BytesIO()
+        np.lib.format.write_array_header_2_0(head, d)
+    return head.getvalue()
+
+
+def write_npz(fileobj, arrays: dict) -> None:
+    """Write deterministic ``.npz`` bytes of ``arrays`` to ``fileobj`` (fixed zip timestamps,
+    no pickles), each member in pieces of :data:`WRITE_BYTES`: frames held in a memory map or
+    read from another file (:class:`vggc_cp.frames.StreamedFrames`) are never all in memory.
+    The bytes are those of one ``writestr`` per member (the zip entry sized up front)."""
+    with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for key, arr in arrays.items():
+            if isinstance(arr, np.ndarray):
+                if arr.dtype.hasobject:
+                    raise ValueError(f"field {key!r} holds objects; refused")
+                arr = np.require(arr, requirements="C")  # (keeps a 0-d array 0-d)
+            head = _npy_header(arr.shape, arr.dtype)
+            nbytes = int(np.prod(arr.shape)) * np.dtype(arr.dtype).itemsize
             info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            member = io.BytesIO()
-            np.lib.format.write_array(member, arr, allow_pickle=False)
-            zf.writestr(info, member.getvalue())
+            info.file_size = len(head) + nbytes
+            with zf.open(info, "w") as dest:
+                dest.write(head)
+                if len(arr.shape) == 0 or arr.shape[0] == 0:
+                    dest.write(np.asarray(arr).tobytes())
+                    continue
+                row = max(1, nbytes // arr.shape[0])
+                step = max(1, WRITE_BYTES // row)
+                for s in range(0, arr.shape[0], step):
+                    dest.write(np.ascontiguousarray(arr[s:s + step]).tobytes())
+
+
+def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """Deterministic ``.npz`` bytes of ``arrays`` (:func:`write_npz`)."""
+    buf = io.BytesIO()
+    write_npz(buf, arrays)
     return buf.getvalue()
 
 
-def trace_to_bytes(trace: Trace) -> bytes:
-    """Serialize a trace to the npz format (deterministic bytes for a given trace)."""
+def trace_arrays(trace: Trace) -> dict:
+    """The members of the trace's ``.npz`` (frames as they are held: an array, a memory map
+    or frames read from a file)."""
+    from vggc_cp.frames import StreamedFrames
+
+    obs = trace.observations
     arrays = {
-        "observations": np.ascontiguousarray(trace.observations, dtype=np.uint8),
+        "observations": obs if isinstance(obs, (StreamedFrames, np.memmap))
+        else np.ascontiguousarray(obs, dtype=np.uint8),
         "actions": np.ascontiguousarray(trace.actions, dtype=np.int64),
         "action_names": np.array(trace.action_names, dtype=str),
     }
@@ -352,13 +395,22 @@ def trace_to_bytes(trace: Trace) -> bytes:
         arrays["states"] = np.asarray(trace.states, dtype=str)
     if trace.meta:
         arrays["meta"] = np.array(json.dumps(trace.meta, sort_keys=True))
-    return npz_bytes(arrays)
+    return arrays
+
+
+def trace_to_bytes(trace: Trace) -> bytes:
+    """Serialize a trace to the npz format (deterministic bytes for a given trace)."""
+    return npz_bytes(trace_arrays(trace))
 
 
 def save_trace(trace: Trace, path: str | Path) -> None:
-    """Validate, then atomically write ``trace`` to ``path`` (same trace, same bytes)."""
+    """Validate, then atomically write ``trace`` to ``path`` (same trace, same bytes), its
+    frames in pieces (:func:`write_npz`)."""
+    from vggc_cp.atomic import atomic_path
+
     validate(trace, str(path))
-    write_bytes(path, trace_to_bytes(trace))
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        write_npz(f, trace_arrays(trace))
 
 
 def summarize(trace: Trace) -> dict:
