@@ -335,3 +335,57 @@ def gather(frames, indices, group: int = 64) -> dict[int, np.ndarray]:
         for i, frame in zip(idx.tolist(), frames[idx]):
             out[i] = frame
     return out
+
+
+class FrameSpool:
+    """Frames of one size appended one by one (an importer reading a recording), held in
+    memory up to ``max_bytes`` and, past it, in the file ``path`` (raw bytes, then mapped
+    read-only: :meth:`array` is an ``np.memmap``), so a camera-sized recording is imported
+    without holding it. Without ``path`` nothing spills: :attr:`spills` is False and the
+    caller refuses what exceeds the cap.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        The file the frames spill into (created or truncated on the first spill).
+    """
+
+    def __init__(self, path=None):
+        self.path = None if path is None else str(path)
+        self._held: list[np.ndarray] = []
+        self._file = None
+        self._n = 0
+        self._shape: tuple[int, ...] | None = None
+
+    @property
+    def spills(self) -> bool:
+        return self.path is not None
+
+    def append(self, frame: np.ndarray, held_bytes: int) -> None:
+        """Add ``frame`` (uint8, (H, W, 3)); ``held_bytes``: the frames' bytes so far, with it."""
+        from vggc_cp.safeio import cap
+
+        frame = np.ascontiguousarray(frame, dtype=np.uint8)
+        self._shape = frame.shape
+        if self._file is None and self.spills and held_bytes > cap("max_bytes"):
+            self._file = open(self.path, "wb")  # noqa: SIM115 - closed by array()
+            for f in self._held:
+                self._file.write(f.tobytes())
+            self._held = []
+        if self._file is not None:
+            self._file.write(frame.tobytes())
+        else:
+            self._held.append(frame)
+        self._n += 1
+
+    def __len__(self) -> int:
+        return self._n
+
+    def array(self) -> np.ndarray:
+        """All frames, shape (N, H, W, 3): stacked in memory, or mapped from the file (no
+        frame may be appended after)."""
+        if self._file is None:
+            return np.stack(self._held)
+        if not self._file.closed:
+            self._file.close()
+        return np.memmap(self.path, dtype=np.uint8, mode="r", shape=(self._n, *self._shape))

@@ -201,3 +201,21 @@ def test_output_may_not_replace_the_log(small, capsys):
     before = log.read_bytes()
     rc, _, err = run(capsys, "images", log, "-o", log)
     assert rc == 2 and "same file as the input" in err and log.read_bytes() == before
+
+
+def test_frames_beyond_the_memory_cap_spill_to_a_temporary_file(original, layout, tmp_path,
+                                                                 capsys, monkeypatch):
+    """A recording whose frames exceed VGGC_CP_MAX_BYTES is imported through a temporary file
+    beside the output (vggc_cp.frames.FrameSpool): the same bytes, no file left behind; the
+    library without a spool file refuses it, naming the frame and the cap."""
+    held = tmp_path / "held.npz"
+    assert run(capsys, "images", layout, "-o", held, "--quiet")[0] == 0
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(original.observations.nbytes // 3))
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    spilled = out_dir / "spilled.npz"
+    assert run(capsys, "images", layout, "-o", spilled, "--quiet")[0] == 0
+    assert spilled.read_bytes() == held.read_bytes()
+    assert sorted(p.name for p in out_dir.iterdir()) == ["spilled.npz"]
+    with pytest.raises(Exception, match=r"VGGC_CP_MAX_BYTES"):
+        import_recording("images", ImportConfig(), log=layout)

@@ -5,6 +5,7 @@ arguments come from its registry entry (:mod:`vggc_cp.importers`)."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 from vggc_cp.importers import IMPORTERS
 
@@ -39,7 +40,7 @@ def register(sub) -> None:
 
 def cmd_import(args) -> int:
     from vggc_cp.importers import ImportConfig, get_importer, parse_size, read_label_map
-    from vggc_cp.safeio import check_input, check_output
+    from vggc_cp.safeio import TEMP_MARK, check_input, check_output, temp_file
     from vggc_cp.trace import save_trace, summarize
 
     importer = get_importer(args.importer)
@@ -54,15 +55,21 @@ def cmd_import(args) -> int:
         check_input(args.map, "--map")
         inputs["map"] = args.map
     check_output(args.output, "--output", inputs)
-    config = ImportConfig(size=parse_size(args.size) if args.size is not None else None,
-                          label_map=read_label_map(args.map) if args.map else {},
-                          label_map_file=args.map)
-    trace = importer.read(config, **{a.dest: getattr(args, a.dest) for a in importer.arguments})
-    save_trace(trace, args.output)
-    if not args.quiet:
+    out = Path(args.output)
+    # frames beyond the memory cap spill into a temporary file beside the output
+    with temp_file(out.parent, f".{out.name}{TEMP_MARK}", ".frames") as spool:
+        config = ImportConfig(size=parse_size(args.size) if args.size is not None else None,
+                              label_map=read_label_map(args.map) if args.map else {},
+                              label_map_file=args.map, spool=spool)
+        trace = importer.read(config, **{a.dest: getattr(args, a.dest)
+                                         for a in importer.arguments})
+        save_trace(trace, args.output)
         info = summarize(trace)
+        source = trace.meta["source"]["file"]
+        del trace  # the frames' memory map, before the file goes
+    if not args.quiet:
         h, w = info["image_size"]
-        print(f"imported       {importer.name}: {os.path.basename(str(trace.meta['source']['file']))}")
+        print(f"imported       {importer.name}: {os.path.basename(str(source))}")
         print(f"trace          N = {info['observations']} ({h}x{w} RGB), |D| = "
               f"{info['transitions']}, {info['episodes']} episodes, |A| = {info['actions']}")
         print(f"wrote          {args.output}")

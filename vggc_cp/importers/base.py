@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from vggc_cp.errors import VggcError, lookup
-from vggc_cp.safeio import cap, check_image_size, check_input, read_json
+from vggc_cp.frames import FrameSpool
+from vggc_cp.safeio import CAPS, cap, check_image_size, check_input, read_json
 from vggc_cp.trace import Trace, action_kind, validate
 
 #: how the readers that are not part of the base install are installed
@@ -101,11 +102,17 @@ class ImportConfig:
         with ``pick`` or ``place``.
     label_map_file : str or None
         Where ``label_map`` came from (recorded in the trace's ``meta``).
+    spool : path or None
+        A file that frames beyond ``max_bytes`` spill into while the recording is read (the
+        trace's frames are then mapped from it, :class:`vggc_cp.frames.FrameSpool`);
+        ``vggc-cp import`` gives a temporary file beside its output. ``None``: a recording
+        whose frames exceed ``max_bytes`` is refused.
     """
 
     size: tuple[int, int] | None = None
     label_map: Mapping[str, str] = field(default_factory=dict)
     label_map_file: str | None = None
+    spool: str | os.PathLike | None = None
 
     def __post_init__(self):
         if self.size is not None:
@@ -320,7 +327,7 @@ class RecordingBuilder:
             raise ValueError(f"last_label {last_label!r}: expected 'empty' or 'ignore'")
         self.config = config
         self.last_label = last_label
-        self.frames: list[np.ndarray] = []
+        self.frames = FrameSpool(config.spool)
         self.labels: list[str | None] = []
         self.places: list[str] = []
         self.states: list[str | None] = []
@@ -347,11 +354,12 @@ class RecordingBuilder:
                             f"({self.places[0]}) is {self._shape[1]}x{self._shape[0]}; give "
                             f"--size WxH to bring every frame to one size")
         self._bytes += image.nbytes
-        if self._bytes > cap("max_bytes"):
+        name = "max_frame_bytes" if self.frames.spills else "max_bytes"
+        if self._bytes > cap(name):
             raise VggcError(f"{place}: the frames up to here hold {self._bytes:,} bytes, over the "
-                            f"cap of {cap('max_bytes'):,} (VGGC_CP_MAX_BYTES); give a smaller "
+                            f"cap of {cap(name):,} ({CAPS[name][1]}); give a smaller "
                             f"--size or raise the cap")
-        self.frames.append(image)
+        self.frames.append(image, self._bytes)
         self.labels.append(label.strip() if isinstance(label, str) and label.strip() else None)
         self.places.append(place)
         self.states.append(state if state else None)
@@ -423,7 +431,7 @@ class RecordingBuilder:
             meta_source["size"] = list(self.config.size)
         if self.config.label_map_file:
             meta_source["map"] = os.path.basename(self.config.label_map_file)
-        trace = Trace(np.stack(self.frames), actions, action_names, states,
+        trace = Trace(self.frames.array(), actions, action_names, states,
                       {"source": meta_source})
         validate(trace, source.get("file", "<import>"))
         return trace

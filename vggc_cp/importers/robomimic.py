@@ -31,7 +31,7 @@ from vggc_cp.importers.base import (
     register_importer,
     require,
 )
-from vggc_cp.safeio import cap, check_image_size, check_input
+from vggc_cp.safeio import CAPS, cap, check_image_size, check_input
 from vggc_cp.trace import Trace
 
 DEMO = re.compile(r"demo_(\d+)")
@@ -114,9 +114,10 @@ def _read_demos(h5py, f, src: str, builder: RecordingBuilder, camera: str, label
                             f"expected uint8 [T, H, W, 3]")
         t_len, h, w = (int(x) for x in obs.shape[:3])
         check_image_size(h, w, f"{src}: {obs_path}")
-        if obs.size > cap("max_bytes"):
+        name = "max_frame_bytes" if builder.frames.spills else "max_bytes"  # read in blocks
+        if obs.size > cap(name):
             raise VggcError(f"{src}: {obs_path}: {obs.size:,} bytes, over the cap of "
-                            f"{cap('max_bytes'):,} (VGGC_CP_MAX_BYTES)")
+                            f"{cap(name):,} ({CAPS[name][1]})")
         names = _labels(h5py, f, f"data/{demo}/{labels}", t_len, src)
         truth = None
         if states:
