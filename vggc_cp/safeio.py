@@ -281,22 +281,24 @@ def check_size(value: int | None, option: str, low: int, high: int, cap_text: st
         raise VggcError(f"{option} {value:,}: above {cap_text} ({high:,})")
 
 
-def check_trace_budget(n: int | None, side: int | tuple[int, int], option: str) -> None:
+def check_trace_budget(n: int | None, side: int | tuple[int, int], option: str,
+                       name: str = "max_bytes") -> None:
     """Refuse ``n`` transitions (or renders) of ``side`` x ``side`` (or ``(height, width)``)
-    RGB images whose arrays would exceed ``max_bytes``: the cap of a trace read from a file,
-    applied to one the command would generate (``--transitions 1000000000`` is refused, not
-    run)."""
+    RGB images whose arrays would exceed the cap ``name`` (``max_bytes``: the cap of a trace
+    read from a file, applied to one the command would generate; ``max_frame_bytes`` where the
+    frames go to a file as they are rendered): ``--transitions 1000000000`` is refused, not
+    run."""
     if n is None:
         return
     if n < 1:
         raise VggcError(f"{option} {n}: expected at least 1")
-    limit = cap("max_bytes")
+    limit = cap(name)
     h, w = (side, side) if isinstance(side, int) else side
     per = 3 * h * w
     if (n + 1) * per > limit:
         raise VggcError(f"{option} {n:,}: {w}x{h} images of {n + 1:,} observations would "
                         f"take {(n + 1) * per:,} bytes, above the cap of {limit:,} "
-                        f"({CAPS['max_bytes'][1]}); at most {limit // per - 1:,}")
+                        f"({CAPS[name][1]}); at most {limit // per - 1:,}")
 
 
 def check_numbers(args) -> None:

@@ -268,7 +268,7 @@ CASES: list[Case] = [
     Case("generate", "transitions-huge", lambda w, t: ["generate", "fruit-2x3", "-o",
                                                        t / "out" / "g.npz", "--transitions",
                                                        "1000000000"],
-         must=("--transitions", "VGGC_CP_MAX_BYTES")),
+         must=("--transitions", "VGGC_CP_MAX_FRAME_BYTES")),
     Case("generate", "size-huge", lambda w, t: ["generate", "fruit-2x3", "-o",
                                                 t / "out" / "g.npz", "--size", "100000"],
          must=("--size", "VGGC_CP_MAX_PIXELS")),

@@ -49,3 +49,21 @@ def test_bench_generate_prints_time_and_ratio(capsys):
     assert main(["bench", "generate", "--transitions", "20", "--size", "32"]) == 0
     out = capsys.readouterr().out
     assert "ms per frame" in out and "ratio" in out
+
+
+def test_generate_beyond_the_memory_cap_renders_into_a_file(tmp_path, capsys, monkeypatch):
+    """Frames of more than VGGC_CP_MAX_BYTES are rendered into a temporary file beside the
+    output and written in pieces: the same bytes, nothing left behind; the frame cap still
+    bounds them."""
+    held = tmp_path / "held.npz"
+    argv = ["generate", "fruit-2x3", "--transitions", "30", "--size", "96x80", "--quiet"]
+    assert main([*argv, "-o", str(held)]) == 0
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", "100000")  # 31 frames of 96x80: 714,240 bytes
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main([*argv, "-o", str(out / "t.npz")]) == 0
+    assert (out / "t.npz").read_bytes() == held.read_bytes()
+    assert [p.name for p in out.iterdir()] == ["t.npz"]
+    monkeypatch.setenv("VGGC_CP_MAX_FRAME_BYTES", "100000")
+    assert main([*argv, "-o", str(out / "u.npz")]) == 2
+    assert "VGGC_CP_MAX_FRAME_BYTES" in capsys.readouterr().err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 import time
 from pathlib import Path
@@ -112,7 +113,6 @@ def cmd_generate(args) -> int:
     if args.episodes is not None or args.append is not None:
         return _generate_append(args)
     from vggc_cp.sim import get_benchmark
-    from vggc_cp.sim.explore import generate
     from vggc_cp.sim.looks import check_look
 
     args.bench = _task_name(args)
@@ -121,14 +121,27 @@ def cmd_generate(args) -> int:
     d = spec.default_transitions if args.transitions is None else args.transitions
     if args.novel < 0:
         raise VggcError(f"--novel must be at least 0, got {args.novel}")
-    from vggc_cp.safeio import check_image_size, check_trace_budget
+    from vggc_cp.safeio import TEMP_MARK, cap, check_image_size, check_trace_budget, temp_file
     from vggc_cp.sim.explore import parse_image_size
 
     height, width = parse_image_size(args.size)
     check_image_size(height, width, "--size")
-    check_trace_budget(d, (height, width), "--transitions")
+    # frames beyond the memory cap are rendered into a temporary file beside the output
+    spill = (d + 1) * height * width * 3 > cap("max_bytes")
+    check_trace_budget(d, (height, width), "--transitions",
+                       "max_frame_bytes" if spill else "max_bytes")
     if args.novel:
         check_trace_budget(args.novel, (height, width), "--novel")
+    out = Path(args.output)
+    with contextlib.ExitStack() as stack:
+        frames_file = stack.enter_context(temp_file(out.parent, f".{out.name}{TEMP_MARK}",
+                                                    ".frames")) if spill else None
+        return _generate_into(args, d, height, width, frames_file)
+
+
+def _generate_into(args, d: int, height: int, width: int, frames_file) -> int:
+    from vggc_cp.sim.explore import generate
+
     bars = []
 
     def on_frame(total: int) -> None:
@@ -140,7 +153,8 @@ def cmd_generate(args) -> int:
 
     try:
         generated = generate(args.bench, d, args.seed, (height, width), args.novel,
-                             on_frame=None if args.quiet else on_frame, look=args.look)
+                             on_frame=None if args.quiet else on_frame, look=args.look,
+                             frames_file=frames_file)
     finally:
         for bar in bars:
             bar.close()

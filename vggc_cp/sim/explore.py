@@ -162,7 +162,7 @@ def parse_image_size(text: str, option: str = "--size") -> tuple[int, int]:
 def generate(name: str, n_transitions: int | None = None, seed: int = 0,
              size: int | tuple[int, int] = 64,
              novel: int = 0, on_frame: Callable[[int], None] | None = None,
-             look: str = CLEAN) -> Generated:
+             look: str = CLEAN, frames_file=None) -> Generated:
     """Explore benchmark ``name`` and render the trace (and ``novel`` fresh renders).
 
     Parameters
@@ -189,6 +189,10 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0,
         see :mod:`vggc_cp.sim.looks`. The novel renders share the trace's look and draw
         their own per-frame effects (each: the arm above a random region, the distractor
         on a fresh spot, the drift at its index among the novel renders).
+    frames_file : path, optional
+        Render the trace's frames into this file (a memory map the trace then holds: a
+        camera-sized trace is generated without holding its frames in memory); the same
+        frames as without it.
 
     Raises
     ------
@@ -223,7 +227,9 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0,
 
     from vggc_cp.sim.render import Scene
 
-    frames = np.empty((len(walk.states), height, width, 3), dtype=np.uint8)
+    shape = (len(walk.states), height, width, 3)
+    frames = np.empty(shape, dtype=np.uint8) if frames_file is None else \
+        np.memmap(frames_file, dtype=np.uint8, mode="w+", shape=shape)
     moves: list[list[float]] = []  # the distractor's spots: [frame, x, y, yaw]
     starts: list[list[int]] = []  # [frame, region the arm rests above] at episode starts
     with Scene(bench, size, the_look) as scene:
