@@ -173,3 +173,23 @@ def test_saving_a_streamed_trace_writes_the_same_bytes_in_pieces(tmp_path, monke
     assert (tmp_path / "again.npz").read_bytes() == DATA.read_bytes()
     with pytest.raises(TraceError, match="VGGC_CP_MAX_BYTES"):  # all at once: refused
         np.ascontiguousarray(streamed.observations)
+
+
+def test_stored_members_and_a_changed_byte(tmp_path):
+    """An uncompressed member (np.savez) is read as well; a byte changed in the frames is
+    caught by the member's CRC-32 when the pass reaches its end."""
+    arr = np.random.default_rng(1).integers(0, 256, (12, 8, 8, 3), dtype=np.uint8)
+    path = tmp_path / "s.npz"
+    np.savez(path, observations=arr)
+    s = StreamedFrames(path, "observations")
+    assert np.array_equal(s[:], arr) and np.array_equal(s[[11, 2]], arr[[11, 2]])
+    s.close()
+    raw = bytearray(path.read_bytes())
+    at = raw.index(arr[5].tobytes())
+    raw[at + 7] ^= 0xFF
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(bytes(raw))
+    s = StreamedFrames(bad, "observations")
+    assert np.array_equal(s[:3], arr[:3])  # before the end nothing can tell
+    with pytest.raises(TraceError, match=r"bad\.npz: field 'observations' is corrupt"):
+        s[3:]
