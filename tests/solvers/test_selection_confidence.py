@@ -222,3 +222,17 @@ def test_a_wrong_warning_rule_names_its_field(settings):
 
     with pytest.raises(VggcError, match=f"WarningRule field '{next(iter(settings))}'"):
         WarningRule(**settings)
+
+def test_a_graph_of_one_render_a_node_is_warned_though_every_re_run_reproduces_it():
+    """Noisy distances and a threshold below the noise: every observation its own node. Each
+    re-run groups what it keeps the same way (all apart), but what it left out lies in nodes
+    it never saw: a recording of the same kind would add nodes, so the graph changes."""
+    noisy, _, episode = walk_problem(transitions=120, noise=0.5)
+    from vggc_cp.solvers.merge import congruence_merge
+
+    labels, _ = congruence_merge(noisy, 1e-6)
+    assert len(np.unique(labels)) == noisy.n_obs
+    res = resample(noisy, 1e-6, labels, episode, folds=5)
+    assert res.changed == res.novel == res.runs and res.p_change == 1.0
+    conf = assess(0.0, 1, res, 1.0)
+    assert conf.suspect and "nodes the rest never shows" in conf.reasons[0]

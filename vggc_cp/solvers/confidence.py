@@ -17,7 +17,10 @@ leaves out a ``1 / folds`` share of the units: for ``r < folds`` the units ``u``
 merges the kept observations at the chosen threshold ``t*`` (the evidence and threshold do
 not change; :func:`~vggc_cp.solvers.merge.congruence_merge`, or the candidate-pair merge of a
 :class:`~vggc_cp.solvers.pairs.CodedProblem`) and *changes* the graph when its partition and
-the chosen one, restricted to the kept observations, are not the same set of groups. With
+the chosen one, restricted to the kept observations, are not the same set of groups, or
+when more than half of the observations it left out lie in chosen nodes that none of its
+kept observations is in (the left-out part, read as a new recording, would be mostly
+situations the re-run never saw: a graph of one or two renders a node). With
 ``c`` changes in ``n`` re-runs, ``p_change = c / n``. Re-runs are drawn sequentially, up to
 ``runs``: drawing stops after the ``folds`` fold re-runs when none changed (with 0 changes in
 5, a uniform prior on the chance leaves 0.7 ** 6 = 12 % probability above 0.3), and as soon
@@ -113,6 +116,9 @@ class Resampled:
         ``episodes`` or ``blocks`` (contiguous parts of a recording of few episodes).
     folds : int
         Each re-run leaves out ``1 / folds`` of the units.
+    novel : int
+        Re-runs that changed the graph because most of what they left out lies in nodes
+        they never saw.
     """
 
     runs: int
@@ -121,6 +127,7 @@ class Resampled:
     heldout: HeldOut | None
     units: str = "episodes"
     folds: int = 5
+    novel: int = 0
 
     @property
     def p_change(self) -> float | None:
@@ -309,6 +316,12 @@ def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray,
     return out
 
 
+#: A re-run also changes the graph when more than this share of the observations it left out
+#: lie in chosen nodes that none of its kept observations is in (a majority of the left-out
+#: recording would be situations the re-run never saw: nodes of one or two renders).
+NOVEL_SHARE = 0.5
+
+
 def resampling_units(episode_of: np.ndarray, folds: int) -> tuple[np.ndarray, str]:
     """The unit of every observation that a re-run leaves out or keeps: its episode, or, when
     the trace has fewer than ``folds`` episodes, one of ``folds`` contiguous blocks of
@@ -388,7 +401,7 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
     drop_k = max(1, int(round(n_units / folds)))
     counts = np.zeros(3, dtype=np.int64)  # held-out predicted, contradicted, total
     unstable: dict[int, int] = {}
-    runs = changed = 0
+    runs = changed = novel_runs = 0
     while runs < most:
         if runs < folds_here:
             left_out = units % folds_here == runs
@@ -403,9 +416,18 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
         if runs < folds_here:
             counts += _predict(problem, kept, lab, sub, train)
         runs += 1
-        if not same_partition(labels[kept], lab):
+        regrouped = not same_partition(labels[kept], lab)
+        # the left-out part as a new recording: its observations in nodes that no kept
+        # observation is in are situations the re-run never saw
+        unseen = ~np.isin(labels[left_out], labels[kept])
+        novel = bool(unseen.size) and float(unseen.mean()) > NOVEL_SHARE
+        if regrouped or novel:
             changed += 1
-            for u in changed_nodes(labels[kept], lab).tolist():
+            novel_runs += novel
+            moved = changed_nodes(labels[kept], lab).tolist() if regrouped else []
+            if novel:
+                moved += np.unique(labels[left_out][unseen]).tolist()
+            for u in set(moved):
                 unstable[int(u)] = unstable.get(int(u), 0) + 1
         if runs == folds_here and changed == 0:
             break
@@ -416,7 +438,7 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
         p, c, t = (int(x) for x in counts)
         held = HeldOut(p / t, c / t, (t - p - c) / t, t, folds_here)
     order = sorted(unstable.items(), key=lambda kv: (-kv[1], kv[0]))
-    return Resampled(runs, changed, tuple(order), held, kind, folds_here)
+    return Resampled(runs, changed, tuple(order), held, kind, folds_here, novel_runs)
 
 
 def _predict(problem: Problem, kept: np.ndarray, lab: np.ndarray, sub: Problem,
@@ -449,10 +471,13 @@ def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_nod
     if p is not None and p > rule.max_change:
         nodes = ", ".join(str(u) for u in unstable[:6])
         more = f" (and {len(resampled.unstable) - 6} more)" if len(resampled.unstable) > 6 else ""
+        novel = ("" if not resampled.novel else
+                 f"; in {resampled.novel} of them most left-out observations lie in nodes the "
+                 f"rest never shows: renders of one situation are kept apart")
         reasons.append(
             f"the graph changes in {resampled.changed} of {resampled.runs} re-runs with "
             f"1/{resampled.folds} of the {resampled.units} left out (chance of change "
-            f"{100 * p:.0f} % > {100 * rule.max_change:.0f} %): the recording does not "
+            f"{100 * p:.0f} % > {100 * rule.max_change:.0f} %{novel}): the recording does not "
             f"settle nodes {nodes}{more}; `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows "
             f"the contested decisions and `vggc-cp suggest SOLUTION TRACE -o next.json` "
             f"the episodes to record next")
