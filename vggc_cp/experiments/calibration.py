@@ -166,9 +166,12 @@ def _share(k: int, n: int) -> str:
 def calibration_markdown(rows: list[dict], source: str = "robustness.csv") -> str:
     """The calibration tables (:func:`calibration_rows`, :func:`reliability_rows`) as
     markdown."""
+    recorded = ("the chance of change" if any(r.get("p_change") is not None for r in rows)
+                else "no `p_change` in these rows: written by the fixed thresholds, so both "
+                     "verdicts agree")
     lines = [f"Calibration of the warning on {source} ({len(rows)} runs): 'old' = the former "
-             "fixed thresholds recomputed from the row, 'new' = the row's `suspect` (the chance "
-             "of change).", "",
+             f"fixed thresholds recomputed from the row, 'new' = the row's `suspect` "
+             f"({recorded}).", "",
              "| split | look | verdict | runs | passed | false alarms (share of passing) | "
              "missed | caught | silent |", "|---|---|---|---|---|---|---|---|---|"]
     for c in calibration_rows(rows):
