@@ -57,7 +57,8 @@ def register(sub) -> None:
                     "runs that were not (silent failures), for the row's verdict (new: the "
                     "chance of change) and the former fixed thresholds recomputed from the "
                     "row (old); then the runs binned by chance of change.")
-    p.add_argument("csv", nargs="+", help="robustness.csv file(s); their rows are pooled")
+    p.add_argument("tables", nargs="+", metavar="robustness.csv",
+                   help="robustness.csv file(s) of `vggc-cp robustness`; their rows are pooled")
     p.add_argument("-o", "--output", default=None, help="also write the tables to this .md")
     p.add_argument("--png", default=None, help="also draw the calibration plot to this .png")
     p.set_defaults(func=cmd_calibration)
@@ -116,8 +117,21 @@ def cmd_calibration(args) -> int:
         read_rows,
     )
 
-    rows = [r for path in args.csv for r in read_rows(path)]
-    md = calibration_markdown(rows, ", ".join(args.csv))
+    from vggc_cp.safeio import check_input, check_output
+
+    inputs = {}
+    for k, path in enumerate(args.tables):
+        check_input(path, "robustness table")
+        inputs[f"table {k}"] = str(path)
+    if args.output and args.png and os.path.realpath(args.output) == os.path.realpath(args.png):
+        from vggc_cp.errors import VggcError
+
+        raise VggcError(f"{args.png}: --png and --output name the same file")
+    for opt, path in (("--output", args.output), ("--png", args.png)):
+        if path:
+            check_output(path, opt, inputs)
+    rows = [r for path in args.tables for r in read_rows(path)]
+    md = calibration_markdown(rows, ", ".join(args.tables))
     if args.output:
         write_text(args.output, md)
     if args.png:
