@@ -118,8 +118,8 @@ def test_wrong_settings_fail_at_once_naming_the_field_or_choices(trace, settings
 def test_a_negative_warning_threshold_is_refused():
     from vggc_cp.solvers.confidence import WarningRule
 
-    with pytest.raises(VggcError, match="warning.min_margin"):
-        vg.LearnConfig(warning=WarningRule(min_margin=-1.0))
+    with pytest.raises(VggcError, match="WarningRule field 'max_change'"):
+        vg.LearnConfig(warning=WarningRule(max_change=-1.0))
 
 
 def test_the_cli_word_attention_is_the_distance_backend():

@@ -26,6 +26,10 @@ def test_the_shipped_trace_gives_its_true_graph_without_a_warning(shipped):
     np.testing.assert_array_equal(same, shipped.states[:, None] == shipped.states[None, :])
     conf = learned.confidence
     assert not conf.suspect and conf.plateau >= 3 and conf.margin > 0
+    # no re-run with a fifth of the episodes left out changes it: five folds, chance 0
+    assert (conf.p_change, conf.runs, conf.changed, conf.unstable) == (0.0, 5, 0, ())
+    again = learn_graph(shipped.without_states(), LearnConfig(evidence="footprints"))
+    assert again.confidence.as_dict() == conf.as_dict()   # same trace, same number
     assert conf.heldout is not None and conf.heldout.contradicted < 0.05
     assert learned.chosen.evidence == "footprints" and len(learned.candidates) == 1
     ts = learned.chosen.path.thresholds
@@ -38,6 +42,8 @@ def test_a_trace_whose_images_say_nothing_is_flagged(shipped):
     noise = shuffled_within_roles(shipped, 0, keep_states=False)
     learned = learn_graph(noise, LearnConfig(evidence="footprints"))
     assert learned.confidence.suspect and learned.confidence.reasons
+    assert learned.confidence.p_change > LearnConfig().warning.max_change
+    assert "vggc-cp suggest" in learned.confidence.reasons[0]
 
 
 def test_auto_keeps_the_footprints_when_they_are_not_suspect(shipped):

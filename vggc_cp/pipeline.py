@@ -13,8 +13,9 @@
   hundredth of the top) up to a high quantile of all distances.
 * **Selection.** Least description length (:mod:`vggc_cp.solvers.mdl`) along one evidence's
   path: no threshold rule fitted to a benchmark.
-* **Confidence.** Margin, plateau and held-out prediction
-  (:mod:`vggc_cp.solvers.confidence`); the graph is flagged *suspect* with reasons.
+* **Confidence.** The chance that a recording of the same kind would change the graph: re-runs
+  of the merge at the chosen threshold with a fifth of the episodes left out
+  (:mod:`vggc_cp.solvers.confidence`); above 30 % the graph is flagged *suspect* with reasons.
 * **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
   (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
 
@@ -36,10 +37,11 @@ from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
     assess,
-    heldout_prediction,
+    corroborate,
     plateau_length,
+    resample,
 )
-from vggc_cp.solvers.doubts import Doubt, find_doubts
+from vggc_cp.solvers.doubts import Doubt, DoubtRule, find_doubts
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
@@ -114,8 +116,12 @@ class LearnConfig:
     steps : int
         Thresholds of the default grid (at least 1).
     folds : int
-        Episode folds of the held-out prediction (0: skip it; else at least 2).
+        Each re-run of the confidence leaves out ``1 / folds`` of the episodes; the first
+        ``folds`` re-runs are the held-out folds (0: no re-runs, no confidence; else at
+        least 2).
     warning : WarningRule
+        When the graph is flagged: its chance of change above ``max_change``
+        (:mod:`vggc_cp.solvers.confidence`).
     fallback : str
         When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``
         (default: only where the footprints cannot read the trace), ``suspect`` (also where
@@ -189,14 +195,6 @@ class LearnConfig:
         if not _integer(self.folds) or self.folds < 0 or self.folds == 1:
             raise VggcError(f"LearnConfig field 'folds' must be 0 (no held-out prediction) or "
                             f"an integer of at least 2, got {self.folds!r}")
-        w = self.warning
-        for name in ("min_plateau", "max_contradicted", "min_predicted", "min_obs_per_node",
-                     "min_margin"):
-            v = getattr(w, name)
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) \
-                    or v < 0:
-                raise VggcError(f"LearnConfig field 'warning.{name}' must be a non-negative "
-                                f"number, got {v!r}")
 
     @classmethod
     def from_settings(cls, config: LearnConfig | None = None, **settings) -> LearnConfig:
@@ -439,7 +437,8 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
 def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
                 options: LearnConfig) -> tuple[tuple[float, ...], Confidence]:
     """Description length of every graph of ``path`` and the :class:`Confidence` of the
-    selected one (margin, plateau, held-out prediction)."""
+    selected one (its chance of change from re-runs of the merge, and the margin, plateau and
+    held-out prediction beside it)."""
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
@@ -447,9 +446,9 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     n_trans = max(len(problem.act), 1)
     margin = (min(others) - dls[k]) / n_trans if others else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
-    heldout = (heldout_prediction(problem, path.thresholds[k], trace.episode_index(),
-                                  options.folds) if options.folds >= 2 else None)
-    conf = assess(margin, plateau, heldout, problem.n_obs / max(best.n_nodes, 1),
+    resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
+                          options.folds, options.warning) if options.folds >= 2 else None)
+    conf = assess(margin, plateau, resampled, problem.n_obs / max(best.n_nodes, 1),
                   options.warning, criterion=options.rule)
     return dls, conf
 
@@ -506,6 +505,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
     doubts = learned_doubts(chosen)
+    chosen = replace(chosen, confidence=corroborate(chosen.confidence, doubts,
+                                                    DoubtRule().max_nats))
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
                    options, trace, doubts)
 

@@ -444,3 +444,65 @@ def plot_scale(rows: list[dict], path: str | Path, *, title: str | None = None) 
         fig.suptitle(title)
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_calibration(table: list[dict], rows: list[dict], path: str | Path, *,
+                     title: str | None = None) -> None:
+    """Left: per split and look, passed runs warned (false alarms, share of passing) and
+    missed runs not warned (silent failures, share of missed), old verdict against new
+    (:func:`vggc_cp.experiments.calibration.calibration_rows`). Right: every run's chance of
+    change against whether it passed (jittered), with the bar of the warning."""
+    from vggc_cp.experiments.robustness import passes
+    from vggc_cp.solvers.confidence import WarningRule
+
+    plt = _pyplot()
+    groups = list(dict.fromkeys((c["split"], c["look"]) for c in table))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(4 + 0.9 * len(groups), 3.8),
+                                 constrained_layout=True,
+                                 gridspec_kw={"width_ratios": [max(len(groups), 2), 3]})
+    x = np.arange(len(groups))
+    w = 0.2
+    styles = (("old", "false_alarms", "passed", -1.5, "#d98c8c", "old: false alarms"),
+              ("new", "false_alarms", "passed", -0.5, "#b22222", "new: false alarms"),
+              ("old", "silent", "missed", 0.5, "#8ca6d9", "old: silent failures"),
+              ("new", "silent", "missed", 1.5, "#1f3f99", "new: silent failures"))
+    top = 0.0
+    for which, key, base, off, colour, label in styles:
+        vals, texts = [], []
+        for g in groups:
+            c = next(c for c in table if (c["split"], c["look"]) == g and c["verdict"] == which)
+            vals.append(100 * c[key] / c[base] if c[base] else 0.0)
+            texts.append(f"{c[key]}/{c[base]}")
+        bars = ax.bar(x + off * w, vals, w, color=colour, label=label)
+        ax.bar_label(bars, texts, fontsize=5, rotation=90, padding=1)
+        top = max(top, *vals)
+    ax.axhline(5, color="grey", ls="--", lw=1)
+    ax.set_xticks(x, [f"{s}\n{lk}" for s, lk in groups], fontsize=7)
+    ax.set_ylabel("% of passing (false alarms) / of missed (silent)")
+    ax.set_ylim(0, max(30.0, top * 1.3))
+    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title("warning against the pass rule", fontsize=9)
+    rng = np.random.default_rng(0)
+    looks = list(dict.fromkeys(r["look"] for r in rows))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for j, look in enumerate(looks):
+        for warned, marker in ((False, "o"), (True, "X")):
+            pts = [(float(r["p_change"]), 1.0 if passes(r) else 0.0) for r in rows
+                   if r["look"] == look and _is_number(r.get("p_change"))
+                   and bool(r.get("suspect")) == warned]
+            if not pts:
+                continue
+            p, y = np.array(pts).T
+            bx.scatter(p, y + rng.uniform(-0.15, 0.15, len(y)), s=26 if warned else 16,
+                       alpha=0.75, marker=marker, color=colours[j % len(colours)],
+                       label=f"{look}{' (warned)' if warned else ''}")
+    bx.axvline(WarningRule().max_change, color="grey", ls="--", lw=1)
+    bx.set_yticks([0, 1], ["missed", "passed"])
+    bx.set_xlabel("chance of change (re-runs changing the graph)", fontsize=8)
+    bx.set_xlim(-0.03, 1.03)
+    if bx.get_legend_handles_labels()[0]:
+        bx.legend(fontsize=7, loc="center right")
+    bx.set_title("chance of change per run", fontsize=9)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    _save(fig, path)

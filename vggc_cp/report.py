@@ -123,7 +123,9 @@ def report_html(pic: GraphPicture, extra: dict, *, solution_name: str, trace_nam
         held = conf.get("heldout") if isinstance(conf.get("heldout"), dict) else {}
         parts.append(f"<p class=\"{'warn' if suspect else ''}\"><b>"
                      f"{'suspect' if suspect else 'no warning'}</b></p><ul>")
-        for key, label in (("margin", "description-length margin (nats per transition)"),
+        for key, label in (("p_change", "chance of change (share of re-runs with a fifth of "
+                                        "the episodes left out that change the graph)"),
+                           ("margin", "description-length margin (nats per transition)"),
                            ("plateau", "thresholds giving the same partition (plateau)"),
                            ("obs_per_node", "observations per node")):
             if key in conf:

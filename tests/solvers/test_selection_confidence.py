@@ -10,11 +10,14 @@ from vggc_cp.sim import get_benchmark
 from vggc_cp.sim.explore import random_walk
 from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult
 from vggc_cp.solvers.confidence import (
-    HeldOut,
     WarningRule,
     assess,
+    changed_nodes,
     heldout_prediction,
     plateau_length,
+    resample,
+    resampling_units,
+    same_partition,
     subproblem,
 )
 from vggc_cp.solvers.mdl import description_length, select_mdl
@@ -126,20 +129,110 @@ def test_subproblem_keeps_kept_observations_and_their_transitions():
     assert sub.dist_pick.shape == (sub.n_pick, sub.n_pick)
 
 
-def test_assess_flags_each_condition_and_only_those():
-    ok = HeldOut(0.95, 0.0, 0.05, 100, 5)
-    quiet = assess(0.2, 5, ok, 10.0)
-    assert not quiet.suspect and quiet.reasons == ()
-    assert "no warning" in quiet.summary()
-    rule = WarningRule()
-    cases = {
-        "threshold": assess(0.2, rule.min_plateau - 1, ok, 10.0),
-        "margin": assess(rule.min_margin / 2, 5, ok, 10.0),
-        "contradict": assess(0.2, 5, HeldOut(0.7, 0.2, 0.1, 100, 5), 10.0),
-        "predicted": assess(0.2, 5, HeldOut(0.3, 0.0, 0.7, 100, 5), 10.0),
-        "observations per node": assess(0.2, 5, ok, 1.0),
-    }
-    for word, conf in cases.items():
-        assert conf.suspect and len(conf.reasons) == 1 and word in conf.reasons[0], word
-        assert "SUSPECT" in conf.summary()
-    assert assess(float("inf"), 5, None, 10.0).as_dict()["margin"] is None
+def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
+    """Known answers: distances 0 within a true state and 1 across. At a threshold below 1
+    every re-run reproduces the true graph: chance of change 0, no warning. A graph that
+    merged two true states (what a threshold above 1 would not give either) changes in
+    every re-run: chance 1, warned, naming the merged node."""
+    problem, truth, episode = walk_problem()
+    right = resample(problem, 0.5, truth, episode, folds=5)
+    assert (right.runs, right.changed, right.p_change, right.unstable) == (5, 0, 0.0, ())
+    quiet = assess(0.2, 5, right, 10.0)
+    assert not quiet.suspect and quiet.reasons == () and quiet.p_change == 0.0
+    assert "chance of change 0 %" in quiet.summary() and "no warning" in quiet.summary()
+    merged = truth.copy()
+    pick = problem.pick_obs
+    a, b = np.unique(truth[pick])[:2]
+    merged[pick[truth[pick] == b]] = a
+    wrong = resample(problem, 0.5, merged, episode, folds=5)
+    assert wrong.changed == wrong.runs and wrong.p_change == 1.0
+    assert [u for u, _ in wrong.unstable] == [a]
+    warned = assess(0.2, 5, wrong, 10.0)
+    assert warned.suspect and warned.unstable == (a,)
+    assert f"nodes {a}" in warned.reasons[0] and "vggc-cp suggest" in warned.reasons[0]
+    assert warned.as_dict()["p_change"] == 1.0 and warned.as_dict()["unstable"] == [int(a)]
+
+
+def test_evidence_that_cannot_tell_states_apart_is_warned():
+    """Noisy distances: the merge at a threshold within the noise gives another partition
+    on every part of the recording."""
+    noisy, _, episode = walk_problem(noise=3.0)
+    from vggc_cp.solvers.merge import congruence_merge
+
+    labels, _ = congruence_merge(noisy, 2.2)
+    res = resample(noisy, 2.2, labels, episode, folds=5)
+    assert res.p_change > WarningRule().max_change and assess(0.0, 1, res, 5.0).suspect
+    # the verdict was settled before the last re-run: drawing stopped early
+    assert res.runs < WarningRule().runs
+
+
+def test_resampling_is_deterministic_and_its_seed_only_moves_the_random_re_runs():
+    problem, truth, episode = walk_problem("fruit-2x3", 120, noise=0.9)
+    from vggc_cp.solvers.merge import congruence_merge
+
+    labels, _ = congruence_merge(problem, 0.9)
+    one = resample(problem, 0.9, labels, episode, 5, WarningRule(seed=3))
+    assert one == resample(problem, 0.9, labels, episode, 5, WarningRule(seed=3))
+    # the folds come first and are the held-out prediction, whatever the seed
+    other = resample(problem, 0.9, labels, episode, 5, WarningRule(seed=4))
+    assert one.heldout == other.heldout
+    assert heldout_prediction(problem, 0.9, episode, 5) == one.heldout
+
+
+def test_resampling_units_cut_a_long_walk_into_blocks():
+    units, kind = resampling_units(np.zeros(10, dtype=int), 5)
+    assert kind == "blocks" and units.tolist() == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    eps = np.repeat(np.arange(6), 3)
+    units, kind = resampling_units(eps, 5)
+    assert kind == "episodes" and units is not None and np.array_equal(units, eps)
+    problem, truth, _ = walk_problem(transitions=60)
+    res = resample(problem, 0.5, truth, np.zeros(problem.n_obs, dtype=int), folds=5)
+    assert res is not None and res.units == "blocks" and res.runs >= 5
+    assert resample(problem, 0.5, truth, np.zeros(problem.n_obs, dtype=int), folds=0) is None
+
+
+def test_partitions_compare_as_groupings_and_changed_nodes_are_named():
+    a = np.array([0, 0, 1, 1, 2])
+    assert same_partition(a, np.array([5, 5, 7, 7, 1]))
+    assert not same_partition(a, np.array([0, 0, 0, 1, 2]))
+    assert changed_nodes(a, np.array([0, 0, 1, 1, 1])).tolist() == [1, 2]   # 1 and 2 joined
+    assert changed_nodes(a, np.array([0, 3, 1, 1, 2])).tolist() == [0]      # 0 split
+
+
+def test_a_doubt_that_re_runs_change_and_the_actions_reject_flags_the_graph():
+    from vggc_cp.solvers.confidence import Confidence, corroborate
+    from vggc_cp.solvers.doubts import Doubt
+
+    conf = Confidence("mdl", 0.1, 5, None, 10.0, False, (), 0.25, 20, 5, (3, 6))
+    strong = Doubt("merge", (3, 6), ((1,), (2,)), {"dl_nats": -3.8})
+    weak = Doubt("merge", (3, 6), ((1,), (2,)), {"dl_nats": -2.6})
+    elsewhere = Doubt("merge", (1, 2), ((1,), (2,)), {"dl_nats": -9.0})
+    flagged = corroborate(conf, [weak, elsewhere, strong])
+    assert flagged.suspect and "nodes 3 and 6 might be one state" in flagged.reasons[0]
+    assert "3.8 nats" in flagged.reasons[0] and "vggc-cp doubts" in flagged.reasons[0]
+    assert corroborate(conf, [weak, elsewhere]) is conf
+    stable = Confidence("mdl", 0.1, 5, None, 10.0, False, (), 0.0, 5, 0, ())
+    assert corroborate(stable, [strong]) is stable   # no re-run changed it: images settle it
+
+
+@pytest.mark.parametrize("settings", [{"max_change": 1.0}, {"max_change": -0.1},
+                                      {"runs": -1}, {"seed": 1.5}, {"max_change": True}])
+def test_a_wrong_warning_rule_names_its_field(settings):
+    from vggc_cp.errors import VggcError
+
+    with pytest.raises(VggcError, match=f"WarningRule field '{next(iter(settings))}'"):
+        WarningRule(**settings)
+
+def test_a_graph_of_one_render_a_node_is_warned_though_every_re_run_reproduces_it():
+    """Noisy distances and a threshold below the noise: every observation its own node. Each
+    re-run groups what it keeps the same way (all apart), but what it left out lies in nodes
+    it never saw: a recording of the same kind would add nodes, so the graph changes."""
+    noisy, _, episode = walk_problem(transitions=120, noise=0.5)
+    from vggc_cp.solvers.merge import congruence_merge
+
+    labels, _ = congruence_merge(noisy, 1e-6)
+    assert len(np.unique(labels)) == noisy.n_obs
+    res = resample(noisy, 1e-6, labels, episode, folds=5)
+    assert res.changed == res.novel == res.runs and res.p_change == 1.0
+    conf = assess(0.0, 1, res, 1.0)
+    assert conf.suspect and "nodes the rest never shows" in conf.reasons[0]

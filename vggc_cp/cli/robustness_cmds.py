@@ -47,6 +47,22 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_robustness)
 
+    p = sub.add_parser(
+        "calibration", help="how the warning matched the pass rule in a robustness.csv: "
+                            "false alarms and silent failures per split and look, old and new "
+                            "verdict",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        description="Read the rows of `vggc-cp robustness` (OUT/robustness.csv) and count, per "
+                    "split and look, passed runs that were warned (false alarms) and missed "
+                    "runs that were not (silent failures), for the row's verdict (new: the "
+                    "chance of change) and the former fixed thresholds recomputed from the "
+                    "row (old); then the runs binned by chance of change.")
+    p.add_argument("tables", nargs="+", metavar="robustness.csv",
+                   help="robustness.csv file(s) of `vggc-cp robustness`; their rows are pooled")
+    p.add_argument("-o", "--output", default=None, help="also write the tables to this .md")
+    p.add_argument("--png", default=None, help="also draw the calibration plot to this .png")
+    p.set_defaults(func=cmd_calibration)
+
 
 def _split(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
@@ -90,4 +106,40 @@ def cmd_robustness(args) -> int:
     print(f"\ncells: {run.computed} computed, {run.reused} reused, {run.seconds:.1f} s")
     print(f"wrote {csv}")
     print(f"wrote {md}")
+    return 0
+
+
+def cmd_calibration(args) -> int:
+    from vggc_cp.atomic import write_text
+    from vggc_cp.experiments.calibration import (
+        calibration_markdown,
+        calibration_rows,
+        read_rows,
+    )
+
+    from vggc_cp.safeio import check_input, check_output
+
+    inputs = {}
+    for k, path in enumerate(args.tables):
+        check_input(path, "robustness table")
+        inputs[f"table {k}"] = str(path)
+    if args.output and args.png and os.path.realpath(args.output) == os.path.realpath(args.png):
+        from vggc_cp.errors import VggcError
+
+        raise VggcError(f"{args.png}: --png and --output name the same file")
+    for opt, path in (("--output", args.output), ("--png", args.png)):
+        if path:
+            check_output(path, opt, inputs)
+    rows = [r for path in args.tables for r in read_rows(path)]
+    md = calibration_markdown(rows, ", ".join(args.tables))
+    if args.output:
+        write_text(args.output, md)
+    if args.png:
+        from vggc_cp.plots import plot_calibration
+
+        plot_calibration(calibration_rows(rows), rows, args.png)
+    print(md, end="")
+    for path in (args.output, args.png):
+        if path:
+            print(f"wrote {path}")
     return 0

@@ -395,8 +395,10 @@ def _solve_merge(args) -> int:
     print(f"confidence     {conf.summary()}")
     _print_doubts(learned.doubts)
     if conf.suspect:
-        print("vggc-cp: warning: the learned graph is suspect (" + "; ".join(conf.reasons)
-              + "); check it before planning on it", file=sys.stderr)
+        reasons = "; ".join(conf.reasons).replace("SOLUTION TRACE",
+                                                   f"{args.output} {args.trace}")
+        print(f"vggc-cp: warning: the learned graph is suspect ({reasons}); the doubts above "
+              f"say which decisions", file=sys.stderr)
     return 0
 
 

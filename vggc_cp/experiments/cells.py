@@ -21,14 +21,14 @@ from vggc_cp.errors import VggcError
 
 #: fields that are fractions in [0, 1] (None: not measured)
 RATES = ("exec", "opt_path", "any_path", "trans_prec", "trans_cov", "localization", "i2p",
-         "exec_i2p", "heldout_predicted", "heldout_contradicted")
+         "exec_i2p", "heldout_predicted", "heldout_contradicted", "p_change")
 #: fields that are non-negative finite numbers (None: not measured)
 NONNEGATIVE = ("nodes_ratio", "obs_per_state", "obs_per_node", "seconds_learn",
                "seconds_evaluate", "seconds_localizer")
 #: fields that are finite numbers (None: none)
 FINITE = ("threshold", "margin")
 #: fields that are non-negative integers
-COUNTS = ("transitions", "observations", "true_states", "nodes", "plateau")
+COUNTS = ("transitions", "observations", "true_states", "nodes", "plateau", "runs", "changed")
 #: fields that are strings
 TEXTS = ("benchmark", "look", "evidence", "reasons", "dynamics")
 #: fields every robustness row has (the I2P ones only when measured)

@@ -87,7 +87,7 @@ CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.md
 ROW_FIELDS = ("benchmark", "family", "look", "seed", "split", "transitions", "observations",
               "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
               "trans_prec", "trans_cov", "passed", "evidence", "threshold", "suspect", "reasons",
-              "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
+              "p_change", "runs", "changed", "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
               "obs_per_state", "seconds_learn", "seconds_evaluate", "dynamics")
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
 
@@ -408,6 +408,7 @@ def run_cell(job: RobustCell) -> dict:
            "trans_prec": metrics.trans_prec, "trans_cov": metrics.trans_cov,
            "evidence": learned.chosen.evidence, "threshold": _finite(learned.threshold),
            "suspect": bool(conf.suspect), "reasons": "; ".join(conf.reasons),
+           "p_change": conf.p_change, "runs": int(conf.runs), "changed": int(conf.changed),
            "margin": _finite(conf.margin), "plateau": int(conf.plateau),
            "heldout_predicted": None if held is None else held.predicted,
            "heldout_contradicted": None if held is None else held.contradicted,

@@ -1,28 +1,56 @@
-"""How sure a learned graph is, without ground truth, and when to say it is suspect.
+"""How sure a learned graph is, without ground truth: the chance that it would change.
 
-Three things the trace itself can tell about a chosen graph:
+**The number.** ``p_change`` is the chance that a recording of the same kind would give a
+different graph: the share of *re-runs* of the merge, on the trace with a part of its
+recording left out, whose partition of the observations they keep differs from the chosen
+partition on those observations. Its complement is the graph's *support* (as the bootstrap
+support of a clade in a phylogeny: the share of resampled data sets that reproduce it). The
+graph is flagged **suspect** when ``p_change > max_change`` (default 0.3: support below 70 %,
+the usual bar of bootstrap support, Hillis and Bull 1993). The reasons name the nodes that
+changed most often in the re-runs and point at ``vggc-cp doubts`` / ``vggc-cp suggest``.
 
-* **margin** — how much better (in nats per transition) the chosen graph's description length
-  is than that of the best candidate with another node count
-  (:func:`vggc_cp.solvers.mdl.description_length`). A small margin means the criterion could
-  as well have chosen a graph of another size.
-* **plateau** — how many thresholds in a row of the merge path give exactly the chosen
-  partition. When states separate cleanly, one partition survives a wide range of thresholds;
-  a graph that exists at one threshold only is an accident of that threshold.
-* **held-out prediction** — episodes are split in ``folds`` parts; the graph is learned again
-  (same evidence, same threshold) without each part, the held-out observations are placed in
-  the node of least mean distance (their own role), and every held-out transition
-  ``(o, a, o')`` is checked against the graph: *predicted* when the edge ``(node(o), a)``
-  exists and leads to ``node(o')``, *contradicted* when it exists and leads elsewhere.
-  Contradictions mean that the visual evidence places renders of one situation in different
-  nodes (or different situations in one).
+**The math.** The recording is cut into units: its episodes, or, when it has fewer than
+``folds`` episodes, ``folds`` contiguous blocks of observations (one long walk). Re-run ``r``
+leaves out a ``1 / folds`` share of the units: for ``r < folds`` the units ``u`` with
+``u % folds == r`` (the held-out folds, below), then random draws of
+``round(units / folds)`` units (at least one; ``numpy.random.default_rng(seed)``). Each re-run
+merges the kept observations at the chosen threshold ``t*`` (the evidence and threshold do
+not change; :func:`~vggc_cp.solvers.merge.congruence_merge`, or the candidate-pair merge of a
+:class:`~vggc_cp.solvers.pairs.CodedProblem`) and *changes* the graph when its partition and
+the chosen one, restricted to the kept observations, are not the same set of groups, or
+when more than half of the observations it left out lie in chosen nodes that none of its
+kept observations is in (the left-out part, read as a new recording, would be mostly
+situations the re-run never saw: a graph of one or two renders a node). With
+``c`` changes in ``n`` re-runs, ``p_change = c / n``. Re-runs are drawn sequentially, up to
+``runs``: drawing stops after the ``folds`` fold re-runs when none changed (with 0 changes in
+5, a uniform prior on the chance leaves 0.7 ** 6 = 12 % probability above 0.3), and as soon
+as the verdict cannot turn (``c > max_change * runs``, or ``n - c >= (1 - max_change) *
+runs``). Same trace and settings, same re-runs, same number.
 
-:func:`assess` turns them into a :class:`Confidence` with a ``suspect`` flag and the reasons.
+**Corroboration by the doubts** (:func:`corroborate`, after the pipeline finds the doubts):
+the graph is also flagged when a doubt (:mod:`vggc_cp.solvers.doubts`) concerns a node that
+some re-run changed and its flip shortens the description length by more than 3 nats (odds
+of 20 to 1): the images on less of the recording and the actions on all of it both question
+that decision.
+
+**Held-out prediction** (reported, not part of the verdict): in the fold re-runs the
+left-out observations are placed in the node of least mean distance (their own role), and
+every left-out transition ``(o, a, o')`` is *predicted* when the edge ``(node(o), a)``
+exists and leads to ``node(o')``, *contradicted* when it exists and leads elsewhere.
+The description-length margin to a graph of another size, the plateau of thresholds giving
+the chosen partition and the observations per node are reported too; no fixed threshold on
+them decides anything (recomputed on the tuning split, those thresholds warned on 7 of 57
+right graphs; the chance of change on none, notebooks/calibration.md).
+
+**What it costs.** One merge at ``t*`` per re-run on at most ``(1 - 1 / folds)`` of the
+trace: ``folds`` merges (which the held-out prediction needs anyway) on a graph no re-run
+changes, at most ``runs``. fruit-6x8, |D| = 1500, codes: about 0.2 s a merge, 5 merges.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import math
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -34,27 +62,35 @@ from vggc_cp.trace import PICK, PLACE
 
 @dataclass(frozen=True)
 class WarningRule:
-    """When a graph is flagged as suspect (any one condition suffices).
+    """When a graph is flagged as suspect: its chance of change (module docstring).
 
     Attributes
     ----------
-    min_plateau : int
-        Fewer thresholds in a row giving the chosen partition.
-    max_contradicted : float
-        More held-out transitions contradicted by the graph.
-    min_predicted : float
-        Fewer held-out transitions predicted.
-    min_obs_per_node : float
-        Fewer observations per node (too few renders of each situation to tell them apart).
-    min_margin : float
-        A smaller description-length margin (nats per transition) to a graph of another size.
+    max_change : float
+        The largest chance of change (share of re-runs that change the graph) of a graph
+        that is not flagged; 0.3 is support of 70 %.
+    runs : int
+        The most re-runs (at least the folds, which come first).
+    seed : int
+        Seed of the random re-runs after the folds.
     """
 
-    min_plateau: int = 3
-    max_contradicted: float = 0.05
-    min_predicted: float = 0.6
-    min_obs_per_node: float = 2.0
-    min_margin: float = 0.01
+    max_change: float = 0.3
+    runs: int = 20
+    seed: int = 0
+
+    def __post_init__(self):
+        from vggc_cp.errors import VggcError
+
+        if isinstance(self.max_change, bool) or not isinstance(self.max_change, (int, float)) \
+                or not 0.0 <= float(self.max_change) < 1.0:
+            raise VggcError(f"WarningRule field 'max_change' must be a number in [0, 1), got "
+                            f"{self.max_change!r}")
+        for name in ("runs", "seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                raise VggcError(f"WarningRule field {name!r} must be a non-negative integer, "
+                                f"got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -69,8 +105,45 @@ class HeldOut:
 
 
 @dataclass(frozen=True)
+class Resampled:
+    """What the re-runs found (module docstring).
+
+    Attributes
+    ----------
+    runs : int
+        Re-runs made.
+    changed : int
+        Re-runs whose partition differs from the chosen one.
+    unstable : tuple of (int, int)
+        ``(node, re-runs)``: chosen nodes that some re-run split or joined with another, and
+        in how many re-runs, most often first.
+    heldout : HeldOut or None
+        Held-out prediction of the fold re-runs.
+    units : str
+        ``episodes`` or ``blocks`` (contiguous parts of a recording of few episodes).
+    folds : int
+        Each re-run leaves out ``1 / folds`` of the units.
+    novel : int
+        Re-runs that changed the graph because most of what they left out lies in nodes
+        they never saw.
+    """
+
+    runs: int
+    changed: int
+    unstable: tuple[tuple[int, int], ...]
+    heldout: HeldOut | None
+    units: str = "episodes"
+    folds: int = 5
+    novel: int = 0
+
+    @property
+    def p_change(self) -> float | None:
+        return self.changed / self.runs if self.runs else None
+
+
+@dataclass(frozen=True)
 class Confidence:
-    """What the model-selection criterion saw, and the verdict.
+    """The chance that the graph would change, the verdict and the figures beside it.
 
     Attributes
     ----------
@@ -83,8 +156,17 @@ class Confidence:
     heldout : HeldOut or None
     obs_per_node : float
     suspect : bool
+        ``p_change > rule.max_change``.
     reasons : tuple of str
-        One phrase per failed condition of the :class:`WarningRule`.
+        Why it is suspect: what changes and what to record next (empty when not).
+    p_change : float or None
+        The chance that a recording of the same kind gives another graph (share of re-runs
+        that change it); None when the trace cannot be resampled (fewer than two units, or
+        ``folds`` 0).
+    runs, changed : int
+        Re-runs made and re-runs that changed the graph.
+    unstable : tuple of int
+        Chosen nodes that re-runs changed, most often first (at most ten).
     """
 
     criterion: str
@@ -94,25 +176,36 @@ class Confidence:
     obs_per_node: float
     suspect: bool
     reasons: tuple[str, ...]
+    p_change: float | None = None
+    runs: int = 0
+    changed: int = 0
+    unstable: tuple[int, ...] = ()
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["reasons"] = list(self.reasons)
+        d["unstable"] = [int(u) for u in self.unstable]
         if not np.isfinite(self.margin):
             d["margin"] = None
         else:
             d["margin"] = round(float(self.margin), 6)
+        if self.p_change is not None:
+            d["p_change"] = round(float(self.p_change), 6)
         return d
 
     def summary(self) -> str:
-        """One line: the figures and the verdict."""
+        """One line: the chance of change, the figures and the verdict."""
         ho = self.heldout
         held = ("" if ho is None else
-                f", held-out predicted {100 * ho.predicted:.1f} % / contradicted "
+                f"; held-out predicted {100 * ho.predicted:.1f} % / contradicted "
                 f"{100 * ho.contradicted:.1f} %")
+        chance = ("chance of change n/a (the trace cannot be resampled)"
+                  if self.p_change is None else
+                  f"chance of change {100 * self.p_change:.0f} % ({self.changed} of "
+                  f"{self.runs} re-runs)")
         margin = "n/a" if not np.isfinite(self.margin) else f"{self.margin:.3f}"
         verdict = "SUSPECT: " + "; ".join(self.reasons) if self.suspect else "no warning"
-        return (f"margin {margin} nats/transition, plateau {self.plateau}{held}, "
+        return (f"{chance}{held}; margin {margin} nats/transition, plateau {self.plateau}, "
                 f"{self.obs_per_node:.1f} obs/node -> {verdict}")
 
 
@@ -230,28 +323,202 @@ def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray,
     return out
 
 
-def assess(margin: float, plateau: int, heldout: HeldOut | None, obs_per_node: float,
+#: A re-run also changes the graph when more than this share of the observations it left out
+#: lie in chosen nodes that none of its kept observations is in (a majority of the left-out
+#: recording would be situations the re-run never saw: nodes of one or two renders).
+NOVEL_SHARE = 0.5
+
+
+def resampling_units(episode_of: np.ndarray, folds: int) -> tuple[np.ndarray, str]:
+    """The unit of every observation that a re-run leaves out or keeps: its episode, or, when
+    the trace has fewer than ``folds`` episodes, one of ``folds`` contiguous blocks of
+    observations of (nearly) equal size. Returns the units and ``episodes`` or ``blocks``."""
+    episode_of = np.asarray(episode_of, dtype=np.int64)
+    n = len(episode_of)
+    n_ep = int(episode_of.max()) + 1 if n else 0
+    if n_ep >= folds or n == 0 or folds < 2:
+        return episode_of, "episodes"
+    return (np.arange(n, dtype=np.int64) * folds) // n, "blocks"
+
+
+def same_partition(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two labelings of the same observations group them alike."""
+    if len(a) == 0:
+        return True
+    _, ia = np.unique(a, return_inverse=True)
+    _, ib = np.unique(b, return_inverse=True)
+    pairs = len(np.unique(ia.astype(np.int64) * (ib.max() + 1) + ib))
+    return pairs == ia.max() + 1 == ib.max() + 1
+
+
+def changed_nodes(chosen: np.ndarray, rerun: np.ndarray) -> np.ndarray:
+    """Chosen nodes (labels of ``chosen``) whose observations are not exactly one group of
+    ``rerun``: split by it, or joined with observations of another node."""
+    _, ia = np.unique(chosen, return_inverse=True)
+    ids = np.unique(chosen)
+    _, ib = np.unique(rerun, return_inverse=True)
+    pair = ia.astype(np.int64) * (ib.max() + 1) + ib
+    up = np.unique(pair)
+    pa, pb = up // (ib.max() + 1), up % (ib.max() + 1)
+    per_a = np.bincount(pa, minlength=len(ids))   # rerun groups per chosen node
+    per_b = np.bincount(pb, minlength=ib.max() + 1)  # chosen nodes per rerun group
+    bad = per_a > 1
+    bad[pa[per_b[pb] > 1]] = True
+    return ids[bad]
+
+
+def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of: np.ndarray,
+             folds: int = 5, rule: WarningRule | None = None) -> Resampled | None:
+    """Re-run the merge at ``threshold`` on the trace with parts of it left out (module
+    docstring) and compare each partition with ``labels``.
+
+    Parameters
+    ----------
+    problem : Problem or CodedProblem
+        A :class:`~vggc_cp.solvers.pairs.CodedProblem` is merged on its candidate pairs.
+    threshold : float
+        The chosen threshold ``t*``.
+    labels : ndarray of int, shape (N,)
+        The chosen partition.
+    episode_of : ndarray of int, shape (N,)
+        Episode of every observation.
+    folds : int
+        The share left out is ``1 / folds``; the first ``folds`` re-runs are the folds.
+    rule : WarningRule, optional
+
+    Returns
+    -------
+    Resampled or None
+        None when ``folds < 2`` or the trace has fewer than two units.
+    """
+    rule = rule or WarningRule()
+    folds = int(folds)
+    if folds < 2 or len(problem.act) == 0:
+        return None
+    units, kind = resampling_units(episode_of, folds)
+    n_units = int(units.max()) + 1
+    folds_here = min(folds, n_units)
+    if folds_here < 2:
+        return None
+    labels = np.asarray(labels, dtype=np.int64)
+    coded = isinstance(problem, CodedProblem)
+    merge = coded_merge if coded else congruence_merge
+    most = max(int(rule.runs), folds_here)
+    rng = np.random.default_rng(int(rule.seed))
+    drop_k = max(1, int(round(n_units / folds)))
+    counts = np.zeros(3, dtype=np.int64)  # held-out predicted, contradicted, total
+    unstable: dict[int, int] = {}
+    runs = changed = novel_runs = 0
+    while runs < most:
+        if runs < folds_here:
+            left_out = units % folds_here == runs
+        else:
+            left_out = np.isin(units, rng.permutation(n_units)[:drop_k])
+        train = ~left_out
+        sub, kept = problem.restricted(train) if coded else subproblem(problem, train)
+        if len(sub.act):
+            lab, _ = merge(sub, threshold)
+        else:
+            lab = np.arange(sub.n_obs, dtype=np.int64)
+        if runs < folds_here:
+            counts += _predict(problem, kept, lab, sub, train)
+        runs += 1
+        regrouped = not same_partition(labels[kept], lab)
+        # the left-out part as a new recording: its observations in nodes that no kept
+        # observation is in are situations the re-run never saw
+        unseen = ~np.isin(labels[left_out], labels[kept])
+        novel = bool(unseen.size) and float(unseen.mean()) > NOVEL_SHARE
+        if regrouped or novel:
+            changed += 1
+            novel_runs += novel
+            moved = changed_nodes(labels[kept], lab).tolist() if regrouped else []
+            if novel:
+                moved += np.unique(labels[left_out][unseen]).tolist()
+            for u in set(moved):
+                unstable[int(u)] = unstable.get(int(u), 0) + 1
+        if runs == folds_here and changed == 0:
+            break
+        if changed > rule.max_change * most or runs - changed >= (1 - rule.max_change) * most:
+            break
+    held = None
+    if counts[2]:
+        p, c, t = (int(x) for x in counts)
+        held = HeldOut(p / t, c / t, (t - p - c) / t, t, folds_here)
+    order = sorted(unstable.items(), key=lambda kv: (-kv[1], kv[0]))
+    return Resampled(runs, changed, tuple(order), held, kind, folds_here, novel_runs)
+
+
+def _predict(problem: Problem, kept: np.ndarray, lab: np.ndarray, sub: Problem,
+             train: np.ndarray) -> np.ndarray:
+    """Predicted, contradicted and total left-out transitions of one fold re-run."""
+    edges = {(int(u), int(a)): int(v) for u, a, v in zip(lab[sub.src], sub.act, lab[sub.dst])}
+    node_of = _localize(problem, kept, lab, ~train)
+    held = ~train[problem.src] & ~train[problem.dst]  # both ends left out (a block's edge)
+    predicted = contradicted = total = 0
+    for s, a, d in zip(problem.src[held], problem.act[held], problem.dst[held]):
+        total += 1
+        v = edges.get((node_of[s], int(a)))
+        if v is None:
+            continue
+        if v == node_of[d]:
+            predicted += 1
+        else:
+            contradicted += 1
+    return np.array([predicted, contradicted, total], dtype=np.int64)
+
+
+def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_node: float,
            rule: WarningRule | None = None, criterion: str = "mdl") -> Confidence:
-    """Apply the warning ``rule`` to the figures; returns the :class:`Confidence`."""
+    """The :class:`Confidence`: suspect when the chance of change exceeds
+    ``rule.max_change``; the other figures are reported beside it."""
     rule = rule or WarningRule()
     reasons = []
-    if plateau < rule.min_plateau:
-        reasons.append(f"the chosen graph holds for {plateau} threshold(s) only "
-                       f"(< {rule.min_plateau}): no stable partition")
-    if np.isfinite(margin) and margin < rule.min_margin:
-        reasons.append(f"description-length margin {margin:.3f} nats/transition "
-                       f"(< {rule.min_margin}): a graph of another size explains the trace "
-                       f"almost as well")
-    if heldout is not None:
-        if heldout.contradicted > rule.max_contradicted:
-            reasons.append(f"{100 * heldout.contradicted:.1f} % of held-out transitions "
-                           f"contradict the graph (> {100 * rule.max_contradicted:.0f} %): the "
-                           f"visual evidence does not place renders of one situation together")
-        if heldout.predicted < rule.min_predicted:
-            reasons.append(f"only {100 * heldout.predicted:.1f} % of held-out transitions are "
-                           f"predicted (< {100 * rule.min_predicted:.0f} %)")
-    if obs_per_node < rule.min_obs_per_node:
-        reasons.append(f"{obs_per_node:.1f} observations per node (< "
-                       f"{rule.min_obs_per_node:g}): too few renders of each situation")
-    return Confidence(criterion, float(margin), int(plateau), heldout, float(obs_per_node),
-                      bool(reasons), tuple(reasons))
+    p = None if resampled is None else resampled.p_change
+    unstable = () if resampled is None else tuple(u for u, _ in resampled.unstable[:10])
+    if p is not None and p > rule.max_change:
+        nodes = ", ".join(str(u) for u in unstable[:6])
+        more = f" (and {len(resampled.unstable) - 6} more)" if len(resampled.unstable) > 6 else ""
+        novel = ("" if not resampled.novel else
+                 f"; in {resampled.novel} of them most left-out observations lie in nodes the "
+                 f"rest never shows: renders of one situation are kept apart")
+        reasons.append(
+            f"the graph changes in {resampled.changed} of {resampled.runs} re-runs with "
+            f"1/{resampled.folds} of the {resampled.units} left out (chance of change "
+            f"{100 * p:.0f} % > {100 * rule.max_change:.0f} %{novel}): the recording does not "
+            f"settle nodes {nodes}{more}; `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows "
+            f"the contested decisions and `vggc-cp suggest SOLUTION TRACE -o next.json` "
+            f"the episodes to record next")
+    return Confidence(criterion, float(margin), int(plateau),
+                      None if resampled is None else resampled.heldout, float(obs_per_node),
+                      bool(reasons), tuple(reasons), p,
+                      0 if resampled is None else resampled.runs,
+                      0 if resampled is None else resampled.changed, unstable)
+
+
+def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
+    """``conf`` flagged also when a decision that the re-runs changed is one the trace's
+    actions reject: a doubt (:mod:`vggc_cp.solvers.doubts`) on unstable nodes whose flip
+    shortens the description length by more than ``max_nats`` (a Bayes factor above
+    ``exp(max_nats)``, 20 for 3 nats: "strong" evidence, Kass and Raftery 1995).
+
+    The two readings are independent: the re-runs test the images and the constraints on
+    less of the recording, the description length the actions of all of it. Either alone
+    is common on right graphs of few episodes; both on one decision is not.
+    """
+    unstable = set(conf.unstable)
+    if not unstable:
+        return conf
+    for d in doubts:
+        nats = d.evidence.get("dl_nats")
+        if not isinstance(nats, (int, float)) or nats >= -max_nats:
+            continue
+        if not unstable.intersection(int(u) for u in d.nodes):
+            continue
+        what = ("nodes {} and {} might be one state".format(*d.nodes) if d.kind == "merge"
+                else f"node {d.nodes[0]} might be two states")
+        reason = (f"{what}: re-runs change {'them' if d.kind == 'merge' else 'it'} and the "
+                  f"actions favour that by {-nats:.1f} nats (odds {math.exp(min(-nats, 50)):.0f} "
+                  f"to 1); `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and "
+                  f"`vggc-cp suggest SOLUTION TRACE -o next.json` the episodes to record next")
+        return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
+    return conf

@@ -1,0 +1,95 @@
+"""The calibration of the warning from a robustness table: old verdict recomputed, counts per
+split and look, bins of the chance of change, the CLI."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from vggc_cp.cli import main
+from vggc_cp.errors import VggcError
+from vggc_cp.experiments import calibration as cal
+from vggc_cp.experiments.robustness import passes
+
+NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
+
+
+def _row(look, ok, suspect, p_change, split="tuning", **figures):
+    row = {"benchmark": "fruit-2x3", "look": look, "seed": 0, "split": split,
+           "true_states": 6, "nodes": 6 if ok else 9, "exec": 1.0 if ok else 0.4,
+           "opt_path": 1.0, "any_path": 1.0, "suspect": suspect, "p_change": p_change,
+           "margin": 0.2, "plateau": 10, "heldout_predicted": 0.9,
+           "heldout_contradicted": 0.0, "obs_per_node": 9.0}
+    row.update(figures)
+    return row
+
+
+def _write(path, rows):
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fields)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: "" if r.get(k) is None else r[k] for k in fields})
+    return path
+
+
+ROWS = [_row("clean", True, False, 0.0),
+        _row("clean", True, False, 0.2, margin=0.005),          # old false alarm, new quiet
+        _row("clean", False, True, 1.0),
+        _row("robot", False, True, 0.35, plateau=1),
+        _row("robot", True, True, 0.4),                         # new false alarm
+        _row("robot", False, False, None, split="held-out")]    # silent under both
+
+
+def test_counts_per_split_look_and_verdict(tmp_path):
+    rows = cal.read_rows(_write(tmp_path / "r.csv", ROWS))
+    assert [passes(r) for r in rows] == [True, True, False, False, True, False]
+    assert [cal.old_suspect(r) for r in rows] == [False, True, False, True, False, False]
+    table = {(c["split"], c["look"], c["verdict"]): c for c in cal.calibration_rows(rows)}
+    assert (table["tuning", "clean", "old"]["false_alarms"],
+            table["tuning", "clean", "new"]["false_alarms"]) == (1, 0)
+    new_all = table["tuning", "all", "new"]
+    assert (new_all["runs"], new_all["passed"], new_all["false_alarms"], new_all["missed"],
+            new_all["caught"], new_all["silent"]) == (5, 3, 1, 2, 2, 0)
+    assert new_all["false_alarm_share"] == pytest.approx(1 / 3)
+    assert table["held-out", "all", "new"]["silent"] == 1
+    bins = {(b["split"], b["p_change"]): (b["runs"], b["passed"])
+            for b in cal.reliability_rows(rows)}
+    assert bins["tuning", "0.0"] == (1, 1) and bins["tuning", "(0.1, 0.2]"] == (1, 1)
+    assert bins["tuning", "(0.3, 0.5]"] == (2, 1) and bins["held-out", "n/a"] == (1, 0)
+    md = cal.calibration_markdown(rows)
+    assert "| tuning | all | new | 5 | 3 | 1 / 3 (33.3 %) | 2 | 2 | 0 |" in md
+
+
+@pytest.mark.parametrize("name", ["robustness-tasks-tuning.csv", "robustness-tasks-heldout.csv"])
+def test_the_old_rule_recomputed_from_a_row_is_the_verdict_it_recorded(name):
+    """The committed tables were written by the fixed thresholds: recomputing them from the
+    row's figures gives the row's own verdict, run by run."""
+    rows = cal.read_rows(NOTEBOOKS / name)
+    assert rows and all(cal.old_suspect(r) == r["suspect"] for r in rows)
+
+
+def test_the_command_prints_writes_and_refuses_bad_input(tmp_path, capsys):
+    src = _write(tmp_path / "r.csv", ROWS)
+    md = tmp_path / "c.md"
+    assert main(["calibration", str(src), "-o", str(md)]) == 0
+    out = capsys.readouterr().out
+    assert "| tuning | all | old |" in out and md.read_text() in out
+    bad = tmp_path / "bad.csv"
+    _write(bad, [dict(ROWS[0], exec="high")])
+    with pytest.raises(VggcError, match=r"bad.csv: row 0, field 'exec'"):
+        cal.read_rows(bad)
+    assert main(["calibration", str(bad)]) == 2
+    assert main(["calibration", str(tmp_path / "none.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "vggc-cp: error:" in err and "none.csv" in err
+
+
+@pytest.mark.slow
+def test_the_command_draws_the_plot(tmp_path):
+    png = tmp_path / "c.png"
+    assert main(["calibration", str(_write(tmp_path / "r.csv", ROWS)), "--png", str(png)]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 1000
