@@ -116,7 +116,6 @@ def cmd_calibration(args) -> int:
         calibration_rows,
         read_rows,
     )
-
     from vggc_cp.safeio import check_input, check_output
 
     inputs = {}
