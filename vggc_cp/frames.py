@@ -92,13 +92,17 @@ class _Member:
                     raise EOFError
                 break
             if self._z.unconsumed_tail:
-                chunk = self._z.unconsumed_tail
-            else:
-                chunk = self._f.read(min(1 << 20, self._raw_left)) if self._raw_left else b""
+                self._buf = self._z.decompress(self._z.unconsumed_tail, max(n, 1 << 16))
+            elif self._raw_left:
+                chunk = self._f.read(min(1 << 20, self._raw_left))
+                if not chunk:
+                    raise EOFError
                 self._raw_left -= len(chunk)
-            self._buf = self._z.decompress(chunk, max(n, 1 << 16))
-            if not self._buf and not chunk:
-                raise EOFError
+                self._buf = self._z.decompress(chunk, max(n, 1 << 16))
+            else:  # all input given: what the inflater still holds
+                self._buf = self._z.flush()
+                if not self._buf:
+                    raise EOFError
         self._out_left -= len(out)
         if self._out_left < 0:
             raise zipfile.BadZipFile("member longer than its size")
