@@ -37,7 +37,7 @@ P_BINS = (0.0, 0.1, 0.2, 0.3, 0.5, 1.0)
 _NUMBERS = ("seed", "transitions", "observations", "true_states", "nodes", "nodes_ratio", "exec",
             "opt_path", "any_path", "trans_prec", "trans_cov", "threshold", "margin", "plateau",
             "heldout_predicted", "heldout_contradicted", "obs_per_node", "obs_per_state",
-            "p_change", "runs", "changed", "i2p", "localization", "exec_i2p")
+            "p_change", "runs", "changed", "doubts", "i2p", "localization", "exec_i2p")
 
 
 def _value(field: str, text: str):
@@ -52,7 +52,7 @@ def _value(field: str, text: str):
     if field in _NUMBERS:
         v = float(text)
         return int(v) if field in ("seed", "transitions", "observations", "true_states",
-                                   "nodes", "plateau", "runs", "changed") else v
+                                   "nodes", "plateau", "runs", "changed", "doubts") else v
     return text
 
 
@@ -178,6 +178,11 @@ def calibration_markdown(rows: list[dict], source: str = "robustness.csv") -> st
         lines.append(f"| {c['split']} | {c['look']} | {c['verdict']} | {c['runs']} | "
                      f"{c['passed']} | {_share(c['false_alarms'], c['passed'])} | "
                      f"{c['missed']} | {c['caught']} | {c['silent']} |")
+    warned = [r for r in rows if r.get("suspect") and r.get("doubts") is not None]
+    if warned:
+        with_doubt = sum(r["doubts"] > 0 for r in warned)
+        lines += ["", f"Warned runs whose solution lists at least one doubt: "
+                      f"{_share(with_doubt, len(warned))}."]
     rel = reliability_rows(rows)
     if any(r["runs"] for r in rel if r["p_change"] != "n/a"):
         lines += ["", "Runs by chance of change (`p_change`) and the share that passed:", "",

@@ -28,7 +28,8 @@ NONNEGATIVE = ("nodes_ratio", "obs_per_state", "obs_per_node", "seconds_learn",
 #: fields that are finite numbers (None: none)
 FINITE = ("threshold", "margin")
 #: fields that are non-negative integers
-COUNTS = ("transitions", "observations", "true_states", "nodes", "plateau", "runs", "changed")
+COUNTS = ("transitions", "observations", "true_states", "nodes", "plateau", "runs", "changed",
+          "doubts")
 #: fields that are strings
 TEXTS = ("benchmark", "look", "evidence", "reasons", "dynamics")
 #: fields every robustness row has (the I2P ones only when measured)

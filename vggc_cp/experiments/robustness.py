@@ -79,16 +79,18 @@ DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 #: Runs with fewer observations per true state than this are marked sparse in the tables.
 MIN_OBS_PER_STATE = 2.0
 #: Modules whose source is part of a cell's key (changed code recomputes the cells).
-CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.mdl",
-                "vggc_cp.solvers.confidence", "vggc_cp.vision.footprints",
-                "vggc_cp.vision.occupancy", "vggc_cp.vision.distances",
-                "vggc_cp.evaluate.metrics")
+CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.pairs",
+                "vggc_cp.solvers.mdl", "vggc_cp.solvers.confidence", "vggc_cp.solvers.doubts",
+                "vggc_cp.vision.evidence", "vggc_cp.vision.footprints",
+                "vggc_cp.vision.occupancy", "vggc_cp.vision.registration",
+                "vggc_cp.vision.distances", "vggc_cp.evaluate.metrics")
 #: Columns of ``robustness.csv``, in order (measured I2P columns follow when present).
 ROW_FIELDS = ("benchmark", "family", "look", "seed", "split", "transitions", "observations",
               "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
               "trans_prec", "trans_cov", "passed", "evidence", "threshold", "suspect", "reasons",
-              "p_change", "runs", "changed", "margin", "plateau", "heldout_predicted", "heldout_contradicted", "obs_per_node",
-              "obs_per_state", "seconds_learn", "seconds_evaluate", "dynamics")
+              "p_change", "runs", "changed", "doubts", "margin", "plateau",
+              "heldout_predicted", "heldout_contradicted", "obs_per_node", "obs_per_state",
+              "seconds_learn", "seconds_evaluate", "dynamics")
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
 
 
@@ -409,7 +411,7 @@ def run_cell(job: RobustCell) -> dict:
            "evidence": learned.chosen.evidence, "threshold": _finite(learned.threshold),
            "suspect": bool(conf.suspect), "reasons": "; ".join(conf.reasons),
            "p_change": conf.p_change, "runs": int(conf.runs), "changed": int(conf.changed),
-           "margin": _finite(conf.margin), "plateau": int(conf.plateau),
+           "doubts": len(learned.doubts), "margin": _finite(conf.margin), "plateau": int(conf.plateau),
            "heldout_predicted": None if held is None else held.predicted,
            "heldout_contradicted": None if held is None else held.contradicted,
            "obs_per_node": _finite(conf.obs_per_node),
@@ -420,7 +422,8 @@ def run_cell(job: RobustCell) -> dict:
                    labels_solution(trace, learned.labels, solver="learn_graph",
                                    status="feasible", evidence=learned.chosen.evidence,
                                    threshold=_finite(learned.threshold),
-                                   confidence=jsonable(conf.as_dict())))
+                                   confidence=jsonable(conf.as_dict()),
+                                   doubts=jsonable([d.as_dict() for d in learned.doubts])))
     if job.i2p:
         row |= run_i2p(job, trace)
     row = jsonable(row)
