@@ -12,6 +12,7 @@ when ``name`` is a module, else as ``pkg``; importing ``pkg.mod`` is not counted
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import vggc_cp
@@ -93,6 +94,12 @@ def all_imports(root: Path = ROOT) -> dict[str, set[str]]:
     return {module_name(p, root): imports_of(p, root) for p in sorted(root.rglob("*.py"))}
 
 
+@functools.lru_cache(maxsize=1)
+def package_imports() -> dict[str, frozenset[str]]:
+    """:func:`all_imports` of the package, parsed once for all the tests here."""
+    return {m: frozenset(i) for m, i in all_imports().items()}
+
+
 def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     """One cycle ``[a, b, ..., a]`` per strongly connected group of modules that import each
     other (Tarjan's algorithm; self-imports ignored), sorted."""
@@ -147,19 +154,19 @@ def _one_cycle(graph: dict[str, set[str]], group: set[str]) -> list[str]:
 
 
 def test_every_module_is_on_a_floor():
-    for name in all_imports():
+    for name in package_imports():
         floor_of(name)
 
 
 def test_no_module_imports_from_a_higher_floor():
-    upward = sorted((m, i) for m, imps in all_imports().items() for i in imps
+    upward = sorted((m, i) for m, imps in package_imports().items() for i in imps
                     if floor_of(i) > floor_of(m) and (m, i) not in FACE_IMPORTS)
     assert upward == [], "imports from a higher floor:\n" + "\n".join(
         f"  {m} -> {i}" for m, i in upward)
 
 
 def test_cli_commands_never_import_each_other():
-    cmds = {m: imps for m, imps in all_imports().items()
+    cmds = {m: imps for m, imps in package_imports().items()
             if m.startswith("vggc_cp.cli.") and m.endswith("_cmds")}
     crossing = sorted((m, i) for m, imps in cmds.items() for i in imps if i in cmds and i != m)
     assert crossing == [], "CLI command modules importing each other:\n" + "\n".join(
@@ -176,7 +183,7 @@ def test_the_checker_sees_lazy_and_from_package_imports(tmp_path):
 
 
 def test_no_import_cycles():
-    cycles = import_cycles(all_imports())
+    cycles = import_cycles(package_imports())
     assert cycles == [], "modules that import each other:\n" + "\n".join(
         "  " + " -> ".join(c) for c in cycles)
 
