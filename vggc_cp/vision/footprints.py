@@ -19,6 +19,20 @@ The faint floor that sensor noise leaves
 everywhere (``support`` of the peak) goes too, and an action keeps only its heaviest connected
 component: it acts in one place.
 
+**What rests where it acted.** A robot's camera sees the arm, and the arm rests above the
+place it last acted on: across every transition it moves from the last place to the new
+one, so the change footprint ``F_a`` is where the hand comes to rest after ``a``, not where
+``a`` changed the scene, and an object there is a small part of it. Whether something rests
+where it acted is read from the trace: the frames right after ``b`` (and after ``b``'s twin,
+the action of the other kind acting at one place) differ from the median frame by more than
+``rest`` in pixels ``R_b`` (:func:`rest_masks`; a state's change differs after only one of
+the two). When some ``R_b`` is not empty, the footprints become *label contrasts*
+(:func:`labelled_maps`): ``R_b`` tells which actions act at one place, the trace's actions
+then say in which frames that place is empty or occupied, and ``F_a`` is where the mean
+frame called occupied differs from the mean frame called empty; whatever rests at the place
+is in both means and cancels. Nothing reads the arm's colour, shape or model. A fixed camera
+with nothing resting in view has no ``R_b`` and keeps the change footprints, bit for bit.
+
 **Classes and colours.** What a pick lifts is what the next place puts down, so a pick and
 the place that follows it move one task class: the classes are the connected components of
 that relation (:func:`action_classes`, names are not read). Classes whose colours cannot be
@@ -79,7 +93,8 @@ from scipy import ndimage
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
-from vggc_cp.vision.occupancy import refine_presence, settle
+from vggc_cp.vision.occupancy import (EMPTY, acting_at, refine_presence, settle, site_labels,
+                                     twins)
 from vggc_cp.vision.registration import steady
 
 
@@ -109,6 +124,10 @@ class FootprintConfig:
         Width of the colour kernel (chromaticity units).
     nuisance_quantile : float
         Quantile of a site's change across one action's transitions that is nuisance.
+    rest : float
+        Change from the median frame (summed over the channels of the normalised frames)
+        from which a pixel belongs to what rests where the last action acted
+        (:func:`rest_masks`).
     """
 
     gripper: float = 0.8
@@ -119,6 +138,7 @@ class FootprintConfig:
     site_overlap: float = 0.2
     bandwidth: float = 0.02
     nuisance_quantile: float = 0.9
+    rest: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("gripper", "support", "site_overlap", "fringe"):
@@ -128,7 +148,7 @@ class FootprintConfig:
         if not 0 < self.nuisance_quantile <= 1:
             raise VggcError(f"footprint nuisance_quantile must lie in (0, 1], got "
                             f"{self.nuisance_quantile}")
-        for name in ("held", "saturation", "bandwidth"):
+        for name in ("held", "saturation", "bandwidth", "rest"):
             v = getattr(self, name)
             if not v > 0:
                 raise VggcError(f"footprint {name} must be positive, got {v}")
@@ -305,6 +325,138 @@ def normalised(maps: np.ndarray) -> np.ndarray:
     """Every map divided by its sum (all-zero maps stay zero), float32."""
     total = maps.sum(axis=(1, 2), keepdims=True)
     return np.where(total > 0, maps / np.maximum(total, 1e-12), 0.0).astype(np.float32)
+
+
+def previous_actions(actions: np.ndarray) -> np.ndarray:
+    """The action that led to every observation, int64 shape (N,) (-1 at an episode's
+    first observation)."""
+    prev = np.full(len(actions) + 1, -1, dtype=np.int64)
+    prev[1:] = actions
+    return prev
+
+
+def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: FootprintConfig,
+               sample: int = 256) -> np.ndarray | None:
+    """Where something rests after every action, bool (A, H, W), or None when nothing does
+    (module docstring, *What rests where it acted*).
+
+    ``R_b`` are the pixels where the median of the frames right after ``b`` and that of the
+    frames after ``b``'s *twin* (the action of the other kind whose change from the median
+    frame overlaps ``b``'s most: a pick and a place at one place) both differ from the median
+    of all frames by more than ``params.rest``, grown by ``params.fringe``. What ``b`` did
+    to the scene differs from the median frame after ``b`` or after its twin but not after
+    both (one empties the place, the other fills it), so it is not in ``R_b``; a hand at
+    rest above the place is in both. Nothing is read about the arm: not its colour, shape or
+    model, only that it is where the last action was.
+
+    Parameters
+    ----------
+    x : ndarray of float32, shape (N, H, W, 3)
+        Normalised, steadied frames.
+    actions : ndarray of int, shape (N-1,)
+    kinds : ndarray of int, shape (A,)
+    params : FootprintConfig
+    sample : int
+        Frames (evenly spaced) in every median.
+
+    Returns
+    -------
+    ndarray of bool, shape (A, H, W), or None
+        None when no pixel of any action's ``R_b`` passes ``params.rest`` (a fixed camera
+        with nothing resting in view: the footprints stay the change footprints).
+    """
+    prev = previous_actions(actions)
+    n_act = len(kinds)
+
+    def median_of(idx: np.ndarray) -> np.ndarray:
+        idx = idx[np.unique(np.linspace(0, len(idx) - 1, min(len(idx), sample)).round()
+                            .astype(int))]
+        return np.median(x[idx], axis=0)
+
+    ref = median_of(np.arange(len(x)))
+    far = np.zeros((n_act,) + x.shape[1:3], dtype=np.float32)
+    after = [np.flatnonzero(prev == b) for b in range(n_act)]
+    seen = np.array([len(idx) >= 3 for idx in after])
+    for b in np.flatnonzero(seen):
+        far[b] = np.abs(median_of(after[b]) - ref).sum(axis=-1)
+    rest = np.zeros(far.shape, dtype=bool)
+    flat = far.reshape(n_act, -1)
+    for b in np.flatnonzero(seen):
+        cand = np.flatnonzero(seen & (kinds != kinds[b]))
+        if not len(cand):
+            continue
+        twin = cand[np.argmax([np.minimum(flat[b], flat[c]).sum() for c in cand])]
+        rest[b] = np.minimum(far[b], far[twin]) > params.rest
+    if not rest.any():
+        return None
+    h, w = x.shape[1:3]
+    fringe = max(1, int(round(params.fringe * max(h, w)))) if params.fringe > 0 else 0
+    if fringe > 0:
+        for b in np.flatnonzero(rest.any(axis=(1, 2))):
+            rest[b] = ndimage.binary_dilation(rest[b], iterations=fringe)
+    return rest
+
+
+#: Rounds of :func:`labelled_maps`: each finds the places anew from the last footprints.
+ROUNDS = 3
+
+
+def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarray,
+                  counts: np.ndarray, params: FootprintConfig, rounds: int = ROUNDS
+                  ) -> np.ndarray:
+    """Footprints as the contrast of what the actions say a place holds (module docstring,
+    *What rests where it acted*).
+
+    Where something rests after every action (:func:`rest_masks`), the change across a
+    transition is mostly that thing moving, and ``F_a`` would be where it rests, not where
+    ``a`` changed the scene. But it rests at the place ``a`` acts on, so ``R_a`` tells which
+    actions act at one place (the overlaps of :func:`overlaps`, task classes of
+    :func:`action_classes` standing in for colours); then the trace's actions say, frame by
+    frame, whether that place is empty or holds an object
+    (:func:`vggc_cp.vision.occupancy.site_labels`). The footprint of ``a`` is where the mean
+    of the frames the actions call occupied differs from the mean of those they call empty
+    (less ``support`` of its peak, its heaviest component): what rests at the place after a
+    pick and after a place is in both means and cancels, what rests elsewhere is as likely in
+    either. Each further round finds the places from the footprints of the round before.
+
+    Parameters
+    ----------
+    trace : Trace
+        Its actions and episodes (never its states).
+    x : ndarray of float32, shape (N, H, W, 3)
+    rest : ndarray of bool, shape (A, H, W)
+    maps : ndarray, shape (A, H, W)
+        The change footprints (:func:`footprint_maps`), kept for an action whose place is
+        labelled empty or occupied in fewer than three frames.
+    counts : ndarray of int, shape (A,)
+    params : FootprintConfig
+    rounds : int
+
+    Returns
+    -------
+    ndarray of float32, shape (A, H, W), each summing to 1 (zeros for an action never taken).
+    """
+    kinds = trace.action_kinds()
+    classes = np.where(counts > 0, action_classes(trace), -1)
+    episodes = trace.episodes()
+    where = normalised(np.where(counts[:, None, None] > 0, rest, False).astype(np.float32))
+    out = maps
+    for _ in range(int(rounds)):
+        ov = overlaps(where)
+        twin = twins(ov, classes, kinds)
+        out = maps.copy()
+        for a in np.flatnonzero(counts):
+            labels = site_labels(trace.actions, episodes,
+                                 acting_at(int(a), ov, classes, twin, params.site_overlap),
+                                 kinds, classes)
+            full, empty = np.flatnonzero(labels >= 0), np.flatnonzero(labels == EMPTY)
+            if min(len(full), len(empty)) < 3:
+                continue
+            m = np.abs(x[full].mean(axis=0) - x[empty].mean(axis=0)).sum(axis=-1)
+            m = np.maximum(m - params.support * m.max(), 0.0)
+            out[a] = heaviest_component(m)
+        out = where = normalised(out)
+    return out
 
 
 def heaviest_component(m: np.ndarray) -> np.ndarray:
@@ -547,6 +699,9 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                         "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
+    rest = rest_masks(x, trace.actions, kinds, params)
+    if rest is not None:       # something rests where the last action acted: label contrast
+        maps = labelled_maps(trace, x, rest, maps, counts, params)
     ov = overlaps(maps)
     empty_of, occupied_of = {}, {}
     for a in np.flatnonzero(counts):
