@@ -28,10 +28,11 @@ the action of the other kind acting at one place) differ from the median frame b
 ``rest`` in pixels ``R_b`` (:func:`rest_masks`; a state's change differs after only one of
 the two). When some ``R_b`` is not empty, the footprints become *label contrasts*
 (:func:`labelled_maps`): ``R_b`` tells which actions act at one place, the trace's actions
-then say in which frames that place is empty or occupied, and ``F_a`` is where the mean
-frame called occupied differs from the mean frame called empty; whatever rests at the place
-is in both means and cancels. Nothing reads the arm's colour, shape or model. A fixed camera
-with nothing resting in view has no ``R_b`` and keeps the change footprints, bit for bit.
+then say in which frames that place is empty or occupied, and ``F_a`` is where the frames
+called occupied differ from those called empty, compared only among frames with the same
+last action (so with whatever rests in the same place on both sides). Nothing reads the
+arm's colour, shape or model. A fixed camera with nothing resting in view has no ``R_b`` and
+keeps the change footprints, bit for bit.
 
 **Classes and colours.** What a pick lifts is what the next place puts down, so a pick and
 the place that follows it move one task class: the classes are the connected components of
@@ -335,19 +336,25 @@ def previous_actions(actions: np.ndarray) -> np.ndarray:
     return prev
 
 
+#: Share of the frames after an action (and after its twin) in which a pixel must be far from
+#: the median frame to belong to what rests there (:func:`rest_masks`).
+RESTING = 0.8
+
+
 def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: FootprintConfig,
                sample: int = 256) -> np.ndarray | None:
     """Where something rests after every action, bool (A, H, W), or None when nothing does
     (module docstring, *What rests where it acted*).
 
-    ``R_b`` are the pixels where the median of the frames right after ``b`` and that of the
-    frames after ``b``'s *twin* (the action of the other kind whose change from the median
-    frame overlaps ``b``'s most: a pick and a place at one place) both differ from the median
-    of all frames by more than ``params.rest``, grown by ``params.fringe``. What ``b`` did
-    to the scene differs from the median frame after ``b`` or after its twin but not after
-    both (one empties the place, the other fills it), so it is not in ``R_b``; a hand at
-    rest above the place is in both. Nothing is read about the arm: not its colour, shape or
-    model, only that it is where the last action was.
+    ``R_b`` are the pixels that differ from the median frame by more than ``params.rest``
+    in at least :data:`RESTING` of the frames right after ``b`` and of the frames after
+    ``b``'s *twin* (the action of the other kind whose such shares overlap ``b``'s most: a
+    pick and a place at one place), grown by ``params.fringe``. What ``b`` did to the scene
+    differs from the median frame after ``b`` or after its twin but not after both (one
+    empties the place, the other fills it), and what other places hold varies from frame to
+    frame, so neither is in ``R_b``; a hand at rest above the place is there after both,
+    every time. Nothing is read about the arm: not its colour, shape or model, only that it
+    is where the last action was.
 
     Parameters
     ----------
@@ -357,7 +364,7 @@ def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: Fo
     kinds : ndarray of int, shape (A,)
     params : FootprintConfig
     sample : int
-        Frames (evenly spaced) in every median.
+        Frames (evenly spaced) in the median frame.
 
     Returns
     -------
@@ -367,26 +374,23 @@ def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: Fo
     """
     prev = previous_actions(actions)
     n_act = len(kinds)
-
-    def median_of(idx: np.ndarray) -> np.ndarray:
-        idx = idx[np.unique(np.linspace(0, len(idx) - 1, min(len(idx), sample)).round()
-                            .astype(int))]
-        return np.median(x[idx], axis=0)
-
-    ref = median_of(np.arange(len(x)))
-    far = np.zeros((n_act,) + x.shape[1:3], dtype=np.float32)
-    after = [np.flatnonzero(prev == b) for b in range(n_act)]
-    seen = np.array([len(idx) >= 3 for idx in after])
-    for b in np.flatnonzero(seen):
-        far[b] = np.abs(median_of(after[b]) - ref).sum(axis=-1)
-    rest = np.zeros(far.shape, dtype=bool)
-    flat = far.reshape(n_act, -1)
+    pick = np.unique(np.linspace(0, len(x) - 1, min(len(x), sample)).round().astype(int))
+    ref = np.median(x[pick], axis=0)
+    share = np.zeros((n_act,) + x.shape[1:3], dtype=np.float32)
+    seen = np.zeros(n_act, dtype=bool)
+    for b in range(n_act):
+        after = np.flatnonzero(prev == b)
+        if len(after) >= 3:
+            seen[b] = True
+            share[b] = (np.abs(x[after] - ref).sum(axis=-1) > params.rest).mean(axis=0)
+    rest = np.zeros(share.shape, dtype=bool)
+    flat = share.reshape(n_act, -1)
     for b in np.flatnonzero(seen):
         cand = np.flatnonzero(seen & (kinds != kinds[b]))
         if not len(cand):
             continue
         twin = cand[np.argmax([np.minimum(flat[b], flat[c]).sum() for c in cand])]
-        rest[b] = np.minimum(far[b], far[twin]) > params.rest
+        rest[b] = np.minimum(share[b], share[twin]) >= RESTING
     if not rest.any():
         return None
     h, w = x.shape[1:3]
@@ -397,13 +401,8 @@ def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: Fo
     return rest
 
 
-#: Rounds of :func:`labelled_maps`: each finds the places anew from the last footprints.
-ROUNDS = 3
-
-
 def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarray,
-                  counts: np.ndarray, params: FootprintConfig, rounds: int = ROUNDS
-                  ) -> np.ndarray:
+                  counts: np.ndarray, params: FootprintConfig) -> np.ndarray:
     """Footprints as the contrast of what the actions say a place holds (module docstring,
     *What rests where it acted*).
 
@@ -414,10 +413,13 @@ def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarra
     :func:`action_classes` standing in for colours); then the trace's actions say, frame by
     frame, whether that place is empty or holds an object
     (:func:`vggc_cp.vision.occupancy.site_labels`). The footprint of ``a`` is where the mean
-    of the frames the actions call occupied differs from the mean of those they call empty
-    (less ``support`` of its peak, its heaviest component): what rests at the place after a
-    pick and after a place is in both means and cancels, what rests elsewhere is as likely in
-    either. Each further round finds the places from the footprints of the round before.
+    of the frames the actions call occupied differs from the mean of those they call empty,
+    compared among frames with the arm at one place (the same last action) and averaged over
+    those places (weights ``n_occupied n_empty / (n_occupied + n_empty)``), less ``support``
+    of its peak, its heaviest component: what rests where the last action acted is the same
+    on both sides of every comparison and cancels, however often the place is empty. (The
+    places are taken from ``R_b`` only: finding them again from the contrasts drifted on the
+    tuning traces, one site moving to its neighbour in two rounds of three.)
 
     Parameters
     ----------
@@ -430,7 +432,6 @@ def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarra
         labelled empty or occupied in fewer than three frames.
     counts : ndarray of int, shape (A,)
     params : FootprintConfig
-    rounds : int
 
     Returns
     -------
@@ -439,24 +440,33 @@ def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarra
     kinds = trace.action_kinds()
     classes = np.where(counts > 0, action_classes(trace), -1)
     episodes = trace.episodes()
+    n_act = len(kinds)
+    prev = previous_actions(trace.actions)
     where = normalised(np.where(counts[:, None, None] > 0, rest, False).astype(np.float32))
-    out = maps
-    for _ in range(int(rounds)):
-        ov = overlaps(where)
-        twin = twins(ov, classes, kinds)
-        out = maps.copy()
-        for a in np.flatnonzero(counts):
-            labels = site_labels(trace.actions, episodes,
-                                 acting_at(int(a), ov, classes, twin, params.site_overlap),
-                                 kinds, classes)
-            full, empty = np.flatnonzero(labels >= 0), np.flatnonzero(labels == EMPTY)
-            if min(len(full), len(empty)) < 3:
-                continue
-            m = np.abs(x[full].mean(axis=0) - x[empty].mean(axis=0)).sum(axis=-1)
-            m = np.maximum(m - params.support * m.max(), 0.0)
-            out[a] = heaviest_component(m)
-        out = where = normalised(out)
-    return out
+    # one row per last action (where it left what rests): frames are compared within a row
+    strata = np.zeros((n_act, len(x)), dtype=np.float32)
+    strata[prev[prev >= 0], np.flatnonzero(prev >= 0)] = 1.0
+    flat = x.reshape(len(x), -1)
+    ov = overlaps(where)
+    twin = twins(ov, classes, kinds)
+    out = maps.copy()
+    for a in np.flatnonzero(counts):
+        labels = site_labels(trace.actions, episodes,
+                             acting_at(int(a), ov, classes, twin, params.site_overlap),
+                             kinds, classes)
+        full, empty = (labels >= 0).astype(np.float32), (labels == EMPTY).astype(np.float32)
+        n_full, n_empty = strata @ full, strata @ empty                     # (A,)
+        both = np.flatnonzero((n_full > 0) & (n_empty > 0))
+        if min(n_full[both].sum(), n_empty[both].sum()) < 3:
+            continue
+        mean_full = (strata[both] * full) @ flat / n_full[both, None]
+        mean_empty = (strata[both] * empty) @ flat / n_empty[both, None]
+        weight = n_full[both] * n_empty[both] / (n_full[both] + n_empty[both])
+        contrast = weight @ (mean_full - mean_empty) / weight.sum()
+        m = np.abs(contrast.reshape(x.shape[1:])).sum(axis=-1)
+        m = np.maximum(m - params.support * m.max(), 0.0)
+        out[a] = heaviest_component(m)
+    return normalised(out)
 
 
 def heaviest_component(m: np.ndarray) -> np.ndarray:
