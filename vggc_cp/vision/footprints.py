@@ -94,8 +94,7 @@ from scipy import ndimage
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
-from vggc_cp.vision.occupancy import (EMPTY, acting_at, refine_presence, settle, site_labels,
-                                     twins)
+from vggc_cp.vision.occupancy import EMPTY, acting_at, refine_presence, settle, site_labels, twins
 from vggc_cp.vision.registration import steady
 
 
