@@ -354,8 +354,11 @@ def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: Fo
     differs from the median frame after ``b`` or after its twin but not after both (one
     empties the place, the other fills it), and what other places hold varies from frame to
     frame, so neither is in ``R_b``; a hand at rest above the place is there after both,
-    every time. Nothing is read about the arm: not its colour, shape or model, only that it
-    is where the last action was.
+    every time. A pixel in the ``R_b`` of half the actions or more is in none: what is there
+    after every action alike does not rest where it acted (a fixed gripper showing what it
+    holds), and ``R_b`` keeps only what a 3 x 3 square fits in (morphological opening: noise
+    and thin edges go). Nothing is read about the arm: not its colour, shape or model, only
+    that it is where the last action was.
 
     Parameters
     ----------
@@ -393,6 +396,11 @@ def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: Fo
         twin = cand[np.argmax([np.minimum(flat[b], flat[c]).sum()
                                / max(np.maximum(flat[b], flat[c]).sum(), 1e-9) for c in cand])]
         rest[b] = np.minimum(share[b], share[twin]) >= RESTING
+    # what is there after most actions alike does not rest where it acted (a fixed gripper
+    # showing what it holds): it is the gripper of the change footprints
+    rest[:, rest[seen].mean(axis=0) >= 0.5] = False
+    for b in np.flatnonzero(rest.any(axis=(1, 2))):    # and it is larger than a pixel or two
+        rest[b] = ndimage.binary_opening(rest[b], structure=np.ones((3, 3)))
     if not rest.any():
         return None
     h, w = x.shape[1:3]
