@@ -427,8 +427,9 @@ def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarra
     compared among frames with the arm at one place (the same last action) and averaged over
     those places (weights ``n_occupied n_empty / (n_occupied + n_empty)``), less ``support``
     of its peak, its heaviest component: what rests where the last action acted is the same
-    on both sides of every comparison and cancels, however often the place is empty. (The
-    places are taken from ``R_b`` only: finding them again from the contrasts drifted on the
+    on both sides of every comparison and cancels, however often the place is empty. An
+    action after which nothing was found resting (too few frames, or an arm pose too faint)
+    is placed by its change footprint instead. (The places are taken from ``R_b`` only: finding them again from the contrasts drifted on the
     tuning traces, one site moving to its neighbour in two rounds of three.)
 
     Parameters
@@ -453,6 +454,8 @@ def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarra
     n_act = len(kinds)
     prev = previous_actions(trace.actions)
     where = normalised(np.where(counts[:, None, None] > 0, rest, False).astype(np.float32))
+    bare = (counts > 0) & ~rest.any(axis=(1, 2))   # nothing found resting after it: its
+    where[bare] = maps[bare]                       # change footprint says where it acts
     # one row per last action (where it left what rests): frames are compared within a row
     strata = np.zeros((n_act, len(x)), dtype=np.float32)
     strata[prev[prev >= 0], np.flatnonzero(prev >= 0)] = 1.0
