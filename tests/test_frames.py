@@ -193,3 +193,13 @@ def test_stored_members_and_a_changed_byte(tmp_path):
     assert np.array_equal(s[:3], arr[:3])  # before the end nothing can tell
     with pytest.raises(TraceError, match=r"bad\.npz: field 'observations' is corrupt"):
         s[3:]
+
+
+def test_slices_in_order_read_the_next_frames_ahead_and_scattered_reads_do_not(frames):
+    arr, s = frames
+    got = s[0:5]
+    assert s._ahead is not None and s._ahead[1:] == (5, 10)  # inflating in the thread
+    assert np.array_equal(got, arr[0:5]) and np.array_equal(s[5:10], arr[5:10])
+    assert s._ahead[1:] == (10, 15)
+    assert np.array_equal(s[[2, 20]], arr[[2, 20]])
+    assert s._ahead is None

@@ -247,10 +247,10 @@ class StreamedFrames:
         scattered reads go without, or the frames read ahead would overshoot the next ones
         and send the next read back to the start). A pass in order from the first frame feeds
         the digests of :meth:`track` as it reads (in the reading thread)."""
-        ahead, self._ahead = self._ahead, None
+        pending, self._ahead = self._ahead, None
         out = None
-        if ahead is not None:
-            done, pa, pb = ahead
+        if pending is not None:
+            done, pa, pb = pending
             got = done.result()  # a damaged member raises here, naming the frame
             if (pa, pb) == (a, b):
                 out = got
