@@ -75,10 +75,11 @@ class _Member:
         decompressobj, self._crc32 = _inflater()
         self._z = decompressobj(-15) if info.compress_type == zipfile.ZIP_DEFLATED else None
         self._crc = 0
-        self._buf = b""
+        self._buf = memoryview(b"")
 
-    def _more(self, n: int) -> bytes:
-        """Up to ``n`` more bytes of the member (at least one unless it ended)."""
+    def _more(self, n: int) -> memoryview | bytes:
+        """Up to ``n`` more bytes of the member (at least one unless it ended), a view into
+        what was inflated (no copy)."""
         while True:
             if self._buf:
                 out, self._buf = self._buf[:n], self._buf[n:]
@@ -92,15 +93,16 @@ class _Member:
                     raise EOFError
                 break
             if self._z.unconsumed_tail:
-                self._buf = self._z.decompress(self._z.unconsumed_tail, max(n, 1 << 16))
+                self._buf = memoryview(self._z.decompress(self._z.unconsumed_tail,
+                                                          max(n, 1 << 16)))
             elif self._raw_left:
                 chunk = self._f.read(min(1 << 20, self._raw_left))
                 if not chunk:
                     raise EOFError
                 self._raw_left -= len(chunk)
-                self._buf = self._z.decompress(chunk, max(n, 1 << 16))
+                self._buf = memoryview(self._z.decompress(chunk, max(n, 1 << 16)))
             else:  # all input given: what the inflater still holds
-                self._buf = self._z.flush()
+                self._buf = memoryview(self._z.flush())
                 if not self._buf:
                     raise EOFError
         self._out_left -= len(out)
