@@ -19,21 +19,6 @@ The faint floor that sensor noise leaves
 everywhere (``support`` of the peak) goes too, and an action keeps only its heaviest connected
 component: it acts in one place.
 
-**What rests where it acted.** A robot's camera sees the arm, and the arm rests above the
-place it last acted on: across every transition it moves from the last place to the new
-one, so the change footprint ``F_a`` is where the hand comes to rest after ``a``, not where
-``a`` changed the scene, and an object there is a small part of it. Whether something rests
-where it acted is read from the trace: the frames right after ``b`` (and after ``b``'s twin,
-the action of the other kind acting at one place) differ from the median frame by more than
-``rest`` in pixels ``R_b`` (:func:`rest_masks`; a state's change differs after only one of
-the two). When some ``R_b`` is not empty, the footprints become *label contrasts*
-(:func:`labelled_maps`): ``R_b`` tells which actions act at one place, the trace's actions
-then say in which frames that place is empty or occupied, and ``F_a`` is where the frames
-called occupied differ from those called empty, compared only among frames with the same
-last action (so with whatever rests in the same place on both sides). Nothing reads the
-arm's colour, shape or model. A fixed camera with nothing resting in view has no ``R_b`` and
-keeps the change footprints, bit for bit.
-
 **Classes and colours.** What a pick lifts is what the next place puts down, so a pick and
 the place that follows it move one task class: the classes are the connected components of
 that relation (:func:`action_classes`, names are not read). Classes whose colours cannot be
@@ -94,7 +79,7 @@ from scipy import ndimage
 
 from vggc_cp.errors import EvidenceNotApplicable, TraceError, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
-from vggc_cp.vision.occupancy import EMPTY, acting_at, refine_presence, settle, site_labels, twins
+from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.registration import steady
 
 
@@ -124,10 +109,6 @@ class FootprintConfig:
         Width of the colour kernel (chromaticity units).
     nuisance_quantile : float
         Quantile of a site's change across one action's transitions that is nuisance.
-    rest : float
-        Change from the median frame (summed over the channels of the normalised frames)
-        from which a pixel belongs to what rests where the last action acted
-        (:func:`rest_masks`).
     """
 
     gripper: float = 0.8
@@ -138,7 +119,6 @@ class FootprintConfig:
     site_overlap: float = 0.2
     bandwidth: float = 0.02
     nuisance_quantile: float = 0.9
-    rest: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("gripper", "support", "site_overlap", "fringe"):
@@ -148,7 +128,7 @@ class FootprintConfig:
         if not 0 < self.nuisance_quantile <= 1:
             raise VggcError(f"footprint nuisance_quantile must lie in (0, 1], got "
                             f"{self.nuisance_quantile}")
-        for name in ("held", "saturation", "bandwidth", "rest"):
+        for name in ("held", "saturation", "bandwidth"):
             v = getattr(self, name)
             if not v > 0:
                 raise VggcError(f"footprint {name} must be positive, got {v}")
@@ -348,161 +328,6 @@ def normalised(maps: np.ndarray) -> np.ndarray:
     """Every map divided by its sum (all-zero maps stay zero), float32."""
     total = maps.sum(axis=(1, 2), keepdims=True)
     return np.where(total > 0, maps / np.maximum(total, 1e-12), 0.0).astype(np.float32)
-
-
-def previous_actions(actions: np.ndarray) -> np.ndarray:
-    """The action that led to every observation, int64 shape (N,) (-1 at an episode's
-    first observation)."""
-    prev = np.full(len(actions) + 1, -1, dtype=np.int64)
-    prev[1:] = actions
-    return prev
-
-
-#: Share of the frames after an action (and after its twin) in which a pixel must be far from
-#: the median frame to belong to what rests there (:func:`rest_masks`).
-RESTING = 0.8
-
-
-def rest_masks(x: np.ndarray, actions: np.ndarray, kinds: np.ndarray, params: FootprintConfig,
-               sample: int = 256) -> np.ndarray | None:
-    """Where something rests after every action, bool (A, H, W), or None when nothing does
-    (module docstring, *What rests where it acted*).
-
-    ``R_b`` are the pixels that differ from the median frame by more than ``params.rest``
-    in at least :data:`RESTING` of the frames right after ``b`` and of the frames after
-    ``b``'s *twin* (the action of the other kind whose such shares overlap ``b``'s most,
-    intersection over union: a pick and a place at one place; the plain intersection chose
-    a larger neighbouring pose on fruit-6x8, 5 twins of 16 wrong), grown by
-    ``params.fringe``. What ``b`` did to the scene
-    differs from the median frame after ``b`` or after its twin but not after both (one
-    empties the place, the other fills it), and what other places hold varies from frame to
-    frame, so neither is in ``R_b``; a hand at rest above the place is there after both,
-    every time. A pixel in the ``R_b`` of half the actions or more is in none: what is there
-    after every action alike does not rest where it acted (a fixed gripper showing what it
-    holds), and ``R_b`` keeps only what a 3 x 3 square fits in (morphological opening: noise
-    and thin edges go). Nothing is read about the arm: not its colour, shape or model, only
-    that it is where the last action was.
-
-    Parameters
-    ----------
-    x : ndarray of float32, shape (N, H, W, 3)
-        Normalised, steadied frames.
-    actions : ndarray of int, shape (N-1,)
-    kinds : ndarray of int, shape (A,)
-    params : FootprintConfig
-    sample : int
-        Frames (evenly spaced) in the median frame.
-
-    Returns
-    -------
-    ndarray of bool, shape (A, H, W), or None
-        None when no pixel of any action's ``R_b`` passes ``params.rest`` (a fixed camera
-        with nothing resting in view: the footprints stay the change footprints).
-    """
-    prev = previous_actions(actions)
-    n_act = len(kinds)
-    pick = np.unique(np.linspace(0, len(x) - 1, min(len(x), sample)).round().astype(int))
-    ref = np.median(x[pick], axis=0)
-    share = np.zeros((n_act,) + x.shape[1:3], dtype=np.float32)
-    seen = np.zeros(n_act, dtype=bool)
-    for b in range(n_act):
-        after = np.flatnonzero(prev == b)
-        if len(after) >= 3:
-            seen[b] = True
-            share[b] = (np.abs(x[after] - ref).sum(axis=-1) > params.rest).mean(axis=0)
-    rest = np.zeros(share.shape, dtype=bool)
-    flat = share.reshape(n_act, -1)
-    for b in np.flatnonzero(seen):
-        cand = np.flatnonzero(seen & (kinds != kinds[b]))
-        if not len(cand):
-            continue
-        twin = cand[np.argmax([np.minimum(flat[b], flat[c]).sum()
-                               / max(np.maximum(flat[b], flat[c]).sum(), 1e-9) for c in cand])]
-        rest[b] = np.minimum(share[b], share[twin]) >= RESTING
-    # what is there after most actions alike does not rest where it acted (a fixed gripper
-    # showing what it holds): it is the gripper of the change footprints
-    rest[:, rest[seen].mean(axis=0) >= 0.5] = False
-    for b in np.flatnonzero(rest.any(axis=(1, 2))):    # and it is larger than a pixel or two
-        rest[b] = ndimage.binary_opening(rest[b], structure=np.ones((3, 3)))
-    if not rest.any():
-        return None
-    h, w = x.shape[1:3]
-    fringe = max(1, int(round(params.fringe * max(h, w)))) if params.fringe > 0 else 0
-    if fringe > 0:
-        for b in np.flatnonzero(rest.any(axis=(1, 2))):
-            rest[b] = ndimage.binary_dilation(rest[b], iterations=fringe)
-    return rest
-
-
-def labelled_maps(trace: Trace, x: np.ndarray, rest: np.ndarray, maps: np.ndarray,
-                  counts: np.ndarray, params: FootprintConfig) -> np.ndarray:
-    """Footprints as the contrast of what the actions say a place holds (module docstring,
-    *What rests where it acted*).
-
-    Where something rests after every action (:func:`rest_masks`), the change across a
-    transition is mostly that thing moving, and ``F_a`` would be where it rests, not where
-    ``a`` changed the scene. But it rests at the place ``a`` acts on, so ``R_a`` tells which
-    actions act at one place (the overlaps of :func:`overlaps`, task classes of
-    :func:`action_classes` standing in for colours); then the trace's actions say, frame by
-    frame, whether that place is empty or holds an object
-    (:func:`vggc_cp.vision.occupancy.site_labels`). The footprint of ``a`` is where the mean
-    of the frames the actions call occupied differs from the mean of those they call empty,
-    compared among frames with the arm at one place (the same last action) and averaged over
-    those places (weights ``n_occupied n_empty / (n_occupied + n_empty)``), less ``support``
-    of its peak, its heaviest component: what rests where the last action acted is the same
-    on both sides of every comparison and cancels, however often the place is empty. An
-    action after which nothing was found resting (too few frames, or an arm pose too faint)
-    is placed by its change footprint instead. (The places are taken from ``R_b`` only: finding them again from the contrasts drifted on the
-    tuning traces, one site moving to its neighbour in two rounds of three.)
-
-    Parameters
-    ----------
-    trace : Trace
-        Its actions and episodes (never its states).
-    x : ndarray of float32, shape (N, H, W, 3)
-    rest : ndarray of bool, shape (A, H, W)
-    maps : ndarray, shape (A, H, W)
-        The change footprints (:func:`footprint_maps`), kept for an action whose place is
-        labelled empty or occupied in fewer than three frames.
-    counts : ndarray of int, shape (A,)
-    params : FootprintConfig
-
-    Returns
-    -------
-    ndarray of float32, shape (A, H, W), each summing to 1 (zeros for an action never taken).
-    """
-    kinds = trace.action_kinds()
-    classes = np.where(counts > 0, action_classes(trace), -1)
-    episodes = trace.episodes()
-    n_act = len(kinds)
-    prev = previous_actions(trace.actions)
-    where = normalised(np.where(counts[:, None, None] > 0, rest, False).astype(np.float32))
-    bare = (counts > 0) & ~rest.any(axis=(1, 2))   # nothing found resting after it: its
-    where[bare] = maps[bare]                       # change footprint says where it acts
-    # one row per last action (where it left what rests): frames are compared within a row
-    strata = np.zeros((n_act, len(x)), dtype=np.float32)
-    strata[prev[prev >= 0], np.flatnonzero(prev >= 0)] = 1.0
-    flat = x.reshape(len(x), -1)
-    ov = overlaps(where)
-    twin = twins(ov, classes, kinds)
-    out = maps.copy()
-    for a in np.flatnonzero(counts):
-        labels = site_labels(trace.actions, episodes,
-                             acting_at(int(a), ov, classes, twin, params.site_overlap),
-                             kinds, classes)
-        full, empty = (labels >= 0).astype(np.float32), (labels == EMPTY).astype(np.float32)
-        n_full, n_empty = strata @ full, strata @ empty                     # (A,)
-        both = np.flatnonzero((n_full > 0) & (n_empty > 0))
-        if min(n_full[both].sum(), n_empty[both].sum()) < 3:
-            continue
-        mean_full = (strata[both] * full) @ flat / n_full[both, None]
-        mean_empty = (strata[both] * empty) @ flat / n_empty[both, None]
-        weight = n_full[both] * n_empty[both] / (n_full[both] + n_empty[both])
-        contrast = weight @ (mean_full - mean_empty) / weight.sum()
-        m = np.abs(contrast.reshape(x.shape[1:])).sum(axis=-1)
-        m = np.maximum(m - params.support * m.max(), 0.0)
-        out[a] = heaviest_component(m)
-    return normalised(out)
 
 
 def heaviest_component(m: np.ndarray) -> np.ndarray:
@@ -746,9 +571,6 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                         "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
-    rest = rest_masks(x, trace.actions, kinds, params)
-    if rest is not None:       # something rests where the last action acted: label contrast
-        maps = labelled_maps(trace, x, rest, maps, counts, params)
     ov = overlaps(maps)
     empty_of, occupied_of = {}, {}
     for a in np.flatnonzero(counts):

@@ -12,13 +12,6 @@ with the shake, so they leave the minimum where the background lies.
 A translation is kept only when it explains the frame clearly better than none: its
 difference must be below ``1 - GAIN`` times the unshifted one. A camera that does not shake
 gives every frame the shift ``(0, 0)`` and the frames unchanged.
-
-The median of *shaken* frames is itself blurred (every edge smeared over the shake's range),
-and a frame that matches a blurred edge as well unshifted as shifted keeps ``(0, 0)``: on the
-robot look (shake uniform in +-2 px) the first estimate left 63 % of the frames unmoved where
-1/25 are. So the resting view is rebuilt from the frames moved back by the first estimate and
-the shifts are estimated again against it (``REFINE`` rounds; on the tuning traces one round
-reaches the fixed point: the shifts then take all 25 offsets about equally often).
 """
 
 from __future__ import annotations
@@ -31,8 +24,6 @@ MAX_SHIFT = 3
 GAIN = 0.1
 #: Frames whose median makes the resting view (evenly spaced over the trace).
 REFERENCE_FRAMES = 256
-#: Rounds in which the resting view is rebuilt from the frames moved back (module docstring).
-REFINE = 1
 
 
 def _brightness(x: np.ndarray) -> np.ndarray:
@@ -40,7 +31,7 @@ def _brightness(x: np.ndarray) -> np.ndarray:
 
 
 def shake_shifts(x: np.ndarray, max_shift: int = MAX_SHIFT, gain: float = GAIN,
-                 chunk: int = 256, refine: int = REFINE) -> np.ndarray:
+                 chunk: int = 256) -> np.ndarray:
     """The whole-pixel shake of every frame (module docstring).
 
     Parameters
@@ -49,9 +40,6 @@ def shake_shifts(x: np.ndarray, max_shift: int = MAX_SHIFT, gain: float = GAIN,
         Frames (any scale; :func:`vggc_cp.vision.footprints.normalise_frames`).
     max_shift : int
     gain : float
-    refine : int
-        Rounds of rebuilding the resting view from the frames moved back (0: the median of
-        the frames as they are).
 
     Returns
     -------
@@ -63,20 +51,7 @@ def shake_shifts(x: np.ndarray, max_shift: int = MAX_SHIFT, gain: float = GAIN,
     if n < 3 or h <= 4 * m or w <= 4 * m:
         return np.zeros((n, 2), dtype=np.int64)
     pick = np.unique(np.linspace(0, n - 1, min(n, REFERENCE_FRAMES)).round().astype(int))
-    shifts = np.zeros((n, 2), dtype=np.int64)
-    for round_ in range(int(refine) + 1):
-        if round_ and not shifts[pick].any():
-            break                          # nothing moved: the resting view stays as it was
-        ref = np.median(_brightness(undo_shake(x[pick], shifts[pick])), axis=0)
-        shifts = _best_shifts(x, ref, m, gain, chunk)
-    return shifts
-
-
-def _best_shifts(x: np.ndarray, ref: np.ndarray, m: int, gain: float, chunk: int
-                 ) -> np.ndarray:
-    """Per frame, the shift of at most ``m`` pixels that brings it closest to ``ref`` (H, W),
-    kept only when it lowers the difference by the share ``gain``; shape (N, 2)."""
-    n, h, w = x.shape[:3]
+    ref = np.median(_brightness(x[pick]), axis=0)
     core = ref[m:h - m, m:w - m]
     offsets = [(dy, dx) for dy in range(-m, m + 1) for dx in range(-m, m + 1)]
     out = np.zeros((n, 2), dtype=np.int64)
