@@ -26,11 +26,11 @@ from pathlib import Path
 
 from vggc_cp.errors import VggcError
 from vggc_cp.experiments.robustness import SPLITS, passes
+from vggc_cp.solvers.confidence import FIXED_CHECKS
 
 #: The fixed thresholds the warning used before the chance of change (the former
 #: ``WarningRule`` defaults).
-OLD_RULE = {"min_plateau": 3, "max_contradicted": 0.05, "min_predicted": 0.6,
-            "min_obs_per_node": 2.0, "min_margin": 0.01}
+OLD_RULE = FIXED_CHECKS
 VERDICTS = ("old", "new")
 #: Bins of ``p_change`` (upper bounds, inclusive) of :func:`reliability_rows`.
 P_BINS = (0.0, 0.1, 0.2, 0.3, 0.5, 1.0)
@@ -166,7 +166,8 @@ def _share(k: int, n: int) -> str:
 def calibration_markdown(rows: list[dict], source: str = "robustness.csv") -> str:
     """The calibration tables (:func:`calibration_rows`, :func:`reliability_rows`) as
     markdown."""
-    recorded = ("the chance of change" if any(r.get("p_change") is not None for r in rows)
+    recorded = ("the default verdict: the chance of change, and the fixed checks where the "
+                "rows were written with them" if any(r.get("p_change") is not None for r in rows)
                 else "no `p_change` in these rows: written by the fixed thresholds, so both "
                      "verdicts agree")
     lines = [f"Calibration of the warning on {source} ({len(rows)} runs): 'old' = the former "
