@@ -79,6 +79,33 @@ def test_a_swallowed_interrupt_still_ends_with_130(tmp_path):
     assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
 
 
+@pytest.mark.slow
+def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
+    """numpy's comparison of structured arrays (np.unique(axis=0)) re-raises a Ctrl-C that
+    lands inside it as a TypeError: after a signal, any error is the signal's."""
+    script = (
+        "import os, signal, time\n"
+        "from vggc_cp.cli import main\n"
+        "def fake(args):\n"
+        "    try:\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        time.sleep(0.5)\n"
+        "    except KeyboardInterrupt:\n"
+        "        raise TypeError('Cannot compare structured arrays') from None\n"
+        "    return 0\n"
+        "import vggc_cp.cli as cli\n"
+        "real_build = cli.build_parser\n"
+        "def build():\n"
+        "    p = real_build()\n"
+        "    dict(cli.iter_parsers(p))['vggc-cp inspect'].set_defaults(func=fake)\n"
+        "    return p\n"
+        "cli.build_parser = build\n"
+        f"raise SystemExit(main(['inspect', {str(DATA)!r}]))\n")
+    res = _python(script, tmp_path)
+    assert res.returncode == 130, res.stderr
+    assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
+
+
 def test_the_watchdog_ends_a_main_thread_stuck_in_a_thread_pool(tmp_path):
     """The handler's exception cannot stop workers a thread pool waits for; the watchdog ends
     the process and removes the temporary file of the write in progress."""

@@ -173,6 +173,13 @@ def main(argv: list[str] | None = None) -> int:
                 if received() is None:
                     raise  # argparse's --help / usage errors
                 code = exit_code(received())
+            except Exception:
+                if received() is None:
+                    raise
+                # after a signal, the error is its doing: a library turned the interrupt into
+                # another exception on the way (numpy comparing structured arrays in np.unique
+                # re-raises it as a TypeError)
+                code = exit_code(received())
             if received() is not None:  # never swallowed, whoever caught it on the way
                 from vggc_cp.interrupts import announce
                 from vggc_cp.safeio import cleanup_temps
