@@ -106,6 +106,27 @@ def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
     assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
 
 
+def test_a_deferred_block_finishes_before_the_interrupt_is_raised(tmp_path):
+    """A Ctrl-C inside ``deferred()`` (importing torch) is raised when the block ends, not
+    halfway through it."""
+    script = (
+        "import os, signal, sys, time\n"
+        "from vggc_cp.interrupts import deferred, guard\n"
+        "with guard():\n"
+        "    try:\n"
+        "        with deferred():\n"
+        "            os.kill(os.getpid(), signal.SIGINT)\n"
+        "            time.sleep(0.1)\n"
+        "            print('block finished', flush=True)\n"
+        "        print('not reached', flush=True)\n"
+        "    except KeyboardInterrupt:\n"
+        "        print('raised after the block', flush=True)\n"
+        "        sys.exit(130)\n")
+    res = _python(script, tmp_path)
+    assert res.returncode == 130, res.stderr
+    assert res.stdout.splitlines() == ["block finished", "raised after the block"]
+
+
 def test_the_watchdog_ends_a_main_thread_stuck_in_a_thread_pool(tmp_path):
     """The handler's exception cannot stop workers a thread pool waits for; the watchdog ends
     the process and removes the temporary file of the write in progress."""

@@ -37,7 +37,7 @@ SIGNALS = tuple(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGH
 #: seconds the command has to unwind after a signal before the watchdog ends the process
 GRACE_SECONDS = 0.5
 
-_state = {"received": None, "said": False, "pid": os.getpid()}
+_state = {"received": None, "said": False, "pid": os.getpid(), "deferred": 0}
 _lock = threading.Lock()
 _wakeup: dict[str, socket.socket] = {}
 
@@ -71,9 +71,31 @@ def _handler(signum, _frame):
         _state["received"] = signum
     cleanup_temps()
     announce(_state["received"])
+    if _state["deferred"]:  # raised when the block ends (the watchdog still ends the run)
+        return
+    _raise(signum)
+
+
+def _raise(signum: int) -> None:
     if signum == signal.SIGINT:
         raise KeyboardInterrupt
     raise SystemExit(exit_code(signum))
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """A block a signal must not interrupt halfway (importing torch: a KeyboardInterrupt
+    inside its initialisation aborts the process, exit -6): the signal is recorded and
+    announced at once, and its exception raised when the block ends; the watchdog still ends
+    the run :data:`GRACE_SECONDS` after the signal if the block lasts longer."""
+    _state["deferred"] += 1
+    try:
+        yield
+    finally:
+        _state["deferred"] -= 1
+    if not _state["deferred"] and _state["received"] is not None \
+            and os.getpid() == _state["pid"]:
+        _raise(_state["received"])
 
 
 def _worker_exit(signum, _frame):

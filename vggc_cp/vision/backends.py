@@ -70,7 +70,10 @@ class TorchOps:
     """Array operations of the solver on torch (CUDA when asked and present, else CPU)."""
 
     def __init__(self, dtype: str, device: str) -> None:
-        import torch
+        from vggc_cp.interrupts import deferred
+
+        with deferred():  # a Ctrl-C inside torch's initialisation aborts the process
+            import torch
 
         self.torch = torch
         self.dtype = getattr(torch, dtype)
