@@ -54,35 +54,9 @@ def test_a_signal_right_after_the_temporary_file_exists_leaves_nothing(tmp_path,
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.slow
-def test_a_swallowed_interrupt_still_ends_with_130(tmp_path):
-    script = (
-        "import os, signal, time\n"
-        "from vggc_cp.cli import main, trace_cmds\n"
-        "def fake(args):\n"
-        "    try:\n"
-        "        os.kill(os.getpid(), signal.SIGINT)\n"
-        "        time.sleep(0.5)\n"
-        "    except KeyboardInterrupt:\n"
-        "        pass  # a library that catches Ctrl-C\n"
-        "    return 0\n"
-        "import vggc_cp.cli as cli\n"
-        "real_build = cli.build_parser\n"
-        "def build():\n"
-        "    p = real_build()\n"
-        "    dict(cli.iter_parsers(p))['vggc-cp inspect'].set_defaults(func=fake)\n"
-        "    return p\n"
-        "cli.build_parser = build\n"
-        f"raise SystemExit(main(['inspect', {str(DATA)!r}]))\n")
-    res = _python(script, tmp_path)
-    assert res.returncode == 130, res.stderr
-    assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
-
-
-@pytest.mark.slow
-def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
-    """numpy's comparison of structured arrays (np.unique(axis=0)) re-raises a Ctrl-C that
-    lands inside it as a TypeError: after a signal, any error is the signal's."""
+def _inspect_interrupted(tmp_path, on_interrupt: str) -> subprocess.CompletedProcess:
+    """``vggc-cp inspect`` whose command sends itself SIGINT and runs ``on_interrupt`` (one
+    line of Python) on the KeyboardInterrupt."""
     script = (
         "import os, signal, time\n"
         "from vggc_cp.cli import main\n"
@@ -91,7 +65,7 @@ def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
         "        os.kill(os.getpid(), signal.SIGINT)\n"
         "        time.sleep(0.5)\n"
         "    except KeyboardInterrupt:\n"
-        "        raise TypeError('Cannot compare structured arrays') from None\n"
+        f"        {on_interrupt}\n"
         "    return 0\n"
         "import vggc_cp.cli as cli\n"
         "real_build = cli.build_parser\n"
@@ -101,7 +75,22 @@ def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
         "    return p\n"
         "cli.build_parser = build\n"
         f"raise SystemExit(main(['inspect', {str(DATA)!r}]))\n")
-    res = _python(script, tmp_path)
+    return _python(script, tmp_path)
+
+
+@pytest.mark.slow
+def test_a_swallowed_interrupt_still_ends_with_130(tmp_path):
+    res = _inspect_interrupted(tmp_path, "pass  # a library that catches Ctrl-C")
+    assert res.returncode == 130, res.stderr
+    assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
+
+
+@pytest.mark.slow
+def test_an_interrupt_turned_into_another_error_still_ends_with_130(tmp_path):
+    """numpy's comparison of structured arrays (np.unique(axis=0)) re-raises a Ctrl-C that
+    lands inside it as a TypeError: after a signal, any error is the signal's."""
+    res = _inspect_interrupted(
+        tmp_path, "raise TypeError('Cannot compare structured arrays') from None")
     assert res.returncode == 130, res.stderr
     assert res.stderr.strip().splitlines() == ["vggc-cp: interrupted"]
 

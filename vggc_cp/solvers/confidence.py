@@ -317,7 +317,7 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
     if folds < 2:
         return None
     fold_of = episode_of % folds
-    predicted = contradicted = total = 0
+    counts = np.zeros(3, dtype=np.int64)
     coded = isinstance(problem, CodedProblem)
     for f in range(folds):
         train = fold_of != f
@@ -325,19 +325,8 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
         if len(sub.act) == 0:
             continue
         labels, _ = (coded_merge if coded else congruence_merge)(sub, threshold)
-        edges = {(int(u), int(a)): int(v)
-                 for u, a, v in zip(labels[sub.src], sub.act, labels[sub.dst])}
-        node_of = _localize(problem, kept, labels, ~train)
-        held = ~train[problem.src]
-        for s, a, d in zip(problem.src[held], problem.act[held], problem.dst[held]):
-            total += 1
-            v = edges.get((node_of[s], int(a)))
-            if v is None:
-                continue
-            if v == node_of[d]:
-                predicted += 1
-            else:
-                contradicted += 1
+        counts += _predict(problem, kept, labels, sub, train)  # (a transition is in one episode)
+    predicted, contradicted, total = (int(c) for c in counts)
     if total == 0:
         return None
     return HeldOut(predicted / total, contradicted / total,

@@ -586,27 +586,21 @@ class _Pass:
                                                COMPRESS_SHARE * self.stream.batch_pairs(k))
             if short is not None:  # pairs of clusters, until a merge is accepted
                 d, i, j = short
-                stop = int(np.searchsorted(d, threshold, side="right"))
-                accepted = self._scan(d, i, j, 0, stop, threshold, until_accepted=True)
-                if accepted is not None:
-                    self.at = (float(d[accepted]), int(i[accepted]), int(j[accepted]) + 1)
-                    regens += 1
-                    continue
-                if stop < len(d):
-                    self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
-                    break
-                k += 1
-                regens = 0
-                self.at = ((*self.stream.starts[k], -1) if k < len(self.stream.bounds)
-                           else (np.inf, -1, -1))
-                continue
-            d, i, j = self.stream.pairs(k)
-            lo = int(np.searchsorted(d, self.at[0], side="left"))
-            hi = int(np.searchsorted(d, self.at[0], side="right"))
-            codes = i[lo:hi] * self.stream.n + j[lo:hi]
-            start = lo + int(np.searchsorted(codes, self.at[1] * self.stream.n + self.at[2]))
+                start = 0
+            else:
+                d, i, j = self.stream.pairs(k)
+                lo = int(np.searchsorted(d, self.at[0], side="left"))
+                hi = int(np.searchsorted(d, self.at[0], side="right"))
+                codes = i[lo:hi] * self.stream.n + j[lo:hi]
+                start = lo + int(np.searchsorted(codes, self.at[1] * self.stream.n
+                                                 + self.at[2]))
             stop = int(np.searchsorted(d, threshold, side="right"))
-            self._scan(d, i, j, start, stop, threshold)
+            accepted = self._scan(d, i, j, start, stop, threshold,
+                                  until_accepted=short is not None)
+            if accepted is not None:  # regenerate the pairs of clusters after it
+                self.at = (float(d[accepted]), int(i[accepted]), int(j[accepted]) + 1)
+                regens += 1
+                continue
             if stop < len(d):
                 self.at = (float(d[stop]), int(i[stop]), int(j[stop]))
                 break
