@@ -117,7 +117,8 @@ def test_streamed_frames_give_the_same_distances_holding_a_fraction(tmp_path, mo
     """The footprints of a trace streamed from its file equal those of the trace in memory,
     and converting its frames holds a fraction of them: this fails if every frame were
     inflated (or converted to float) at once."""
-    from vggc_cp.vision.footprints import footprint_distances, normalise_frames
+    from vggc_cp.vision.footprints import footprint_distances
+    from vggc_cp.vision.working import normalise_frames
 
     small = load_trace(DATA).without_states()
     big = replace(small, observations=small.observations.repeat(4, axis=1).repeat(4, axis=2))

@@ -144,18 +144,18 @@ def test_default_learning_on_a_cluster_equals_local(cluster, monkeypatch):
     """The footprint evidence converts its frames in blocks on the cluster's workers (issue
     27): the same codes, tables and graph as in this process."""
     from vggc_cp.pipeline import LearnConfig, evidence_problem, learn_graph
-    from vggc_cp.vision import footprints
+    from vggc_cp.vision import working
 
     trace = load_trace(DATA).without_states()
     options = LearnConfig(evidence="footprints")
     local = learn_graph(trace, options)
     # blocks of 16 frames: the 56 frames of the shipped trace go out in 4 blocks
-    monkeypatch.setattr(footprints, "BLOCK_FRAMES", 16)
+    monkeypatch.setattr(working, "BLOCK_FRAMES", 16)
     with open_executor(Backend("dask", scheduler=cluster)) as ex:
-        frames = footprints.working_frames(trace.observations, ex)
+        frames = working.working_frames(trace.observations, ex)
         remote = learn_graph(trace, options, executor=ex)
         coded = evidence_problem(trace, "footprints", options, executor=ex)
-    assert np.array_equal(frames, footprints.working_frames(trace.observations))
+    assert np.array_equal(frames, working.working_frames(trace.observations))
     assert np.array_equal(local.labels, remote.labels)
     assert local.confidence == remote.confidence
     assert np.array_equal(coded.table_pick, local.problem.table_pick)

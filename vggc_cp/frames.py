@@ -7,7 +7,7 @@ a :class:`StreamedFrames`: an array-like over the ``observations`` member of the
 inflates the frames an index asks for, in one forward pass of the member (a deflated zip member
 is read front to back; a read behind the last one starts again from the front). What a stage
 holds is then what it asks for: the footprint evidence reads chunks of frames and keeps only its
-working-resolution copy (:func:`vggc_cp.vision.footprints.normalise_frames`).
+working-resolution copy (:func:`vggc_cp.vision.working.normalise_frames`).
 
 A stage that needs every frame at full size at once (``np.asarray(frames)``: training a
 localizer, writing the trace again) is refused with the file, the field, the size and the cap,

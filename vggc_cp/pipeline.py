@@ -232,6 +232,12 @@ class Candidate:
     def description_length(self) -> float:
         return self.description_lengths[self.path.selected]
 
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """What the evidence says about how it ran (e.g. the footprints' working
+        resolution on frames larger than the tuned 64 px)."""
+        return tuple(getattr(self.problem, "notes", ()))
+
 
 @dataclass(frozen=True, eq=False)
 class Learned:
@@ -311,7 +317,8 @@ class Learned:
                                 "description_length": round(c.description_length, 4),
                                 "suspect": c.confidence.suspect} for c in self.candidates],
                 "grid": self.path_records(),
-                "doubts": [d.as_dict() for d in self.doubts]}
+                "doubts": [d.as_dict() for d in self.doubts],
+                **({"evidence_notes": list(self.chosen.notes)} if self.chosen.notes else {})}
 
     def solution_record(self, **extra) -> dict:
         """The solution JSON object of ``vggc-cp solve`` (required fields, the settings of the
@@ -399,7 +406,9 @@ def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
             and get_evidence(evidence).distances is footprint_evidence):  # the built-in one
         fp = action_footprints(trace, options.footprint, executor)
         codes, tables = footprint_codes(fp, trace.roles())
-        coded = CodedProblem.from_trace(trace, codes, tables)
+        res = fp.resolution
+        notes = (f"working resolution {res.describe()}",) if res and res.bound > 1 else ()
+        coded = CodedProblem.from_trace(trace, codes, tables, notes)
         if all(len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
             return coded
         # descriptors that do not repeat (continuous presence): the dense matrices, the

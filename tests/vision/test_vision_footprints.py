@@ -17,10 +17,10 @@ from vggc_cp.vision.footprints import (
     colour_classes,
     colour_posteriors,
     footprint_distances,
-    normalise_frames,
     overlaps,
     site_maps,
 )
+from vggc_cp.vision.working import normalise_frames
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 

@@ -8,7 +8,8 @@ import numpy as np
 
 from vggc_cp.trace import PICK, PLACE, load_trace
 from vggc_cp.vision import occupancy as occ
-from vggc_cp.vision.footprints import action_footprints, normalise_frames, overlaps
+from vggc_cp.vision.footprints import action_footprints, overlaps
+from vggc_cp.vision.working import normalise_frames
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 

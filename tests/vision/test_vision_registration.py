@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from vggc_cp.trace import load_trace
-from vggc_cp.vision.footprints import normalise_frames
 from vggc_cp.vision.registration import shake_shifts, steady, undo_shake
+from vggc_cp.vision.working import normalise_frames
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 

@@ -361,6 +361,8 @@ def _solve_merge(args) -> int:
         print(f"evidence     {mark} {cand.evidence:<11} {cand.best.n_nodes} nodes, description "
               f"length {cand.description_length:.1f}, "
               f"{'suspect' if cand.confidence.suspect else 'no warning'} ({cand.seconds:.1f} s)")
+        for note in cand.notes:
+            print(f"               {note}")
     n = len(path.results)
     print(f"merge path     {n} threshold{'' if n == 1 else 's'}, {path.seconds:.1f} s")
     if not args.quiet and args.table != "none":

@@ -65,6 +65,8 @@ class Problem:
     action_names: tuple[str, ...]
     dist_pick: np.ndarray
     dist_place: np.ndarray
+    #: what the evidence says about how it ran (e.g. the footprints' working resolution)
+    notes: tuple[str, ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)

@@ -101,6 +101,8 @@ class CodedProblem:
     codes_place: np.ndarray
     table_pick: np.ndarray
     table_place: np.ndarray
+    #: what the evidence says about how it ran (e.g. the footprints' working resolution)
+    notes: tuple[str, ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -120,13 +122,14 @@ class CodedProblem:
 
     @classmethod
     def from_trace(cls, trace, codes: tuple[np.ndarray, np.ndarray],
-                   tables: tuple[np.ndarray, np.ndarray]) -> CodedProblem:
+                   tables: tuple[np.ndarray, np.ndarray], notes: tuple[str, ...] = ()
+                   ) -> CodedProblem:
         """From a trace (its ``states`` are not copied), per-role codes and tables."""
         src, act, dst = trace.transitions()
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
-                   np.asarray(tables[1], dtype=np.float64))
+                   np.asarray(tables[1], dtype=np.float64), tuple(notes))
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -168,7 +171,8 @@ class CodedProblem:
         """The :class:`Problem` with ``(n, n)`` distance matrices (quadratic memory)."""
         return Problem(self.roles, self.src, self.act, self.dst, self.action_names,
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
-                       self.table_place[np.ix_(self.codes_place, self.codes_place)])
+                       self.table_place[np.ix_(self.codes_place, self.codes_place)],
+                       self.notes)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both

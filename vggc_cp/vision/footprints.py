@@ -77,10 +77,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from vggc_cp.errors import EvidenceNotApplicable, TraceError, VggcError
+from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.registration import steady
+from vggc_cp.vision.working import (
+    FOOTPRINT_SIDE,
+    WorkingResolution,
+    finest_factor,
+    working_factor,
+    working_frames,
+)
 
 
 @dataclass(frozen=True)
@@ -156,6 +163,9 @@ class Footprints:
         ``nu_a``.
     counts : ndarray of int64, shape (A,)
         Transitions of every action.
+    resolution : WorkingResolution or None
+        The working resolution of ``maps`` and ``sites`` and what chose it
+        (:mod:`vggc_cp.vision.working`).
     """
 
     maps: np.ndarray
@@ -166,124 +176,12 @@ class Footprints:
     colour: np.ndarray
     nuisance: np.ndarray
     counts: np.ndarray
+    resolution: WorkingResolution | None = None
 
     @property
     def taken(self) -> np.ndarray:
         """Indices of the actions the trace takes at least once."""
         return np.flatnonzero(self.counts > 0)
-
-
-#: Image side the footprint defaults were tuned at; larger frames are averaged down to about
-#: it (:func:`working_factor`).
-WORK_SIDE = 64
-#: Bytes of float frames converted at once (:func:`normalise_frames`).
-CHUNK_BYTES = 64 << 20
-
-
-def working_factor(height: int, width: int, side: int = WORK_SIDE) -> int:
-    """Integer factor by which frames of ``height x width`` are averaged down for the
-    footprints: the largest that keeps the short side at ``side`` pixels or more (1 for the
-    64 px renders the defaults were tuned on; 7 for a 640x480 camera)."""
-    return max(1, min(int(height), int(width)) // int(side))
-
-
-def normalise_frames(observations: np.ndarray, factor: int = 1,
-                     chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
-    """Frames averaged down by ``factor`` (blocks of ``factor x factor`` pixels; edges that do
-    not fill a block are cropped), each divided by its per-channel median (cancels a
-    per-frame gain and tint). Frames are read in chunks of about ``chunk_bytes`` of float
-    pixels, so only the working-resolution copy of all of them is ever held.
-
-    Parameters
-    ----------
-    observations : ndarray of uint8, shape (N, H, W, 3)
-        Any array-like that slices along its first axis (a memory map too).
-    factor : int
-
-    Returns
-    -------
-    ndarray of float32, shape (N, H // factor, W // factor, 3)
-    """
-    n, h, w = observations.shape[:3]
-    f = max(1, int(factor))
-    hh, ww = h // f, w // f
-    out = np.empty((n, hh, ww, 3), dtype=np.float32)
-    chunk = max(1, int(chunk_bytes) // (h * w * 3 * 4))  # a float32 copy of a chunk
-    for s in range(0, n, chunk):
-        block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
-        if f > 1:  # block sums in integers (exact), one division: the block means
-            block = _block_sums(block, f)
-        x = block.astype(np.float32) / (255.0 * f * f)
-        med = np.median(x.reshape(len(x), -1, 3), axis=1)
-        out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
-    return out
-
-
-def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
-    """Sums of ``f x f`` pixel blocks of uint8 frames (N, f*h, f*w, 3), exact integers of
-    shape (N, h, w, 3): rows then columns added slice by slice (several times faster than a
-    reduction over strided axes)."""
-    n, hf, wf = frames.shape[:3]
-    v = frames.reshape(n, hf // f, f, wf // f, f, 3)
-    dtype = np.uint16 if f * f * 255 <= np.iinfo(np.uint16).max else np.uint32
-    rows = v[:, :, 0].astype(dtype)
-    for k in range(1, f):
-        rows += v[:, :, k]
-    out = rows[:, :, :, 0].copy()
-    for k in range(1, f):
-        out += rows[:, :, :, k]
-    return out
-
-
-#: Frames of one block of :func:`working_frames` on an executor.
-BLOCK_FRAMES = 256
-
-
-def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
-    observations, factor = item
-    return normalise_frames(observations, factor)
-
-
-def check_working_bytes(observations, factor: int, source: str | None = None) -> None:
-    """Refuse frames whose working-resolution float copy (what the footprints hold) would
-    exceed ``max_bytes``, naming the trace, the sizes and the cap (a 640x480 recording of
-    1,628 frames holds 121 MB at factor 7, whatever its 1.5 GB of pixels in the file)."""
-    from vggc_cp.safeio import CAPS, cap
-
-    n, h, w = (int(v) for v in observations.shape[:3])
-    held = n * (h // factor) * (w // factor) * 3 * 4
-    if held > cap("max_bytes"):
-        source = source or getattr(observations, "source", None) or "the trace"
-        raise TraceError(f"{source}: field 'observations': {n:,} frames of {w}x{h} hold "
-                         f"{held:,} bytes at the footprints' working resolution "
-                         f"({w // factor}x{h // factor}, float32), above the cap of "
-                         f"{cap('max_bytes'):,} ({CAPS['max_bytes'][1]})")
-
-
-def working_frames(observations: np.ndarray, executor=None,
-                   block: int | None = None, source: str | None = None) -> np.ndarray:
-    """:func:`normalise_frames` at the :func:`working_factor` of the frames' size; with an
-    ``executor`` (e.g. a dask cluster), blocks of ``block`` (default :data:`BLOCK_FRAMES`)
-    frames are converted on its workers (each frame on its own: the same numbers as here).
-    Frames read from the trace file (:class:`vggc_cp.frames.StreamedFrames`) are converted
-    here, in one pass over the file: a deflated member is read from its start, so blocks
-    shipped to workers would each inflate everything before them, or be held here at once.
-
-    Returns
-    -------
-    ndarray of float32, shape (N, H // f, W // f, 3)
-    """
-    from vggc_cp.frames import StreamedFrames
-
-    factor = working_factor(*observations.shape[1:3])
-    check_working_bytes(observations, factor, source)
-    block = int(block or BLOCK_FRAMES)
-    if executor is None or len(observations) <= block or isinstance(observations,
-                                                                    StreamedFrames):
-        return normalise_frames(observations, factor)
-    items = [(np.ascontiguousarray(observations[s:s + block]), factor)
-             for s in range(0, len(observations), block)]
-    return np.concatenate(executor.map(_normalise_block, items), axis=0)
 
 
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
@@ -546,6 +444,58 @@ def run_ends(actions: np.ndarray, starts: np.ndarray, touches: np.ndarray) -> np
     return out
 
 
+def footprint_side(maps: np.ndarray) -> float:
+    """Typical width of the footprints in pixels: the median over the actions taken of
+    ``sqrt(1 / sum_p F_a(p)^2)``, the side of a square of as many equally weighted pixels
+    (``nan`` when no action has a footprint).
+
+    >>> square = np.zeros((1, 9, 9)); square[0, 2:6, 3:7] = 1 / 16
+    >>> footprint_side(square)
+    4.0
+    """
+    mass = (maps.astype(np.float64) ** 2).sum(axis=(1, 2))
+    taken = mass > 0
+    return float(np.median(np.sqrt(1.0 / mass[taken]))) if taken.any() else float("nan")
+
+
+def working_footprints(trace: Trace, params: FootprintConfig, executor=None
+                       ) -> tuple[np.ndarray, np.ndarray, WorkingResolution]:
+    """The working frames (steadied), the footprints ``F_a`` on them and their resolution
+    (:mod:`vggc_cp.vision.working`): first the image-size bound; while the footprints there
+    are narrower than :data:`~vggc_cp.vision.working.FOOTPRINT_SIDE` pixels, again at the
+    finer factor that would make them that wide (at least one step finer), as far as the
+    memory cap allows. Frames at the tuned size or smaller are worked as they are.
+
+    Raises
+    ------
+    EvidenceNotApplicable
+        When no action changes the images in one place.
+    """
+    obs = trace.observations
+    src, act, dst = trace.transitions()
+    bound = working_factor(*obs.shape[1:3])
+    finest = finest_factor(obs.shape)
+    factor, reason = bound, "image size"
+    while True:
+        # a shaking camera held still
+        x = steady(working_frames(obs, executor, source=trace.source, factor=factor))
+        maps = footprint_maps(x, trace.roles(), src, act, dst, trace.n_actions, params)
+        if not maps.any():
+            raise EvidenceNotApplicable("no action changes the images in one place of its own "
+                                        "(every pixel changes alike): action footprints do "
+                                        "not apply to this trace")
+        side = footprint_side(maps) if bound > 1 else float("nan")
+        if factor == 1 or not side < FOOTPRINT_SIDE:
+            break
+        finer = max(finest, min(factor - 1, int(factor * side / FOOTPRINT_SIDE)))
+        if finer >= factor:
+            reason = "memory cap"
+            break
+        factor, reason = finer, "footprints' scale"
+        del x, maps
+    return x, maps, WorkingResolution(factor, bound, side, reason, tuple(x.shape[1:3]))
+
+
 def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                       executor=None) -> Footprints:
     """Footprints, sites and descriptors of every action of ``trace`` (module docstring).
@@ -562,13 +512,8 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     src, act, dst = trace.transitions()
     if len(act) == 0:
         raise EvidenceNotApplicable("footprint evidence needs at least one transition")
-    # a shaking camera held still
-    x = steady(working_frames(trace.observations, executor, source=trace.source))
+    x, maps, resolution = working_footprints(trace, params, executor)
     n_act = trace.n_actions
-    maps = footprint_maps(x, trace.roles(), src, act, dst, n_act, params)
-    if not maps.any():
-        raise EvidenceNotApplicable("no action changes the images in one place of its own (every pixel "
-                        "changes alike): action footprints do not apply to this trace")
     kinds = trace.action_kinds()
     counts = np.bincount(act, minlength=n_act).astype(np.int64)
     ov = overlaps(maps)
@@ -603,7 +548,8 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
                                  params.site_overlap)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
-    return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts)
+    return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
+                      resolution)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray

@@ -37,7 +37,7 @@ def shake_shifts(x: np.ndarray, max_shift: int = MAX_SHIFT, gain: float = GAIN,
     Parameters
     ----------
     x : ndarray of float32, shape (N, H, W, 3)
-        Frames (any scale; :func:`vggc_cp.vision.footprints.normalise_frames`).
+        Frames (any scale; :func:`vggc_cp.vision.working.normalise_frames`).
     max_shift : int
     gain : float
 

@@ -1,0 +1,214 @@
+"""The footprints' working copy of the frames: averaged down, lighting cancelled, read in chunks.
+
+The footprint evidence (:mod:`vggc_cp.vision.footprints`) holds one float copy of every frame
+at a *working resolution*, each frame averaged down by an integer ``factor`` and divided by its
+per-channel median (a per-frame lighting gain and tint cancel). How coarse it may be is a
+property of the scene, not of the camera: an object must still span a few pixels. Two bounds
+meet here:
+
+* the **image-size bound** :func:`working_factor`: frames are never averaged below about
+  :data:`WORK_SIDE` pixels on their short side (the size the defaults were tuned at), so a
+  scene like the tuning renders is worked at about their size;
+* the **footprints' scale**: :func:`vggc_cp.vision.footprints.action_footprints` measures the
+  typical width of the actions' footprints at the working resolution
+  (:func:`vggc_cp.vision.footprints.footprint_side`) and, where it is under
+  :data:`FOOTPRINT_SIDE`, works again at the finer factor that brings it there (small objects
+  seen by a wide camera);
+* and the **memory cap** (``VGGC_CP_MAX_BYTES``): the finest factor whose float copy fits it
+  (:func:`finest_factor`).
+
+:class:`WorkingResolution` records which of them chose the factor.
+
+Frames are read in chunks of :data:`CHUNK_BYTES` (a :class:`vggc_cp.frames.StreamedFrames`
+in one forward pass over the file), so only the working copy is ever held whole.
+
+Examples
+--------
+>>> working_factor(64, 64), working_factor(480, 640)
+(1, 7)
+>>> frames = np.full((2, 8, 8, 3), 100, dtype=np.uint8)
+>>> normalise_frames(frames, 4).shape
+(2, 2, 2, 3)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.errors import TraceError
+
+#: Image side the footprint defaults were tuned at; larger frames are averaged down to about
+#: it and no further (:func:`working_factor`).
+WORK_SIDE = 64
+#: Typical footprint width (pixels) the working resolution keeps at least: the narrowest
+#: typical footprint among the renders the defaults were tuned on (the median over a trace's
+#: actions of :func:`vggc_cp.vision.footprints.footprint_side`; 3.9-6.4 px on the tuning
+#: split's clean and randomized 64 px traces, seed 0, the seven tasks and random-0..9).
+FOOTPRINT_SIDE = 3.9
+#: Bytes of float frames converted at once (:func:`normalise_frames`).
+CHUNK_BYTES = 64 << 20
+#: Frames of one block of :func:`working_frames` on an executor.
+BLOCK_FRAMES = 256
+
+
+@dataclass(frozen=True)
+class WorkingResolution:
+    """The working resolution the footprints used, and why.
+
+    Attributes
+    ----------
+    factor : int
+        Frames were averaged down by ``factor x factor`` pixel blocks.
+    bound : int
+        The image-size bound (:func:`working_factor`): the coarsest factor considered.
+    side : float
+        Typical footprint width at ``factor`` in working pixels (``nan`` when not measured:
+        frames at the tuned size or smaller are never averaged down).
+    reason : str
+        ``"image size"`` (the bound), ``"footprints' scale"`` (finer than the bound: the
+        footprints were narrower than :data:`FOOTPRINT_SIDE` at it) or ``"memory cap"`` (the
+        scale asked for a finer factor than the cap allows; ``side`` stays under
+        :data:`FOOTPRINT_SIDE`).
+    shape : tuple of int
+        ``(height, width)`` of the working frames.
+    """
+
+    factor: int
+    bound: int
+    side: float
+    reason: str
+    shape: tuple[int, int]
+
+    def describe(self) -> str:
+        """One line for a person: the size, the factor and what chose it."""
+        h, w = self.shape
+        text = f"{w}x{h} (frames averaged down {self.factor}x, chosen by the {self.reason}"
+        if np.isfinite(self.side):
+            text += f"; footprints {self.side:.1f} px wide"
+        if self.reason == "memory cap":
+            text += (f", under the {FOOTPRINT_SIDE} px the scene asks for: raise "
+                     f"VGGC_CP_MAX_BYTES to work finer")
+        return text + ")"
+
+
+def working_factor(height: int, width: int, side: int = WORK_SIDE) -> int:
+    """Image-size bound on the factor by which frames of ``height x width`` are averaged down
+    for the footprints: the largest that keeps the short side at ``side`` pixels or more (1
+    for the 64 px renders the defaults were tuned on; 7 for a 640x480 camera)."""
+    return max(1, min(int(height), int(width)) // int(side))
+
+
+def working_bytes(shape, factor: int) -> int:
+    """Bytes of the float32 working copy of frames of ``shape`` (N, H, W, 3) at ``factor``."""
+    n, h, w = (int(v) for v in shape[:3])
+    return n * (h // factor) * (w // factor) * 3 * 4
+
+
+def finest_factor(shape) -> int:
+    """The smallest factor whose working copy of frames of ``shape`` fits ``max_bytes``."""
+    from vggc_cp.safeio import cap
+
+    limit = cap("max_bytes")
+    f = 1
+    while f < max(shape[1:3]) and working_bytes(shape, f) > limit:
+        f += 1
+    return f
+
+
+def normalise_frames(observations: np.ndarray, factor: int = 1,
+                     chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
+    """Frames averaged down by ``factor`` (blocks of ``factor x factor`` pixels; edges that do
+    not fill a block are cropped), each divided by its per-channel median (cancels a
+    per-frame gain and tint). Frames are read in chunks of about ``chunk_bytes`` of float
+    pixels, so only the working-resolution copy of all of them is ever held.
+
+    Parameters
+    ----------
+    observations : ndarray of uint8, shape (N, H, W, 3)
+        Any array-like that slices along its first axis (a memory map too).
+    factor : int
+
+    Returns
+    -------
+    ndarray of float32, shape (N, H // factor, W // factor, 3)
+    """
+    n, h, w = observations.shape[:3]
+    f = max(1, int(factor))
+    hh, ww = h // f, w // f
+    out = np.empty((n, hh, ww, 3), dtype=np.float32)
+    chunk = max(1, int(chunk_bytes) // (h * w * 3 * 4))  # a float32 copy of a chunk
+    for s in range(0, n, chunk):
+        block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
+        if f > 1:  # block sums in integers (exact), one division: the block means
+            block = _block_sums(block, f)
+        x = block.astype(np.float32) / (255.0 * f * f)
+        med = np.median(x.reshape(len(x), -1, 3), axis=1)
+        out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
+    return out
+
+
+def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
+    """Sums of ``f x f`` pixel blocks of uint8 frames (N, f*h, f*w, 3), exact integers of
+    shape (N, h, w, 3): rows then columns added slice by slice (several times faster than a
+    reduction over strided axes)."""
+    n, hf, wf = frames.shape[:3]
+    v = frames.reshape(n, hf // f, f, wf // f, f, 3)
+    dtype = np.uint16 if f * f * 255 <= np.iinfo(np.uint16).max else np.uint32
+    rows = v[:, :, 0].astype(dtype)
+    for k in range(1, f):
+        rows += v[:, :, k]
+    out = rows[:, :, :, 0].copy()
+    for k in range(1, f):
+        out += rows[:, :, :, k]
+    return out
+
+
+def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
+    observations, factor = item
+    return normalise_frames(observations, factor)
+
+
+def check_working_bytes(observations, factor: int, source: str | None = None) -> None:
+    """Refuse frames whose working-resolution float copy (what the footprints hold) would
+    exceed ``max_bytes``, naming the trace, the sizes and the cap (a 640x480 recording of
+    1,628 frames holds 121 MB at factor 7, whatever its 1.5 GB of pixels in the file)."""
+    from vggc_cp.safeio import CAPS, cap
+
+    n, h, w = (int(v) for v in observations.shape[:3])
+    held = working_bytes(observations.shape, factor)
+    if held > cap("max_bytes"):
+        source = source or getattr(observations, "source", None) or "the trace"
+        raise TraceError(f"{source}: field 'observations': {n:,} frames of {w}x{h} hold "
+                         f"{held:,} bytes at the footprints' working resolution "
+                         f"({w // factor}x{h // factor}, float32), above the cap of "
+                         f"{cap('max_bytes'):,} ({CAPS['max_bytes'][1]})")
+
+
+def working_frames(observations: np.ndarray, executor=None, block: int | None = None,
+                   source: str | None = None, factor: int | None = None) -> np.ndarray:
+    """:func:`normalise_frames` at ``factor`` (default: the image-size bound
+    :func:`working_factor`); with an ``executor`` (e.g. a dask cluster), blocks of ``block``
+    (default :data:`BLOCK_FRAMES`) frames are converted on its workers (each frame on its
+    own: the same numbers as here). Frames read from the trace file
+    (:class:`vggc_cp.frames.StreamedFrames`) are converted here, in one pass over the file: a
+    deflated member is read from its start, so blocks shipped to workers would each inflate
+    everything before them, or be held here at once.
+
+    Returns
+    -------
+    ndarray of float32, shape (N, H // f, W // f, 3)
+    """
+    from vggc_cp.frames import StreamedFrames
+
+    if factor is None:
+        factor = working_factor(*observations.shape[1:3])
+    check_working_bytes(observations, factor, source)
+    block = int(block or BLOCK_FRAMES)
+    if executor is None or len(observations) <= block or isinstance(observations,
+                                                                    StreamedFrames):
+        return normalise_frames(observations, factor)
+    items = [(np.ascontiguousarray(observations[s:s + block]), factor)
+             for s in range(0, len(observations), block)]
+    return np.concatenate(executor.map(_normalise_block, items), axis=0)
