@@ -18,7 +18,8 @@ DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 def test_working_factor():
     assert working_factor(64, 64) == 1
     assert working_factor(32, 32) == 1
-    assert working_factor(480, 640) == 7
+    assert working_factor(480, 640) == 8                # 80x60: as many pixels as 64x64
+    assert working_factor(120, 160) == 2
     assert working_factor(256, 256) == 4
 
 

@@ -7,8 +7,8 @@ property of the scene, not of the camera: an object must still span a few pixels
 meet here:
 
 * the **image-size bound** :func:`working_factor`: frames are never averaged below about
-  :data:`WORK_SIDE` pixels on their short side (the size the defaults were tuned at), so a
-  scene like the tuning renders is worked at about their size;
+  ``WORK_SIDE x WORK_SIDE`` pixels (:data:`WORK_SIDE`; as many as the renders the defaults
+  were tuned on hold), so a scene like the tuning renders is worked at about their size;
 * the **footprints' scale**: :func:`vggc_cp.vision.footprints.action_footprints` measures the
   typical width of the actions' footprints at the working resolution
   (:func:`vggc_cp.vision.footprints.footprint_side`) and, where it is under
@@ -25,7 +25,7 @@ in one forward pass over the file), so only the working copy is ever held whole.
 Examples
 --------
 >>> working_factor(64, 64), working_factor(480, 640)
-(1, 7)
+(1, 8)
 >>> frames = np.full((2, 8, 8, 3), 100, dtype=np.uint8)
 >>> normalise_frames(frames, 4).shape
 (2, 2, 2, 3)
@@ -33,6 +33,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,9 +96,10 @@ class WorkingResolution:
 
 def working_factor(height: int, width: int, side: int = WORK_SIDE) -> int:
     """Image-size bound on the factor by which frames of ``height x width`` are averaged down
-    for the footprints: the largest that keeps the short side at ``side`` pixels or more (1
-    for the 64 px renders the defaults were tuned on; 7 for a 640x480 camera)."""
-    return max(1, min(int(height), int(width)) // int(side))
+    for the footprints: the largest that keeps at least ``side x side`` pixels, as many as
+    the renders the defaults were tuned on hold (1 for those 64 px renders; 4 for 256x256; 8
+    for a 640x480 camera, 80x60)."""
+    return max(1, math.isqrt(int(height) * int(width) // (int(side) ** 2)))
 
 
 def working_bytes(shape, factor: int) -> int:
@@ -173,7 +175,7 @@ def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
 def check_working_bytes(observations, factor: int, source: str | None = None) -> None:
     """Refuse frames whose working-resolution float copy (what the footprints hold) would
     exceed ``max_bytes``, naming the trace, the sizes and the cap (a 640x480 recording of
-    1,628 frames holds 121 MB at factor 7, whatever its 1.5 GB of pixels in the file)."""
+    1,628 frames holds 94 MB at factor 8, whatever its 1.5 GB of pixels in the file)."""
     from vggc_cp.safeio import CAPS, cap
 
     n, h, w = (int(v) for v in observations.shape[:3])
