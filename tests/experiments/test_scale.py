@@ -45,7 +45,7 @@ def test_peak_memory_sees_an_allocation():
 
 @pytest.mark.slow  # the whole CLI parser twice
 def test_bad_options_exit_2_before_any_work(tmp_path, capsys):
-    for flags in (["--sizes", "a,b"], ["--camera", "640x"]):
+    for flags in (["--sizes", "a,b"], ["--camera", "640x"], ["--repeats", "0"]):
         assert main(["bench", "scale", "--cache-dir", str(tmp_path), *flags]) == 2
         assert capsys.readouterr().err.count("\n") == 1
     assert not list(tmp_path.iterdir())
@@ -55,10 +55,12 @@ def test_bad_options_exit_2_before_any_work(tmp_path, capsys):
 def test_bench_scale_small(tmp_path, capsys):
     out = tmp_path / "scale.csv"
     assert main(["bench", "scale", "--sizes", "30,60", "--camera", "96x64",
-                 "--camera-transitions", "30", "--cache-dir", str(tmp_path / "traces"),
-                 "--csv", str(out)]) == 0
+                 "--camera-transitions", "30", "--repeats", "2", "--cache-dir",
+                 str(tmp_path / "traces"), "--csv", str(out)]) == 0
     text = capsys.readouterr().out
     assert "growth         wall time ~ |D|^" in text and "camera         96x64" in text
+    # the camera trace and the 64 px one at its |D|, each twice, alternately
+    assert text.count("\n     30      ") == 1 + 4 and "fastest of each; runs " in text
     rows = read_rows(out)
     assert {(r["transitions"], r["width"]) for r in rows} == {(30, 64), (60, 64), (30, 96)}
     assert {r["stage"] for r in rows} == {"load", "evidence", "merge path", "confidence"}

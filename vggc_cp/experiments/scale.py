@@ -201,6 +201,32 @@ def run_scale(cfg: ScaleConfig, on_record=None) -> list[SizeRecord]:
     return out
 
 
+def camera_runs(cfg: ScaleConfig, image: tuple[int, int], transitions: int, repeat: int = 3,
+                on_record=None) -> tuple[list[SizeRecord], list[SizeRecord]]:
+    """The camera comparison: the trace of ``image`` (height, width) at ``transitions`` and
+    the trace of the generator's default size at the same ``|D|``, each measured ``repeat``
+    times, alternately (the default size first; ``on_record(record)`` after each). The ratio
+    to report is of the fastest of each (:func:`fastest`): on a shared machine the slower
+    runs measure the other processes too, as :mod:`timeit` says of its repeats."""
+    if int(repeat) < 1:
+        raise VggcError(f"repeat must be at least 1, got {repeat}")
+    small = ScaleConfig((transitions,), cfg.bench, cfg.seed, cfg.cache)
+    big = ScaleConfig((transitions,), cfg.bench, cfg.seed, cfg.cache, image=tuple(image))
+    refs, cams = [], []
+    for _ in range(int(repeat)):
+        for conf, out in ((small, refs), (big, cams)):
+            rec = measure(*cached_trace(conf, transitions))
+            out.append(rec)
+            if on_record is not None:
+                on_record(rec)
+    return refs, cams
+
+
+def fastest(records: list[SizeRecord]) -> SizeRecord:
+    """The record of least wall time."""
+    return min(records, key=lambda r: r.seconds)
+
+
 #: Columns of :func:`record_rows` (the CSV of ``bench scale --csv``).
 COLUMNS = ("transitions", "observations", "height", "width", "stage", "seconds",
            "cpu_seconds", "peak_bytes", "nodes")
