@@ -26,11 +26,11 @@ from pathlib import Path
 
 from vggc_cp.errors import VggcError
 from vggc_cp.experiments.robustness import SPLITS, passes
-from vggc_cp.solvers.confidence import FIXED_CHECKS
+from vggc_cp.solvers.confidence import FIXED_CHECKS, FORMER_MARGIN
 
 #: The fixed thresholds the warning used before the chance of change (the former
-#: ``WarningRule`` defaults).
-OLD_RULE = FIXED_CHECKS
+#: ``WarningRule`` defaults, the description-length margin among them).
+OLD_RULE = {"min_margin": FORMER_MARGIN, **FIXED_CHECKS}
 VERDICTS = ("old", "new")
 #: Bins of ``p_change`` (upper bounds, inclusive) of :func:`reliability_rows`.
 P_BINS = (0.0, 0.1, 0.2, 0.3, 0.5, 1.0)

@@ -37,16 +37,19 @@ that decision.
 default): on the tuning split the chance of change alone was right on all 93 runs, but on the
 held-out split and ten tasks drawn after the method was frozen it left 5 of 57 wrong graphs
 unwarned (near misses: one node too many or too few, and random-201 randomized, 52 nodes for
-43 states), all of which the former checks flag; so both run, at their false-alarm cost.
+43 states), all of which the former checks flag; so both run, at their false-alarm cost. The
+former margin check is no longer one of them (:data:`FIXED_CHECKS`): chosen on the tuning
+split, where it caught no wrong graph the others missed and raised 6 of the 7 false alarms.
 
 **Held-out prediction** (a fixed check; with the rest reported): in the fold re-runs the
 left-out observations are placed in the node of least mean distance (their own role), and
 every left-out transition ``(o, a, o')`` is *predicted* when the edge ``(node(o), a)``
 exists and leads to ``node(o')``, *contradicted* when it exists and leads elsewhere.
 The description-length margin to a graph of another size, the plateau of thresholds giving
-the chosen partition and the observations per node are reported too, and enter the verdict
-only through the fixed checks (recomputed on the tuning split, those checks warned on 7 of 57
-right graphs; the chance of change on none, notebooks/calibration.md).
+the chosen partition and the observations per node are reported too; the plateau and the
+observations per node enter the verdict through the fixed checks, the margin no longer does
+(recomputed on the tuning split, the checks with the margin warned on 7 of 57 right graphs,
+without it on 1; the chance of change on none, notebooks/calibration.md).
 
 **What it costs.** One merge at ``t*`` per re-run on at most ``(1 - 1 / folds)`` of the
 trace: ``folds`` merges (which the held-out prediction needs anyway) on a graph no re-run
@@ -81,7 +84,7 @@ class WarningRule:
         Seed of the random re-runs after the folds.
     fixed_checks : bool
         Also flag a graph that fails one of the former fixed checks (:data:`FIXED_CHECKS`:
-        description-length margin, plateau, held-out prediction, observations per node). The
+        plateau, held-out prediction, observations per node). The
         chance of change alone warned on none of 57 right graphs of the tuning split and
         missed none of its 36 wrong ones, but on tasks and seeds never looked at it missed 5
         of 57 wrong graphs that these checks catch (held-out split and random-200..209,
@@ -110,16 +113,22 @@ class WarningRule:
                                 f"got {v!r}")
 
 
-#: The former fixed checks (:attr:`WarningRule.fixed_checks`): a description-length margin to
-#: a graph of another size below 0.01 nats per transition, a plateau of fewer than 3
+#: The former fixed checks (:attr:`WarningRule.fixed_checks`): a plateau of fewer than 3
 #: thresholds, held-out transitions contradicted above 5 % or predicted below 60 %, fewer
-#: than 2 observations per node.
-FIXED_CHECKS = {"min_margin": 0.01, "min_plateau": 3, "max_contradicted": 0.05,
-                "min_predicted": 0.6, "min_obs_per_node": 2.0}
+#: than 2 observations per node. The former check on the description-length margin (below
+#: 0.01 nats per transition, :data:`FORMER_MARGIN`) is left out: on the tuning split it never
+#: was the only check to flag a wrong graph, and it flagged 6 of the 7 right graphs flagged
+#: there; per transition, a fixed difference in description length shrinks as the recording
+#: grows (fruit-6x8 at |D| = 3,000: 0.004 nats a transition is 12 nats, odds of e^12 to 1
+#: for the chosen graph). The margin is still reported.
+FIXED_CHECKS = {"min_plateau": 3, "max_contradicted": 0.05, "min_predicted": 0.6,
+                "min_obs_per_node": 2.0}
+#: The margin check of the former rule (nats per transition), for comparisons
+#: (:data:`vggc_cp.experiments.calibration.OLD_RULE`).
+FORMER_MARGIN = 0.01
 
 
-def fixed_check_reasons(margin: float, plateau: int, heldout, obs_per_node: float
-                        ) -> list[str]:
+def fixed_check_reasons(plateau: int, heldout, obs_per_node: float) -> list[str]:
     """The reasons the former fixed checks (:data:`FIXED_CHECKS`) give, empty when none
     fails."""
     c = FIXED_CHECKS
@@ -127,10 +136,6 @@ def fixed_check_reasons(margin: float, plateau: int, heldout, obs_per_node: floa
     if plateau < c["min_plateau"]:
         out.append(f"the chosen graph holds for {plateau} threshold(s) only "
                    f"(< {c['min_plateau']}): no stable partition")
-    if math.isfinite(margin) and margin < c["min_margin"]:
-        out.append(f"description-length margin {margin:.3f} nats/transition "
-                   f"(< {c['min_margin']}): a graph of another size explains the trace "
-                   f"almost as well")
     if heldout is not None:
         if heldout.contradicted > c["max_contradicted"]:
             out.append(f"{100 * heldout.contradicted:.1f} % of held-out transitions "
@@ -529,7 +534,7 @@ def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_nod
             f"the contested decisions and `vggc-cp suggest SOLUTION TRACE -o next.json` "
             f"the episodes to record next")
     if rule.fixed_checks:
-        reasons += fixed_check_reasons(float(margin), int(plateau),
+        reasons += fixed_check_reasons(int(plateau),
                                        None if resampled is None else resampled.heldout,
                                        float(obs_per_node))
     return Confidence(criterion, float(margin), int(plateau),
