@@ -458,7 +458,7 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
     conf = assess(margin, plateau, resampled, problem.n_obs / max(best.n_nodes, 1),
-                  options.warning, criterion=options.rule)
+                  options.warning, criterion=options.rule, transitions=n_trans)
     return dls, conf
 
 

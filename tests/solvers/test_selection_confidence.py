@@ -236,3 +236,15 @@ def test_a_graph_of_one_render_a_node_is_warned_though_every_re_run_reproduces_i
     assert res.changed == res.novel == res.runs and res.p_change == 1.0
     conf = assess(0.0, 1, res, 1.0)
     assert conf.suspect and "nodes the rest never shows" in conf.reasons[0]
+
+
+def test_the_margin_is_judged_in_nats_over_the_whole_trace():
+    # 0.005 nats a transition: 0.5 nats on 100 transitions (odds 1.6 to 1) is flagged,
+    # 15 nats on 3,000 (odds e^15) is not; without the transitions it is not checked
+    short = assess(0.005, 10, None, 10.0, transitions=100)
+    assert short.suspect and any("margin 0.50 nats (< ln 20" in r for r in short.reasons)
+    assert not assess(0.005, 10, None, 10.0, transitions=3000).suspect
+    assert not assess(0.005, 10, None, 10.0).suspect
+    assert not assess(0.005, 10, None, 10.0, WarningRule(fixed_checks=False),
+                      transitions=100).suspect
+    assert not assess(float("inf"), 10, None, 10.0, transitions=100).suspect
