@@ -104,6 +104,21 @@ def old_suspect(row: dict) -> bool:
                 or (opn is not None and opn < r["min_obs_per_node"]))
 
 
+def fixed_suspect(row: dict) -> bool:
+    """The current fixed checks (:data:`~vggc_cp.solvers.confidence.FIXED_CHECKS`: the
+    margin in nats over the row's transitions) recomputed from the row's figures."""
+    r = FIXED_CHECKS
+    margin, plateau = row.get("margin"), row.get("plateau")
+    pred, contr = row.get("heldout_predicted"), row.get("heldout_contradicted")
+    opn, n = row.get("obs_per_node"), row.get("transitions")
+    return bool((plateau is not None and plateau < r["min_plateau"])
+                or (margin is not None and n and math.isfinite(margin)
+                    and margin * n < r["min_margin_nats"])
+                or (contr is not None and contr > r["max_contradicted"])
+                or (pred is not None and pred < r["min_predicted"])
+                or (opn is not None and opn < r["min_obs_per_node"]))
+
+
 def verdict(row: dict, which: str) -> bool:
     """``new`` (the row's ``suspect``) or ``old`` (:func:`old_suspect`)."""
     if which == "new":
