@@ -3,8 +3,8 @@
 The footprint evidence (:mod:`vggc_cp.vision.footprints`) holds one float copy of every frame
 at a *working resolution*, each frame averaged down by an integer ``factor`` and divided by its
 per-channel median (a per-frame lighting gain and tint cancel). How coarse it may be is a
-property of the scene, not of the camera: an object must still span a few pixels. Two bounds
-meet here:
+property of the scene, not of the camera: an object must still span a few pixels. Three
+things set it:
 
 * the **image-size bound** :func:`working_factor`: frames are never averaged below about
   ``WORK_SIDE x WORK_SIDE`` pixels (:data:`WORK_SIDE`; as many as the renders the defaults
