@@ -65,14 +65,16 @@ def test_counts_per_split_look_and_verdict(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["robustness-tasks-tuning.csv", "robustness-tasks-heldout.csv",
-                                  "robustness-tasks-fresh.csv"])
+                                  "robustness-tasks-fresh.csv", "robustness-tasks-seeds11-12.csv",
+                                  "robustness-tasks-seeds13-14.csv"])
 def test_the_fixed_checks_recomputed_from_a_row_agree_with_its_verdict(name):
     """The committed tables were written with the fixed checks on beside the chance of change:
-    every run they flag, recomputed from the row's figures, is flagged; a run flagged beyond
-    them is one whose re-runs changed the graph (chance above 0.3, or a corroborated doubt)."""
+    every run they flag (the margin in nats), recomputed from the row's figures, is flagged; a
+    run flagged beyond them is one whose re-runs changed the graph (chance above 0.3, or a
+    corroborated doubt)."""
     rows = cal.read_rows(NOTEBOOKS / name)
-    assert rows and all(r["suspect"] for r in rows if cal.old_suspect(r))
-    beyond = [r for r in rows if r["suspect"] and not cal.old_suspect(r)]
+    assert rows and all(r["suspect"] for r in rows if cal.fixed_suspect(r))
+    beyond = [r for r in rows if r["suspect"] and not cal.fixed_suspect(r)]
     assert all(r["p_change"] > 0.3 or "re-runs change" in (r.get("reasons") or "")
                for r in beyond)
 
