@@ -91,32 +91,30 @@ def read_rows(path: str | Path) -> list[dict]:
     return rows
 
 
-def old_suspect(row: dict) -> bool:
-    """The former fixed-threshold verdict (:data:`OLD_RULE`) from the row's figures."""
-    r = OLD_RULE
+def _checks_fail(row: dict, r: dict, margin_low) -> bool:
+    """Whether one of the checks of ``r`` fails on the row's figures; ``margin_low(margin,
+    row)`` says whether the margin is too low (a missing figure fails nothing)."""
     margin, plateau = row.get("margin"), row.get("plateau")
     pred, contr = row.get("heldout_predicted"), row.get("heldout_contradicted")
     opn = row.get("obs_per_node")
     return bool((plateau is not None and plateau < r["min_plateau"])
-                or (margin is not None and math.isfinite(margin) and margin < r["min_margin"])
+                or (margin is not None and math.isfinite(margin) and margin_low(margin, row))
                 or (contr is not None and contr > r["max_contradicted"])
                 or (pred is not None and pred < r["min_predicted"])
                 or (opn is not None and opn < r["min_obs_per_node"]))
+
+
+def old_suspect(row: dict) -> bool:
+    """The former fixed-threshold verdict (:data:`OLD_RULE`: the margin per transition) from
+    the row's figures."""
+    return _checks_fail(row, OLD_RULE, lambda m, _: m < OLD_RULE["min_margin"])
 
 
 def fixed_suspect(row: dict) -> bool:
     """The current fixed checks (:data:`~vggc_cp.solvers.confidence.FIXED_CHECKS`: the
     margin in nats over the row's transitions) recomputed from the row's figures."""
-    r = FIXED_CHECKS
-    margin, plateau = row.get("margin"), row.get("plateau")
-    pred, contr = row.get("heldout_predicted"), row.get("heldout_contradicted")
-    opn, n = row.get("obs_per_node"), row.get("transitions")
-    return bool((plateau is not None and plateau < r["min_plateau"])
-                or (margin is not None and n and math.isfinite(margin)
-                    and margin * n < r["min_margin_nats"])
-                or (contr is not None and contr > r["max_contradicted"])
-                or (pred is not None and pred < r["min_predicted"])
-                or (opn is not None and opn < r["min_obs_per_node"]))
+    return _checks_fail(row, FIXED_CHECKS, lambda m, r: bool(r.get("transitions"))
+                        and m * r["transitions"] < FIXED_CHECKS["min_margin_nats"])
 
 
 def verdict(row: dict, which: str) -> bool:
