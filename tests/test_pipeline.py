@@ -9,7 +9,7 @@ import pytest
 from conftest import shuffled_within_roles
 
 from vggc_cp.errors import VggcError
-from vggc_cp.pipeline import LearnConfig, choose, learn_graph, threshold_grid
+from vggc_cp.pipeline import LearnConfig, choose, learn_graph, learned_doubts, threshold_grid
 from vggc_cp.trace import Trace, load_trace
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "fruit-2x3.npz"
@@ -141,3 +141,24 @@ def test_the_fallback_runs_only_where_the_policy_says(shipped):
     flat = Trace(np.zeros_like(shipped.observations), shipped.actions, shipped.action_names)
     with pytest.raises(VggcError, match="no visual evidence"):
         learn_graph(flat, LearnConfig(fallback="never"))
+
+
+def test_a_warning_with_no_close_call_lists_the_decisions_toward_the_runner_up():
+    """multifruit-2x3 randomized, seed 12, |D| = 95 (a run of seeds 11-12): 13 nodes for 12
+    states, warned only because a graph of another size lies within ln 20 nats, and no
+    decision within the doubts' window of t*. The doubts then reach the runner-up graph's
+    threshold, and the one they list is the wrong decision: its two nodes are one state."""
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("multifruit-2x3", 95, seed=12, look="randomized").trace
+    learned = learn_graph(trace.without_states())
+    assert learned.confidence.suspect and learned.chosen.best.n_nodes == 13
+    assert [r for r in learned.confidence.reasons if "margin" in r] == \
+        list(learned.confidence.reasons)                  # the margin alone
+    assert learned_doubts(learned.chosen) == ()          # nothing near t*
+    assert len(learned.doubts) >= 1 and learned.doubts[0].kind == "merge"
+    a, b = learned.doubts[0].nodes
+    states = {tuple(np.asarray(trace.states[i]).ravel().tolist())
+              for i in np.flatnonzero(np.isin(learned.labels, (a, b)))}
+    assert len(states) == 1
+    assert learned.solution_record()["doubts"][0]["nodes"] == [a, b]

@@ -516,6 +516,10 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     doubts = learned_doubts(chosen)
     chosen = replace(chosen, confidence=corroborate(chosen.confidence, doubts,
                                                     DoubtRule().max_nats))
+    if chosen.confidence.suspect and not doubts:
+        # warned (e.g. a graph of another size nearly as probable) with no close call near
+        # t*: the decisions on the way to that graph, so the warning says what is doubtful
+        doubts = learned_doubts(chosen, toward_runner_up=True)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
                    options, trace, doubts)
 
@@ -525,16 +529,30 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
 DOUBTS_MAX_OBS = 8000
 
 
-def learned_doubts(chosen: Candidate) -> tuple[Doubt, ...]:
+def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[Doubt, ...]:
     """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
     of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
-    (none beyond: the matrices would cost what the codes save)."""
+    (none beyond: the matrices would cost what the codes save).
+
+    With ``toward_runner_up``, the decisions between the chosen threshold and that of the
+    runner-up graph (the least description length among graphs of another size, the one the
+    margin is measured to): the window reaches it and the description length does not
+    settle a decision (what questions the graph is that the two are nearly as probable)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem):
         if problem.n_obs > DOUBTS_MAX_OBS:
             return ()
         problem = problem.dense()
-    return find_doubts(problem, chosen.path, chosen.best.labels)
+    rule = None
+    if toward_runner_up:
+        path, k = chosen.path, chosen.path.selected
+        others = [j for j, r in enumerate(path.results) if r.n_nodes != chosen.best.n_nodes]
+        if k is None or not others:
+            return ()
+        runner_up = min(others, key=lambda j: (chosen.description_lengths[j], abs(j - k)))
+        rule = DoubtRule(window=max(DoubtRule().window, abs(runner_up - k)),
+                         max_nats=math.inf)
+    return find_doubts(problem, chosen.path, chosen.best.labels, rule=rule)
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
