@@ -143,6 +143,7 @@ def test_the_fallback_runs_only_where_the_policy_says(shipped):
         learn_graph(flat, LearnConfig(fallback="never"))
 
 
+@pytest.mark.slow  # a PyBullet trace
 def test_a_warning_with_no_close_call_lists_the_decisions_toward_the_runner_up():
     """multifruit-2x3 randomized, seed 12, |D| = 95 (a run of seeds 11-12): 13 nodes for 12
     states, warned only because a graph of another size lies within ln 20 nats, and no
