@@ -236,7 +236,7 @@ class Candidate:
     def notes(self) -> tuple[str, ...]:
         """What the evidence says about how it ran (e.g. the footprints' working
         resolution on frames larger than the tuned 64 px)."""
-        return tuple(getattr(self.problem, "notes", ()))
+        return tuple(self.problem.notes)
 
 
 @dataclass(frozen=True, eq=False)

@@ -484,12 +484,7 @@ class _PairStream:
             ds.append(np.asarray(one_d, dtype=np.float64))
             iis.append(np.asarray(one_i, dtype=np.int64))
             jjs.append(np.asarray(one_j, dtype=np.int64))
-        if not ds:
-            empty = np.zeros(0, dtype=np.int64)
-            return np.zeros(0), empty, empty
-        d, i, j = np.concatenate(ds), np.concatenate(iis), np.concatenate(jjs)
-        order = np.lexsort((j, i, d))
-        return d[order], i[order], j[order]
+        return _sorted_pairs(ds, iis, jjs)
 
     def _row_rest(self, role: int, g: int, h: int, row: int, low: int, roots: np.ndarray,
                   i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -531,12 +526,18 @@ class _PairStream:
                     ds.append(np.full(len(i), v))
                     iis.append(i)
                     jjs.append(j)
-        if not ds:
-            empty = np.zeros(0, dtype=np.int64)
-            return np.zeros(0), empty, empty
-        d, i, j = np.concatenate(ds), np.concatenate(iis), np.concatenate(jjs)
-        order = np.lexsort((j, i, d))
-        return d[order], i[order], j[order]
+        return _sorted_pairs(ds, iis, jjs)
+
+
+def _sorted_pairs(ds: list, iis: list, jjs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pieces ``(d, i, j)`` of a batch joined and sorted by distance, then ``i``, then
+    ``j`` (empty arrays when there is none)."""
+    if not ds:
+        empty = np.zeros(0, dtype=np.int64)
+        return np.zeros(0), empty, empty
+    d, i, j = np.concatenate(ds), np.concatenate(iis), np.concatenate(jjs)
+    order = np.lexsort((j, i, d))
+    return d[order], i[order], j[order]
 
 
 class _Pass:
