@@ -51,9 +51,9 @@ def test_boolean_mask_chunks_and_bytes(frames):
     assert np.array_equal(np.concatenate(list(s.chunks(s.frame_bytes * 4))), arr)
     s.close()
     s.track(b"p")
-    s[:10], s[10:]  # noqa: B018 - one pass in order: hashed on the way
+    s[:10], s[10:]  # noqa: B018 - a read reached the last frame: the digest started
     assert s.hashed(b"p").hexdigest() == hashlib.sha256(b"p" + arr.tobytes()).hexdigest()
-    s[3:5], s[:2], s[5:]  # noqa: B018 - out of order: hashed by a pass of its own
+    s[3:5], s[:2], s[5:]  # noqa: B018 - never asked for: hashed when asked
     assert s.hashed(b"q").hexdigest() == hashlib.sha256(b"q" + arr.tobytes()).hexdigest()
     with pytest.raises(IndexError):
         s[[23]]
@@ -174,6 +174,51 @@ def test_saving_a_streamed_trace_writes_the_same_bytes_in_pieces(tmp_path, monke
     assert (tmp_path / "again.npz").read_bytes() == DATA.read_bytes()
     with pytest.raises(TraceError, match="VGGC_CP_MAX_BYTES"):  # all at once: refused
         np.ascontiguousarray(streamed.observations)
+
+
+def test_the_digest_runs_beside_the_learning_after_the_pass_and_stops_on_close(frames):
+    """``track`` asks for a digest; it starts in a thread of its own when a read reaches the
+    last frame (the footprints' pass ended), is kept once finished, and is stopped by
+    ``close`` while unfinished (computed again when asked)."""
+    arr, s = frames
+    want = hashlib.sha256(b"p" + arr.tobytes()).hexdigest()
+    s.track(b"p")
+    s[:10]  # noqa: B018
+    assert not s._jobs  # the pass has not ended
+    s[10:]  # noqa: B018
+    job = s._jobs[b"p"]
+    assert s.hashed(b"p").hexdigest() == want
+    assert job.finished and not job.stopped
+    s.close()  # a finished digest survives closing
+    assert s.hashed(b"p").hexdigest() == want
+    s.track(b"r")
+    s[:]  # noqa: B018
+    running = s._jobs[b"r"]
+    running.stop()  # as close() does to an unfinished one (it may have finished already)
+    s.close()
+    assert b"r" not in s._jobs
+    assert s.hashed(b"r").hexdigest() == hashlib.sha256(b"r" + arr.tobytes()).hexdigest()
+    h = s.hashed(b"r")
+    h.update(b"x")  # a copy: the kept digest is unchanged
+    assert s.hashed(b"r").hexdigest() != h.hexdigest()
+
+
+def test_a_damaged_member_fails_the_digest_naming_the_field(tmp_path):
+    arr = np.random.default_rng(2).integers(0, 256, (12, 8, 8, 3), dtype=np.uint8)
+    path = tmp_path / "s.npz"
+    np.savez(path, observations=arr)  # stored: a byte changed in the file reaches the frames
+    raw = bytearray(path.read_bytes())
+    raw[raw.index(arr[11].tobytes()) + 3] ^= 0xFF
+    bad = tmp_path / "b.npz"
+    bad.write_bytes(bytes(raw))
+    for started in (False, True):  # asked for when needed, or running in its thread
+        s = StreamedFrames(bad, "observations")
+        s.track(b"p")
+        if started:
+            s._start_digests()
+        with pytest.raises(TraceError, match=r"b\.npz: field 'observations' is corrupt"):
+            s.hashed(b"p")
+        s.close()
 
 
 def test_stored_members_and_a_changed_byte(tmp_path):

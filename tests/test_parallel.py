@@ -160,3 +160,44 @@ def test_default_learning_on_a_cluster_equals_local(cluster, monkeypatch):
     assert local.confidence == remote.confidence
     assert np.array_equal(coded.table_pick, local.problem.table_pick)
     assert np.array_equal(coded.codes_place, local.problem.codes_place)
+
+
+@pytest.mark.slow
+@needs_dask
+def test_frames_read_from_the_file_are_converted_on_the_cluster_in_waves(cluster, tmp_path,
+                                                                         monkeypatch):
+    """A trace too large to hold (its frames streamed from the file) is inflated here in one
+    pass and converted on the workers wave by wave: the same working frames and graph as in
+    this process, and the solution's hash computed beside it."""
+    from dataclasses import replace
+
+    from vggc_cp.frames import StreamedFrames
+    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.trace import save_trace
+    from vggc_cp.vision import working
+
+    small = load_trace(DATA).without_states()
+    big = replace(small, observations=small.observations.repeat(4, axis=1).repeat(4, axis=2))
+    path = tmp_path / "big.npz"
+    save_trace(big, path)
+    want_hash = big.content_hash()
+    options = LearnConfig(evidence="footprints")
+    local = learn_graph(big, options)
+    want = working.working_frames(big.observations)  # 64x64 again
+    monkeypatch.setenv("VGGC_CP_MAX_BYTES", str(big.observations.nbytes // 2))
+    # blocks of 8 frames, waves of 3 blocks: the 56 frames go out in 3 waves, 7 blocks
+    monkeypatch.setattr(working, "BLOCK_BYTES", 8 * 256 * 256 * 3)
+    monkeypatch.setattr(working, "WAVE_BYTES", 24 * 256 * 256 * 3)
+    from distributed import get_task_stream
+
+    trace = load_trace(path)
+    assert isinstance(trace.observations, StreamedFrames)
+    with open_executor(Backend("dask", scheduler=cluster)) as ex:
+        with get_task_stream(ex.client) as stream:
+            frames = working.working_frames(trace.observations, ex)
+        ran = [t["key"] for t in stream.data]
+        assert len(ran) == 7 and all("_normalise_block" in str(k) for k in ran), ran
+        remote = learn_graph(trace, options, executor=ex)
+    assert np.array_equal(frames, want)
+    assert np.array_equal(local.labels, remote.labels)
+    assert trace.content_hash() == want_hash

@@ -296,7 +296,7 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
                 raise _fail(source, f"missing field {key!r}")
         if stream:
             obs = StreamedFrames(path, "observations", source)
-            obs.track(content_prefix(obs.shape))  # the solution's trace_sha256, in the same pass
+            obs.track(content_prefix(obs.shape))  # the solution's trace_sha256, meanwhile
         else:
             obs = _read_member(data, "observations", source)
         actions = _read_member(data, "actions", source)

@@ -63,7 +63,8 @@ def test_bench_scale_small(tmp_path, capsys):
     assert text.count("\n     30      ") == 1 + 4 and "fastest of each; runs " in text
     rows = read_rows(out)
     assert {(r["transitions"], r["width"]) for r in rows} == {(30, 64), (60, 64), (30, 96)}
-    assert {r["stage"] for r in rows} == {"load", "evidence", "merge path", "confidence"}
+    assert {r["stage"] for r in rows} == {"load", "evidence", "merge path", "confidence",
+                                          "trace hash"}
     assert all(r["peak_bytes"] > 0 and r["nodes"] > 0 for r in rows)
     # the traces are generated once and reused
     assert main(["bench", "scale", "--sizes", "30", "--camera", "none", "--cache-dir",

@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from vggc_cp.trace import load_trace
 from vggc_cp.vision.footprints import footprint_distances
@@ -53,6 +54,32 @@ def test_block_sums_are_exact_in_both_integer_widths():
         h, w = shape[1] // f, shape[2] // f
         plain = x.reshape(shape[0], h, f, w, f, 3).sum(axis=(2, 4), dtype=np.uint64)
         assert np.array_equal(_block_sums(x, f), plain)
+
+
+def test_block_sums_in_cache_sized_pieces_are_the_same(monkeypatch):
+    from vggc_cp.vision import working
+
+    rng = np.random.default_rng(4)
+    x = rng.integers(0, 256, (7, 24, 16, 3), dtype=np.uint8)
+    whole = working._block_sums(x, 4)
+    monkeypatch.setattr(working, "SUM_BYTES", 2 * 24 * 16 * 3)  # two frames at a time
+    assert np.array_equal(working._block_sums(x, 4), whole)
+
+
+@pytest.mark.parametrize("shape,f", [((5, 6, 8, 3), 1), ((4, 7, 5, 3), 1), ((3, 4, 6, 3), 8),
+                                     ((6, 3, 3, 3), 16)])
+def test_channel_medians_are_numpys_median_bit_for_bit(shape, f):
+    from vggc_cp.vision.working import _channel_medians
+
+    rng = np.random.default_rng(sum(shape) + f)
+    top = 255 * f * f
+    block = rng.integers(0, top + 1, shape).astype(np.uint8 if f == 1 else np.uint32)
+    block[0] = block[0, :1, :1]  # a flat frame: ties everywhere
+    x = block.astype(np.float32) / (255.0 * f * f)
+    want = np.median(x.reshape(len(x), -1, 3), axis=1)
+    got = _channel_medians(block, f)
+    assert got.dtype == want.dtype == np.float32
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
 def _wide_view(trace, side: int = 256):

@@ -261,7 +261,7 @@ def cmd_bench_scale(args) -> int:
     gib = float(1 << 30)
     print(f"scale          {cfg.bench}, seed {cfg.seed}, traces in {cache}")
     print(f"{'|D|':>7} {'obs':>7} {'generate':>9} {'load':>15} {'evidence':>15} {'merge path':>15} "
-          f"{'confidence':>15} {'total':>8} {'cpu':>8} {'peak':>8} nodes")
+          f"{'confidence':>15} {'trace hash':>15} {'total':>8} {'cpu':>8} {'peak':>8} nodes")
 
     def show(rec) -> None:
         cells = " ".join(f"{s.seconds:7.1f} s {s.peak_bytes / gib:4.2f} G"

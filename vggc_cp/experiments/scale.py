@@ -7,7 +7,10 @@ stage, in this process:
 
 * **evidence**: footprints, descriptors and their codes (:func:`vggc_cp.pipeline.evidence_problem`);
 * **merge path**: the threshold grid and the merges along it (:func:`vggc_cp.pipeline.merge_path`);
-* **confidence**: description lengths and held-out prediction (:func:`vggc_cp.pipeline.assess_path`).
+* **confidence**: description lengths and held-out prediction (:func:`vggc_cp.pipeline.assess_path`);
+* **trace hash**: the ``trace_sha256`` the solution records (:meth:`vggc_cp.trace.Trace.content_hash`;
+  for frames read from the file it is computed beside the stages before, and this one waits
+  for what is left of it).
 
 Each stage reports its wall time and the peak resident memory of the process while it ran
 (sampled every 10 ms from ``/proc/self/statm``; the process's ``ru_maxrss`` where that file is
@@ -31,7 +34,7 @@ from vggc_cp.errors import VggcError
 SIZES = (1500, 3000, 6000, 12000, 20000)
 BENCH = "fruit-6x8"
 SEED = 5
-STAGES = ("evidence", "merge path", "confidence")
+STAGES = ("evidence", "merge path", "confidence", "trace hash")
 
 
 @dataclass(frozen=True)
@@ -178,6 +181,7 @@ def measure(path: Path, generate_seconds: float = 0.0) -> SizeRecord:
     problem = timed("evidence", lambda: evidence_problem(trace, FOOTPRINTS, options))
     learned = timed("merge path", lambda: merge_path(problem, options))
     _, conf = timed("confidence", lambda: assess_path(trace, problem, learned, options))
+    timed("trace hash", trace.content_hash)
     return SizeRecord(trace.n_transitions, trace.n_obs, trace.image_shape, generate_seconds,
                       tuple(stages), learned.best.n_nodes, conf.suspect)
 
