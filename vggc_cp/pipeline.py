@@ -44,6 +44,7 @@ from vggc_cp.solvers.doubts import Doubt, DoubtRule, find_doubts
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
+from vggc_cp.solvers.selection import PATH, get_selection
 from vggc_cp.solvers.stable_mdl import plateau_length, runner_up
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
@@ -453,7 +454,7 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
-    other = runner_up(path.results, dls, k)
+    other = runner_up(path.results, dls, k, get_selection(options.rule, PATH))
     n_trans = max(len(problem.act), 1)
     margin = (dls[other] - dls[k]) / n_trans if other is not None else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
@@ -548,7 +549,8 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[D
     rule = None
     if toward_runner_up:
         path, k = chosen.path, chosen.path.selected
-        other = None if k is None else runner_up(path.results, chosen.description_lengths, k)
+        other = None if k is None else runner_up(path.results, chosen.description_lengths, k,
+                                                  get_selection(path.rule, PATH))
         if other is None:
             return ()
         rule = DoubtRule(window=max(DoubtRule().window, abs(other - k)), max_nats=math.inf)

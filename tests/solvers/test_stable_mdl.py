@@ -46,15 +46,15 @@ def test_stable_mdl_takes_the_stable_graph_and_its_margin_reads_the_collapse(col
     assert get_selection("stable-mdl", PATH) is select_stable_mdl
     assert select_stable_mdl(path, problem) == 1
     dls = [description_length(problem, r.labels) for r in path]
-    # the margin's runner-up: every graph of another size, the transient collapse included
-    assert runner_up(path, dls, 1) == 4
+    # the runner-up of the margin: the shorter transient graph, not only the eligible ones
+    assert runner_up(path, dls, 1, select_stable_mdl) == 4
     margin = dls[4] - dls[1]
     assert margin < 0
     (reason,) = [r for r in fixed_check_reasons(margin, 3, None, 10.0) if "margin" in r]
     assert "holds for fewer than 3 thresholds" in reason and "shorter" in reason
     # under plain mdl the collapse is chosen and the true graph is its runner-up (the nearest
     # of its equal copies), at a positive margin
-    assert runner_up(path, dls, 4) == 3 and dls[3] > dls[4]
+    assert runner_up(path, dls, 4, select_mdl) == 3 and dls[3] > dls[4]
 
 
 def test_without_a_stable_graph_every_graph_is_eligible(collapse):
@@ -71,6 +71,12 @@ def test_the_runner_up_is_of_another_size_and_none_without_one(collapse):
     problem, path = collapse
     same = [path[1], path[2], path[3]]
     dls = [description_length(problem, r.labels) for r in same]
-    assert runner_up(same, dls, 0) is None
+    assert runner_up(same, dls, 0, select_stable_mdl) is None
     dls = [description_length(problem, r.labels) for r in path]
-    assert runner_up(path[:4], dls[:4], 1) == 0  # the unmerged graph, transient as it is
+    # from the unmerged graph (a rule that chose it): every other size is eligible
+    assert runner_up(path, dls, 0, select_mdl) == 4
+    # the unmerged graph is neither eligible under stable-mdl nor shorter: no runner-up; a
+    # rule without an eligible set measures the margin to it
+    stable_only = path[:4]
+    assert runner_up(stable_only, dls[:4], 1, select_stable_mdl) is None
+    assert runner_up(stable_only, dls[:4], 1, select_mdl) == 0

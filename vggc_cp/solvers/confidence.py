@@ -39,10 +39,11 @@ held-out split and ten tasks drawn after the method was frozen it left 5 of 57 w
 unwarned (near misses: one node too many or too few, and random-201 randomized, 52 nodes for
 43 states), all of which the former checks flag; so both run, at their false-alarm cost. The
 margin check now reads the margin in nats over the whole trace (below ``ln 20``), not per
-transition (:data:`FIXED_CHECKS`). The margin is measured to every graph of another size on
-the path (:func:`vggc_cp.solvers.stable_mdl.runner_up`); under the ``stable-mdl`` rule a
-transient graph can be shorter than the chosen one, and that negative margin is a reason of
-its own.
+transition (:data:`FIXED_CHECKS`). The margin is measured to the graphs of another size the
+selection rule could have chosen (``stable-mdl``: those that hold for at least 3 thresholds)
+and to any graph of another size with a shorter description length
+(:func:`vggc_cp.solvers.stable_mdl.runner_up`): a negative margin says the rule passed over a
+shorter, transient graph, and is a reason of its own.
 
 **Held-out prediction** (a fixed check; with the rest reported): in the fold re-runs the
 left-out observations are placed in the node of least mean distance (their own role), and

@@ -14,11 +14,8 @@ that hold for at least :data:`MIN_PLATEAU` thresholds in a row (the bound the pl
 the confidence uses, :data:`vggc_cp.solvers.confidence.FIXED_CHECKS`), and among all graphs
 where none does.
 
-A transient graph is still evidence: the confidence's margin is measured to every graph of
-another size on the path (:func:`runner_up`), so a graph chosen over a shorter transient one
-has a negative margin and is warned rather than silently preferred. (Measuring the margin to
-the stable graphs only removed about a third of the false alarms on the suite's sets but left
-a robot-look graph of 8 nodes for 6 unwarned, whose true-sized runner-up was transient.)
+A shorter transient graph is still evidence: the confidence's margin reads it
+(:func:`runner_up`), so a graph chosen over it is warned rather than silently preferred.
 
 Examples
 --------
@@ -92,16 +89,27 @@ def select_stable_mdl(results: Sequence[SolveResult], problem: Problem | None = 
     return int(min(keys)[2])
 
 
-def runner_up(results: Sequence[SolveResult], dls: Sequence[float], selected: int
-              ) -> int | None:
+#: the results the rule chooses among (read by the confidence's margin, :func:`runner_up`)
+select_stable_mdl.eligible = eligible
+
+
+def runner_up(results: Sequence[SolveResult], dls: Sequence[float], selected: int,
+              rule=None) -> int | None:
     """The graph the description-length margin of the ``selected`` one is measured to: the
-    least description length among the graphs of another size on the path, transient ones
-    included (None when every graph has the selected one's size); of equal description
-    lengths, the one nearest ``selected``. Under ``stable-mdl`` a transient graph can be
-    shorter than the selected one: the margin is then negative, and the confidence says so.
+    least description length among the graphs of another size that ``rule`` could have chosen
+    (its ``eligible`` attribute; every graph for a rule without one), or any graph of another
+    size with a shorter description length than the selected one (a transient graph the rule
+    passed over). None when every graph has the selected one's size.
+
+    Of equal description lengths, the one nearest ``selected`` on the path.
     """
     size = results[selected].n_nodes
-    others = [j for j, r in enumerate(results) if r.n_nodes != size]
+    pool_of = getattr(rule, "eligible", None)
+    pool = set(pool_of(results)) if pool_of is not None else set(range(len(results)))
+    if selected not in pool:
+        pool = set(range(len(results)))
+    others = [j for j, r in enumerate(results) if r.n_nodes != size
+              and (j in pool or dls[j] < dls[selected])]
     if not others:
         return None
     return min(others, key=lambda j: (dls[j], abs(j - selected)))
