@@ -181,12 +181,12 @@ def test_default_solver_is_merge_and_recovers_the_shipped_graph(tmp_path, capsys
     out = tmp_path / "default.json"
     assert main(["solve", str(SHIPPED), "-o", str(out), "--quiet", "--exact", *FAST]) == 0
     text = capsys.readouterr().out
-    assert "(stable-mdl)" in text and "merge is node-minimal; proved" in text
+    assert "(mdl)" in text and "merge is node-minimal; proved" in text
     assert "confidence" in text and "no warning" in text
     sol = read_solution(out)
     trace = load_trace(SHIPPED)
     verify_solution(sol, trace, str(out))
-    assert sol.solver == "merge" and sol.extra["select"] == "stable-mdl"
+    assert sol.solver == "merge" and sol.extra["select"] == "mdl"
     assert sol.extra["evidence"] == "footprints"
     assert set(sol.extra["confidence"]) >= {"margin", "plateau", "heldout", "suspect", "reasons"}
     assert sol.extra["exact"]["minimal_nodes"] == 6 and sol.extra["exact"]["proved"]

@@ -30,7 +30,7 @@ Settings are keyword arguments or a :class:`LearnConfig`; a wrong name lists the
 >>> vg.learn_graph(trace, rule="MDL")
 Traceback (most recent call last):
 ...
-vggc_cp.errors.UnknownNameError: unknown path selection rule 'MDL'; known: cascade, fewest, mdl, stable-mdl
+vggc_cp.errors.UnknownNameError: unknown path selection rule 'MDL'; known: cascade, fewest, mdl
 """
 
 from __future__ import annotations

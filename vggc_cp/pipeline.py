@@ -38,14 +38,13 @@ from vggc_cp.solvers.confidence import (
     WarningRule,
     assess,
     corroborate,
+    plateau_length,
     resample,
 )
 from vggc_cp.solvers.doubts import Doubt, DoubtRule, find_doubts
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
-from vggc_cp.solvers.selection import PATH, get_selection
-from vggc_cp.solvers.stable_mdl import plateau_length, runner_up
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
@@ -111,9 +110,7 @@ class LearnConfig:
         Settings of the Sinkhorn distances (its ``backend`` is replaced by the evidence).
     footprint : FootprintConfig
     rule : str
-        Path selection rule (``stable-mdl`` default: the least description length among the
-        graphs that hold for several thresholds, :mod:`vggc_cp.solvers.stable_mdl`; ``mdl``
-        among all graphs; ``cascade``, ``fewest``).
+        Path selection rule (``mdl`` default; ``cascade``, ``fewest``).
     thresholds : tuple of float or None
         Merge thresholds, positive; None: :func:`threshold_grid`.
     steps : int
@@ -148,7 +145,7 @@ class LearnConfig:
     >>> LearnConfig(rule="MDL")
     Traceback (most recent call last):
     ...
-    vggc_cp.errors.UnknownNameError: unknown path selection rule 'MDL'; known: cascade, fewest, mdl, stable-mdl
+    vggc_cp.errors.UnknownNameError: unknown path selection rule 'MDL'; known: cascade, fewest, mdl
     >>> LearnConfig(evidence="attention").evidence   # the backend of distance
     'saliency'
     """
@@ -156,7 +153,7 @@ class LearnConfig:
     evidence: str = AUTO
     distance: DistanceConfig = field(default_factory=DistanceConfig)
     footprint: FootprintConfig = field(default_factory=FootprintConfig)
-    rule: str = "stable-mdl"
+    rule: str = "mdl"
     thresholds: tuple[float, ...] | None = None
     steps: int = 24
     folds: int = 5
@@ -454,9 +451,9 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
-    other = runner_up(path.results, dls, k, get_selection(options.rule, PATH))
+    others = [dl for dl, r in zip(dls, path.results) if r.n_nodes != best.n_nodes]
     n_trans = max(len(problem.act), 1)
-    margin = (dls[other] - dls[k]) / n_trans if other is not None else float("inf")
+    margin = (min(others) - dls[k]) / n_trans if others else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
@@ -549,11 +546,12 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[D
     rule = None
     if toward_runner_up:
         path, k = chosen.path, chosen.path.selected
-        other = None if k is None else runner_up(path.results, chosen.description_lengths, k,
-                                                  get_selection(path.rule, PATH))
-        if other is None:
+        others = [j for j, r in enumerate(path.results) if r.n_nodes != chosen.best.n_nodes]
+        if k is None or not others:
             return ()
-        rule = DoubtRule(window=max(DoubtRule().window, abs(other - k)), max_nats=math.inf)
+        runner_up = min(others, key=lambda j: (chosen.description_lengths[j], abs(j - k)))
+        rule = DoubtRule(window=max(DoubtRule().window, abs(runner_up - k)),
+                         max_nats=math.inf)
     return find_doubts(problem, chosen.path, chosen.best.labels, rule=rule)
 
 

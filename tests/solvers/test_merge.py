@@ -132,7 +132,7 @@ def test_solve_cli_merge(tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     sol = read_solution(out)
     verify_solution(sol, trace)
-    assert sol.solver == "merge" and sol.extra["select"] == "stable-mdl"
+    assert sol.solver == "merge" and sol.extra["select"] == "mdl"
     assert len(sol.extra["grid"]) == 24 and all("description_length" in r
                                                 for r in sol.extra["grid"])
     assert main(["solve", str(path), "-o", str(out), "--solver", "merge", "--thresholds",

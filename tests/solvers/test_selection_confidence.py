@@ -14,13 +14,13 @@ from vggc_cp.solvers.confidence import (
     assess,
     changed_nodes,
     heldout_prediction,
+    plateau_length,
     resample,
     resampling_units,
     same_partition,
     subproblem,
 )
 from vggc_cp.solvers.mdl import description_length, select_mdl
-from vggc_cp.solvers.stable_mdl import plateau_length
 from vggc_cp.trace import compute_roles
 
 

@@ -336,7 +336,7 @@ def _learn_options(args):
 
     thresholds = _parse_thresholds(args.thresholds)
     return LearnConfig(evidence=args.evidence, distance=config_from_args(args),
-                       rule=args.select or LearnConfig.rule,
+                       rule=args.select or "mdl",
                        thresholds=None if thresholds is None else tuple(thresholds),
                        fallback=getattr(args, "fallback", None) or "refused")
 

@@ -80,8 +80,7 @@ DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 MIN_OBS_PER_STATE = 2.0
 #: Modules whose source is part of a cell's key (changed code recomputes the cells).
 CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.pairs",
-                "vggc_cp.solvers.mdl", "vggc_cp.solvers.stable_mdl", "vggc_cp.solvers.confidence",
-                "vggc_cp.solvers.doubts",
+                "vggc_cp.solvers.mdl", "vggc_cp.solvers.confidence", "vggc_cp.solvers.doubts",
                 "vggc_cp.vision.evidence", "vggc_cp.vision.footprints",
                 "vggc_cp.vision.occupancy", "vggc_cp.vision.registration",
                 "vggc_cp.vision.working", "vggc_cp.vision.distances",

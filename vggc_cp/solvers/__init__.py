@@ -22,4 +22,3 @@ from vggc_cp.solvers import cpsat as _cpsat  # noqa: E402,F401
 from vggc_cp.solvers import greedy as _greedy  # noqa: E402,F401
 from vggc_cp.solvers import mdl as _mdl  # noqa: E402,F401  (registers the "mdl" path rule)
 from vggc_cp.solvers import merge as _merge  # noqa: E402,F401
-from vggc_cp.solvers import stable_mdl as _stable_mdl  # noqa: E402,F401  (the "stable-mdl" rule)

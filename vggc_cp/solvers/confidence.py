@@ -39,11 +39,7 @@ held-out split and ten tasks drawn after the method was frozen it left 5 of 57 w
 unwarned (near misses: one node too many or too few, and random-201 randomized, 52 nodes for
 43 states), all of which the former checks flag; so both run, at their false-alarm cost. The
 margin check now reads the margin in nats over the whole trace (below ``ln 20``), not per
-transition (:data:`FIXED_CHECKS`). The margin is measured to the graphs of another size the
-selection rule could have chosen (``stable-mdl``: those that hold for at least 3 thresholds)
-and to any graph of another size with a shorter description length
-(:func:`vggc_cp.solvers.stable_mdl.runner_up`): a negative margin says the rule passed over a
-shorter, transient graph, and is a reason of its own.
+transition (:data:`FIXED_CHECKS`).
 
 **Held-out prediction** (a fixed check; with the rest reported): in the fold re-runs the
 left-out observations are placed in the node of least mean distance (their own role), and
@@ -70,7 +66,6 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.merge import congruence_merge
 from vggc_cp.solvers.pairs import CodedProblem, coded_merge
-from vggc_cp.solvers.stable_mdl import MIN_PLATEAU
 from vggc_cp.trace import PICK, PLACE
 
 
@@ -128,7 +123,7 @@ class WarningRule:
 #: The former check took it per transition (below 0.01, :data:`FORMER_MARGIN`), which is lax
 #: on short recordings (0.5 nats, odds of 1.6 to 1, on |D| = 50) and strict on long ones
 #: (fruit-6x8 at |D| = 3,000 was flagged at 0.004 nats a transition: 12 nats, odds of e^12).
-FIXED_CHECKS = {"min_margin_nats": math.log(20), "min_plateau": MIN_PLATEAU, "max_contradicted": 0.05,
+FIXED_CHECKS = {"min_margin_nats": math.log(20), "min_plateau": 3, "max_contradicted": 0.05,
                 "min_predicted": 0.6, "min_obs_per_node": 2.0}
 #: The margin check of the former rule (nats per transition), for comparisons
 #: (:data:`vggc_cp.experiments.calibration.OLD_RULE`).
@@ -144,12 +139,7 @@ def fixed_check_reasons(margin_nats: float, plateau: int, heldout, obs_per_node:
     if plateau < c["min_plateau"]:
         out.append(f"the chosen graph holds for {plateau} threshold(s) only "
                    f"(< {c['min_plateau']}): no stable partition")
-    if math.isfinite(margin_nats) and margin_nats < 0:
-        out.append(f"description-length margin {margin_nats:.2f} nats: a graph of another "
-                   f"size that holds for fewer than {c['min_plateau']} thresholds is "
-                   f"{-margin_nats:.2f} nats shorter (the description length and the "
-                   f"evidence's stability disagree)")
-    elif math.isfinite(margin_nats) and margin_nats < c["min_margin_nats"]:
+    if math.isfinite(margin_nats) and margin_nats < c["min_margin_nats"]:
         out.append(f"description-length margin {margin_nats:.2f} nats (< ln 20 = "
                    f"{c['min_margin_nats']:.2f}): a graph of another size is at least 1/20 as "
                    f"probable")
@@ -280,6 +270,25 @@ class Confidence:
         verdict = "SUSPECT: " + "; ".join(self.reasons) if self.suspect else "no warning"
         return (f"{chance}{held}; margin {margin} nats/transition, plateau {self.plateau}, "
                 f"{self.obs_per_node:.1f} obs/node -> {verdict}")
+
+
+def plateau_length(labelings: list[np.ndarray | None], index: int) -> int:
+    """Thresholds in a row around ``index`` whose labels equal those at ``index``.
+
+    Labels of one partition are identical arrays (:meth:`Problem.labels_from_colours`
+    numbers nodes in order of first appearance), so equality is exact comparison.
+    """
+    ref = labelings[index]
+    if ref is None:
+        return 0
+    same = [lab is not None and np.array_equal(lab, ref) for lab in labelings]
+    lo = index
+    while lo > 0 and same[lo - 1]:
+        lo -= 1
+    hi = index
+    while hi + 1 < len(same) and same[hi + 1]:
+        hi += 1
+    return hi - lo + 1
 
 
 def subproblem(problem: Problem, keep: np.ndarray) -> tuple[Problem, np.ndarray]:
