@@ -67,7 +67,8 @@ def test_counts_per_split_look_and_verdict(tmp_path):
 @pytest.mark.parametrize("name", ["robustness-tasks-tuning.csv", "robustness-tasks-heldout.csv",
                                   "robustness-tasks-fresh.csv", "robustness-tasks-seeds11-12.csv",
                                   "robustness-tasks-seeds13-14.csv",
-                                  "robustness-tasks-seeds15-16.csv"])
+                                  "robustness-tasks-seeds15-16.csv",
+                                  "robustness-tasks-seeds17-18.csv"])
 def test_the_fixed_checks_recomputed_from_a_row_agree_with_its_verdict(name):
     """The committed tables were written with the fixed checks on beside the chance of change:
     every run they flag (the margin in nats), recomputed from the row's figures, is flagged; a
