@@ -443,6 +443,18 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
     return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
 
 
+def runner_up(path: ThresholdPath, dls) -> int | None:
+    """The graph the description-length margin of the selected one is measured to: the least
+    description length (``dls``, one per graph of ``path``) among graphs of another size,
+    the nearest on the path of equal ones; None when there is none."""
+    k = path.selected
+    if k is None:
+        return None
+    size = path.results[k].n_nodes
+    others = [j for j, r in enumerate(path.results) if r.n_nodes != size]
+    return min(others, key=lambda j: (dls[j], abs(j - k))) if others else None
+
+
 def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
                 options: LearnConfig) -> tuple[tuple[float, ...], Confidence]:
     """Description length of every graph of ``path`` and the :class:`Confidence` of the
@@ -451,9 +463,9 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
-    others = [dl for dl, r in zip(dls, path.results) if r.n_nodes != best.n_nodes]
+    other = runner_up(path, dls)
     n_trans = max(len(problem.act), 1)
-    margin = (min(others) - dls[k]) / n_trans if others else float("inf")
+    margin = (dls[other] - dls[k]) / n_trans if other is not None else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
@@ -545,12 +557,10 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[D
         problem = problem.dense()
     rule = None
     if toward_runner_up:
-        path, k = chosen.path, chosen.path.selected
-        others = [j for j, r in enumerate(path.results) if r.n_nodes != chosen.best.n_nodes]
-        if k is None or not others:
+        other = runner_up(chosen.path, chosen.description_lengths)
+        if other is None:
             return ()
-        runner_up = min(others, key=lambda j: (chosen.description_lengths[j], abs(j - k)))
-        rule = DoubtRule(window=max(DoubtRule().window, abs(runner_up - k)),
+        rule = DoubtRule(window=max(DoubtRule().window, abs(other - chosen.path.selected)),
                          max_nats=math.inf)
     return find_doubts(problem, chosen.path, chosen.best.labels, rule=rule)
 
