@@ -450,16 +450,21 @@ def plot_calibration(table: list[dict], rows: list[dict], path: str | Path, *,
                      title: str | None = None) -> None:
     """Left: per split and look, passed runs warned (false alarms, share of passing) and
     missed runs not warned (silent failures, share of missed), old verdict against new
-    (:func:`vggc_cp.experiments.calibration.calibration_rows`). Right: every run's chance of
-    change against whether it passed (jittered), with the bar of the warning."""
+    (:func:`vggc_cp.experiments.calibration.calibration_rows`). Middle: every run's chance of
+    change against whether it passed (jittered), with the bar of the warning. Right: false
+    alarms (share of passing) and silent failures per split with the description-length
+    margin check at other bars (:func:`vggc_cp.experiments.calibration.margin_tradeoff_rows`),
+    the current bar dashed."""
+    from vggc_cp.experiments.calibration import margin_tradeoff_rows
     from vggc_cp.experiments.robustness import passes
+    from vggc_cp.solvers.confidence import FIXED_CHECKS
     from vggc_cp.solvers.confidence import WarningRule
 
     plt = _pyplot()
     groups = list(dict.fromkeys((c["split"], c["look"]) for c in table))
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(4 + 0.9 * len(groups), 3.8),
-                                 constrained_layout=True,
-                                 gridspec_kw={"width_ratios": [max(len(groups), 2), 3]})
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(7 + 0.9 * len(groups), 3.8),
+                                     constrained_layout=True,
+                                     gridspec_kw={"width_ratios": [max(len(groups), 2), 3, 3]})
     x = np.arange(len(groups))
     w = 0.2
     styles = (("old", "false_alarms", "passed", -1.5, "#d98c8c", "old: false alarms"),
@@ -503,6 +508,25 @@ def plot_calibration(table: list[dict], rows: list[dict], path: str | Path, *,
     if bx.get_legend_handles_labels()[0]:
         bx.legend(fontsize=7, loc="center right")
     bx.set_title("chance of change per run", fontsize=9)
+    trade = margin_tradeoff_rows(rows)
+    sx = cx.twinx()
+    for j, split in enumerate(dict.fromkeys(t["split"] for t in trade)):
+        ts = [t for t in trade if t["split"] == split]
+        bars = [t["bar"] for t in ts]
+        colour = colours[j % len(colours)]
+        cx.plot(bars, [100 * t["false_alarms"] / t["passed"] if t["passed"] else 0.0
+                       for t in ts], "o-", color=colour, label=f"{split}: false alarms")
+        sx.plot(bars, [t["silent"] for t in ts], "s:", color=colour,
+                label=f"{split}: silent failures")
+    cx.axhline(5, color="grey", ls="--", lw=1)
+    cx.axvline(FIXED_CHECKS["min_margin_nats"], color="grey", ls="--", lw=1)
+    cx.set_xlabel("bar of the margin check (nats)", fontsize=8)
+    cx.set_ylabel("false alarms, % of passing", fontsize=8)
+    sx.set_ylabel("silent failures (runs)", fontsize=8)
+    handles = cx.get_legend_handles_labels()[0] + sx.get_legend_handles_labels()[0]
+    if handles:
+        cx.legend(handles, [h.get_label() for h in handles], fontsize=6, loc="upper left")
+    cx.set_title("moving the margin's bar", fontsize=9)
     if title:
         fig.suptitle(title, fontsize=10)
     _save(fig, path)

@@ -4,6 +4,7 @@ split and look, bins of the chance of change, the CLI."""
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 import pytest
@@ -62,6 +63,46 @@ def test_counts_per_split_look_and_verdict(tmp_path):
     assert bins["tuning", "(0.3, 0.5]"] == (2, 1) and bins["held-out", "n/a"] == (1, 0)
     md = cal.calibration_markdown(rows)
     assert "| tuning | all | new | 5 | 3 | 1 / 3 (33.3 %) | 2 | 2 | 0 |" in md
+
+
+MARGIN = "description-length margin 0.50 nats (< ln 20 = 3.00): a graph of another size"
+CHANGE = "the graph changes in 4 of 5 re-runs with 1/5 of the episodes left out"
+ADVICE = "`vggc-cp doubts SOLUTION TRACE -o doubts.png` shows the contested decisions"
+
+
+def test_the_margin_in_nats_and_which_runs_another_check_warns():
+    row = _row("clean", True, True, 0.0, margin=0.005, transitions=100, reasons=MARGIN)
+    assert cal.margin_nats(row) == pytest.approx(0.5) and not cal.other_warning(row)
+    assert cal.other_warning(dict(row, reasons=f"{CHANGE}: nodes 1, 2; {ADVICE}; {MARGIN}"))
+    assert not cal.other_warning(dict(row, reasons=f"{MARGIN}; {ADVICE}"))
+    assert not cal.other_warning(dict(row, reasons=None))
+    assert cal.margin_nats(dict(row, margin=float("inf"))) == float("inf")
+    assert cal.margin_nats(dict(row, transitions=None)) is None
+    assert cal.margin_nats(dict(row, margin=None)) is None
+
+
+def test_the_margin_binned_against_the_chance_it_implies_and_its_bar_moved(tmp_path):
+    rows = [_row("clean", True, True, 0.0, margin=0.005, transitions=100, reasons=MARGIN),
+            _row("clean", False, True, 0.0, margin=0.005, transitions=100, reasons=MARGIN),
+            _row("robot", False, True, 0.8, margin=0.05, transitions=100, reasons=CHANGE),
+            _row("clean", True, False, 0.0, margin=0.2, transitions=100, reasons="")]
+    rows = cal.read_rows(_write(tmp_path / "m.csv", rows))
+    bins = {b["margin"]: b for b in cal.margin_rows(rows)}
+    low = bins["(0.25, 1]"]
+    assert (low["runs"], low["quiet_else"], low["missed"]) == (2, 2, 1)
+    assert low["implied"] == pytest.approx(1 / (1 + math.exp(0.5)))
+    mid = bins["(3, 6]"]       # 5 nats, warned by the re-runs: not among the quiet ones
+    assert (mid["runs"], mid["quiet_else"], mid["implied"]) == (1, 0, None)
+    assert bins["(12, inf]"]["runs"] == 1
+    trade = {t["bar"]: t for t in cal.margin_tradeoff_rows(rows, bars=(0.0, 1.0, 30.0))}
+    assert [(trade[b]["false_alarms"], trade[b]["silent"]) for b in (0.0, 1.0, 30.0)] == [
+        (0, 1), (1, 0), (2, 0)]
+    assert trade[0.0]["passed"] == 2 and trade[0.0]["missed"] == 2
+    md = cal.calibration_markdown(rows)
+    assert "| tuning | (0.25, 1] | 2 | 2 | 1 / 2 (50.0 %) | 37.8 % |" in md
+    assert "| tuning | 1 | 1 / 2 (50.0 %) | 0 / 2 |" in md
+    assert "margin" not in cal.calibration_markdown(cal.read_rows(_write(tmp_path / "r.csv",
+                                                                        ROWS)))
 
 
 @pytest.mark.parametrize("name", ["robustness-tasks-tuning.csv", "robustness-tasks-heldout.csv",

@@ -14,8 +14,19 @@ quiet, passed and warned (a **false alarm**), missed and warned (caught), missed
   ``heldout_*`` and ``obs_per_node``.
 
 A second table bins the runs by ``p_change`` and gives the share that passed in each bin:
-what the number means on the suite. Nothing here reads a trace or a ground-truth state
-beyond the row's own ``passed`` figures.
+what the number means on the suite. Two more read the description-length margin ``m`` (nats
+over the whole trace, :func:`margin_nats`):
+
+* **is it a probability?** (:func:`margin_rows`) If the description length were a negative
+  log posterior, the runner-up graph of another size would be the right one with chance
+  ``1 / (1 + e^m)``. Per bin of ``m``, among the runs no other check flags, the share that
+  missed against that chance;
+* **what moving its bar would do** (:func:`margin_tradeoff_rows`): false alarms and silent
+  failures with the margin check at other bars, every other reason a row records kept as
+  it is. It shows whether any bar gets both to target, or whether the evidence must improve
+  first.
+
+Nothing here reads a trace or a ground-truth state beyond the row's own ``passed`` figures.
 """
 
 from __future__ import annotations
@@ -34,6 +45,13 @@ OLD_RULE = {"min_margin": FORMER_MARGIN, **FIXED_CHECKS}
 VERDICTS = ("old", "new")
 #: Bins of ``p_change`` (upper bounds, inclusive) of :func:`reliability_rows`.
 P_BINS = (0.0, 0.1, 0.2, 0.3, 0.5, 1.0)
+#: Bins of the description-length margin in nats (upper bounds, inclusive) of
+#: :func:`margin_rows`.
+MARGIN_BINS = (0.25, 1.0, 2.0, 3.0, 6.0, 12.0, math.inf)
+#: Bars of the margin check (nats) that :func:`margin_tradeoff_rows` tries.
+MARGIN_BARS = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
+#: How a warning reason about the margin begins (:func:`vggc_cp.solvers.confidence.fixed_reasons`).
+MARGIN_REASON = "description-length margin"
 _NUMBERS = ("seed", "transitions", "observations", "true_states", "nodes", "nodes_ratio", "exec",
             "opt_path", "any_path", "trans_prec", "trans_cov", "threshold", "margin", "plateau",
             "heldout_predicted", "heldout_contradicted", "obs_per_node", "obs_per_state",
@@ -150,11 +168,18 @@ def calibration_rows(rows: list[dict]) -> list[dict]:
     return out
 
 
+def _splits(rows: list[dict]) -> list:
+    """The splits the rows hold: :data:`~vggc_cp.experiments.robustness.SPLITS` first, in
+    their order, then any other by name."""
+    have = {r.get("split") for r in rows}
+    return [s for s in SPLITS if s in have] + sorted(have - set(SPLITS), key=str)
+
+
 def reliability_rows(rows: list[dict]) -> list[dict]:
     """Runs binned by ``p_change`` (:data:`P_BINS`; runs without one in ``n/a``): per split
     and bin, runs, passed and the share that passed."""
     out = []
-    for split in sorted({r.get("split") for r in rows}, key=lambda s: (s not in SPLITS, s)):
+    for split in _splits(rows):
         sub = [r for r in rows if r.get("split") == split]
         lo = None
         for hi in P_BINS:
@@ -169,6 +194,69 @@ def reliability_rows(rows: list[dict]) -> list[dict]:
         if g:
             out.append({"split": split, "p_change": "n/a", "runs": len(g),
                         "passed": sum(passes(r) for r in g)})
+    return out
+
+
+def margin_nats(row: dict) -> float | None:
+    """The row's description-length margin over the whole trace (its ``margin`` is per
+    transition): ``inf`` when no graph of another size was on the path, None when the row
+    has no margin or no transition count."""
+    m, n = row.get("margin"), row.get("transitions")
+    if m is None or not n or (isinstance(m, float) and math.isnan(m)):
+        return None
+    return math.inf if math.isinf(m) else float(m) * n
+
+
+def other_warning(row: dict) -> bool:
+    """Whether the row's verdict warned for a reason other than the margin (the advice
+    appended to a reason does not count on its own)."""
+    reasons = [p for p in (row.get("reasons") or "").split("; ") if p.strip()]
+    return any(not p.startswith(MARGIN_REASON) and not p.startswith("`vggc-cp ")
+               for p in reasons)
+
+
+def _bin_name(lo: float | None, hi: float) -> str:
+    top = "inf" if math.isinf(hi) else f"{hi:g}"
+    return f"<= {top}" if lo is None else f"({lo:g}, {top}]"
+
+
+def margin_rows(rows: list[dict]) -> list[dict]:
+    """Runs binned by the description-length margin in nats (:data:`MARGIN_BINS`), per split:
+    runs, runs no other check flags (``quiet_else``), how many of those missed, and the mean
+    chance ``1 / (1 + e^m)`` the description length gives the runner-up over them
+    (``implied``; None for an empty bin)."""
+    out = []
+    for split in _splits(rows):
+        sub = [(margin_nats(r), r) for r in rows if r.get("split") == split]
+        lo = None
+        for hi in MARGIN_BINS:
+            g = [r for m, r in sub if m is not None and (lo is None or m > lo) and m <= hi]
+            quiet = [r for r in g if not other_warning(r)]
+            chance = [1.0 / (1.0 + math.exp(min(margin_nats(r), 700.0))) for r in quiet]
+            out.append({"split": split, "margin": _bin_name(lo, hi), "runs": len(g),
+                        "quiet_else": len(quiet), "missed": sum(not passes(r) for r in quiet),
+                        "implied": sum(chance) / len(chance) if chance else None})
+            lo = hi
+    return out
+
+
+def margin_tradeoff_rows(rows: list[dict], bars=MARGIN_BARS) -> list[dict]:
+    """Per split and bar of the margin check (nats): passed, false alarms, missed and silent
+    failures when a run is warned for a reason other than the margin
+    (:func:`other_warning`) or for a margin below the bar. Rows without a margin keep their
+    other reasons only."""
+    out = []
+    for split in _splits(rows):
+        sub = [r for r in rows if r.get("split") == split]
+        for bar in bars:
+            def warned(r, bar=bar):
+                m = margin_nats(r)
+                return other_warning(r) or (m is not None and m < bar)
+            ok = [r for r in sub if passes(r)]
+            miss = [r for r in sub if not passes(r)]
+            out.append({"split": split, "bar": float(bar), "passed": len(ok),
+                        "false_alarms": sum(warned(r) for r in ok), "missed": len(miss),
+                        "silent": sum(not warned(r) for r in miss)})
     return out
 
 
@@ -205,4 +293,31 @@ def calibration_markdown(rows: list[dict], source: str = "robustness.csv") -> st
             share = f"{100 * r['passed'] / r['runs']:.0f} %" if r["runs"] else "-"
             lines.append(f"| {r['split']} | {r['p_change']} | {r['runs']} | {r['passed']} | "
                          f"{share} |")
+    lines += _margin_markdown(rows)
     return "\n".join(lines) + "\n"
+
+
+def _margin_markdown(rows: list[dict]) -> list[str]:
+    """The margin's two tables (:func:`margin_rows`, :func:`margin_tradeoff_rows`) as markdown
+    lines; none when the rows record no margin or no reasons."""
+    mrows = margin_rows(rows)
+    if not any(r["runs"] for r in mrows) or not any(r.get("reasons") is not None for r in rows):
+        return []
+    lines = ["", "Is the description-length margin a probability? Runs by margin (nats over the "
+                 "trace); among those no other check flags, the share that missed against the "
+                 "chance 1 / (1 + e^m) it gives the runner-up graph:", "",
+             "| split | margin (nats) | runs | no other warning | of them missed | "
+             "chance it implies |", "|---|---|---|---|---|---|"]
+    for r in mrows:
+        if not r["runs"]:
+            continue
+        imp = "-" if r["implied"] is None else f"{100 * r['implied']:.1f} %"
+        lines.append(f"| {r['split']} | {r['margin']} | {r['runs']} | {r['quiet_else']} | "
+                     f"{_share(r['missed'], r['quiet_else'])} | {imp} |")
+    lines += ["", "The margin check at other bars (every other reason as the rows record it):",
+              "", "| split | bar (nats) | false alarms (share of passing) | silent failures |",
+              "|---|---|---|---|"]
+    for r in margin_tradeoff_rows(rows):
+        lines.append(f"| {r['split']} | {r['bar']:g} | {_share(r['false_alarms'], r['passed'])} "
+                     f"| {r['silent']} / {r['missed']} |")
+    return lines
