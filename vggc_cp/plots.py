@@ -454,11 +454,10 @@ def plot_calibration(table: list[dict], rows: list[dict], path: str | Path, *,
     change against whether it passed (jittered), with the bar of the warning. Right: false
     alarms (share of passing) and silent failures per split with the description-length
     margin check at other bars (:func:`vggc_cp.experiments.calibration.margin_tradeoff_rows`),
-    the current bar dashed."""
+    the current bar dashed; left empty when the rows record no warning reasons."""
     from vggc_cp.experiments.calibration import margin_tradeoff_rows
     from vggc_cp.experiments.robustness import passes
-    from vggc_cp.solvers.confidence import FIXED_CHECKS
-    from vggc_cp.solvers.confidence import WarningRule
+    from vggc_cp.solvers.confidence import FIXED_CHECKS, WarningRule
 
     plt = _pyplot()
     groups = list(dict.fromkeys((c["split"], c["look"]) for c in table))
@@ -508,7 +507,11 @@ def plot_calibration(table: list[dict], rows: list[dict], path: str | Path, *,
     if bx.get_legend_handles_labels()[0]:
         bx.legend(fontsize=7, loc="center right")
     bx.set_title("chance of change per run", fontsize=9)
-    trade = margin_tradeoff_rows(rows)
+    # the other reasons are read from the rows: without them the curve would be made up
+    trade = margin_tradeoff_rows(rows) if any(r.get("reasons") is not None for r in rows) else []
+    if not trade:
+        cx.text(0.5, 0.5, "no warning reasons recorded", ha="center", va="center",
+                transform=cx.transAxes, fontsize=8)
     sx = cx.twinx()
     for j, split in enumerate(dict.fromkeys(t["split"] for t in trade)):
         ts = [t for t in trade if t["split"] == split]

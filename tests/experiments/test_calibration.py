@@ -143,3 +143,9 @@ def test_the_command_draws_the_plot(tmp_path):
     png = tmp_path / "c.png"
     assert main(["calibration", str(_write(tmp_path / "r.csv", ROWS)), "--png", str(png)]) == 0
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 1000
+    with_reasons = [dict(r, transitions=100, reasons=MARGIN if r["suspect"] else "")
+                    for r in ROWS]
+    png2 = tmp_path / "c2.png"
+    assert main(["calibration", str(_write(tmp_path / "m.csv", with_reasons)),
+                 "--png", str(png2)]) == 0
+    assert png2.read_bytes()[:4] == b"\x89PNG" and png2.stat().st_size > 1000
