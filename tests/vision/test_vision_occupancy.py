@@ -132,3 +132,33 @@ def test_settled_sites_are_what_the_actions_state_even_where_a_frame_hides_them(
     learned = learn_graph(hidden.without_states(), LearnConfig(evidence="footprints"))
     same = learned.labels[:, None] == learned.labels[None, :]
     np.testing.assert_array_equal(same, tr.states[:, None] == tr.states[None, :])
+
+
+def test_the_sequence_pairs_a_pick_with_the_place_that_refills_its_slot():
+    """Footprints that pair a pick with the wrong place (an arm's, not the object's) are
+    overruled by the sequence: the twin alternates with the action in every episode; a
+    candidate seen alternating too rarely, or when no candidate ever breaks the rule, leaves
+    the choice to the pixels."""
+    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
+    wrong = np.array([[1, 0, .1, .6], [0, 1, .6, .1], [.1, .6, 1, 0], [.6, .1, 0, 1]])
+    colour = np.zeros(4, dtype=np.int64)
+    assert occ.twins(wrong, colour, kinds).tolist() == [3, 2, 1, 0]
+    rng = np.random.default_rng(0)
+    # two slots: 0/2 at one, 1/3 at the other, one object, random episodes
+    actions, episodes, start = [], [], 0
+    for _ in range(12):
+        held_at, ep = int(rng.integers(2)), []
+        for _ in range(int(rng.integers(3, 7))):
+            ep += [held_at, 2 + (held_at := int(rng.integers(2)))]
+        actions += ep + [-1]
+        episodes.append((start, start + len(ep)))
+        start += len(ep) + 1
+    actions = np.array(actions[:-1])
+    assert occ.sequence_twins(actions, episodes, wrong, colour, kinds).tolist() == [2, 3, 0, 1]
+    # one short episode is too little evidence against the pixels
+    few = np.array([0, 2, 1, 3])
+    assert occ.sequence_twins(few, [(0, 4)], wrong, colour, kinds).tolist() == [3, 2, 1, 0]
+    # other colours are never candidates: with the true twins in another colour, the only
+    # candidate breaks the rule and the pixels' choice stands
+    two = np.array([0, 1, 1, 0])
+    assert occ.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [3, 2, 1, 0]

@@ -79,6 +79,7 @@ from scipy import ndimage
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
+from vggc_cp.vision.blobs import heaviest_component
 from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.registration import steady
 from vggc_cp.vision.working import (
@@ -226,16 +227,6 @@ def normalised(maps: np.ndarray) -> np.ndarray:
     """Every map divided by its sum (all-zero maps stay zero), float32."""
     total = maps.sum(axis=(1, 2), keepdims=True)
     return np.where(total > 0, maps / np.maximum(total, 1e-12), 0.0).astype(np.float32)
-
-
-def heaviest_component(m: np.ndarray) -> np.ndarray:
-    """``m`` (shape (H, W), non-negative) kept on its connected component (8-neighbours) of
-    largest mass: an action acts in one place; scattered residue elsewhere is not its."""
-    lab, n = ndimage.label(m > 0, structure=np.ones((3, 3)))
-    if n <= 1:
-        return m
-    mass = ndimage.sum(m, lab, index=np.arange(1, n + 1))
-    return np.where(lab == 1 + int(np.argmax(mass)), m, 0.0)
 
 
 def overlaps(maps: np.ndarray) -> np.ndarray:
@@ -546,7 +537,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                   params.site_overlap)
     # what the actions state a site holds, and one look per run between actions at it
     presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
-                                 params.site_overlap)
+                                 params.site_overlap, x, params.support, params.saturation)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
                       resolution)

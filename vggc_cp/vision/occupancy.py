@@ -35,13 +35,19 @@ is left to the hand-made posterior. Nothing reads action names or ground-truth s
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
+from vggc_cp.vision.untouched import agreement, pose_readings, poses, run_presence, site_window
 
 #: Label of an empty site (colours are numbered from 0; -2: unlabelled).
 EMPTY = -1
 UNLABELLED = -2
+#: Odds from which a candidate that always alternates with an action is taken for its twin
+#: (:func:`sequence_twins`): 20 to 1, the bar of the warning's description-length margin.
+TWIN_ODDS = 20.0
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
 
@@ -58,6 +64,75 @@ def twins(ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
         if len(cand) and ov[a, cand].max() > 0:
             out[a] = int(cand[np.argmax(ov[a, cand])])
     return out
+
+
+def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
+                   colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Twin of every taken action as the trace's own sequence allows, int array of shape (A,)
+    (-1 when none).
+
+    A slot holds one object: between two picks at it comes a place at it, and between two
+    places a pick. So the twin ``b`` of ``a`` (the other kind, the same colour) alternates with
+    ``a`` in every episode: in the actions of an episode restricted to ``a`` and ``b``, no two
+    neighbours are of one kind. A candidate that breaks this once is not the twin, whatever
+    the pixels say (a footprint on a robot arm overlaps the wrong place's). One that never
+    breaks it may still do so by chance: with ``q`` the share of neighbours that alternate
+    over all of ``a``'s candidates together (most are not its twin), ``k`` alternations
+    without a break are ``(1/q)^k`` times likelier from the twin, and a candidate qualifies
+    at odds of :data:`TWIN_ODDS` (the warning's bar, 20 to 1). Among those that qualify, the
+    one whose footprint overlaps ``a``'s most (then the one seen alternating most often) is
+    the twin; where none does, or no candidate ever breaks the rule (nothing to tell them
+    apart), the footprints decide alone (:func:`twins`).
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+        The trace's actions (-1 between episodes).
+    episodes : list of (first, last)
+    ov : ndarray, shape (A, A)
+        Footprint overlaps.
+    colour, kinds : ndarray, shape (A,)
+
+    Examples
+    --------
+    Picks 0, 1 and places 2, 3; the footprints pair 0 with 3 and 1 with 2. In the first
+    episode 0 and 2 alternate eleven times, and 0 comes six times with no 3 between: 2 is the
+    twin of 0 (and 0 of 2). 1 and 3 alternate once, too little to overrule the pixels:
+
+    >>> from vggc_cp.trace import PLACE
+    >>> kinds = np.array([PICK, PICK, PLACE, PLACE])
+    >>> ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
+    >>> actions = np.array([0, 2] * 6 + [-1, 1, 3])
+    >>> sequence_twins(actions, [(0, 12), (13, 15)], ov, np.zeros(4, int), kinds).tolist()
+    [2, 2, 0, 0]
+    """
+    out = twins(ov, colour, kinds)
+    runs = [actions[first:last] for first, last in episodes]
+    runs = [r[r >= 0] for r in runs]
+    for a in np.flatnonzero(colour >= 0):
+        cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
+        counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, alternated
+        for i, b in enumerate(cand):
+            for r in runs:
+                ev = kinds[r[(r == a) | (r == b)]]
+                if len(ev) > 1:
+                    same = ev[1:] == ev[:-1]
+                    counts[i] += (int(same.sum()), int((~same).sum()))
+        total = counts.sum()
+        if total == 0 or counts[:, 0].sum() == 0:
+            continue                       # no candidate ever breaks it: the pixels decide
+        # how often an unrelated pair alternates, from the candidates together
+        p_alt = counts[:, 1].sum() / total
+        allowed = [(float(ov[a, b]), int(k), int(b)) for b, (broken, k) in zip(cand, counts)
+                   if broken == 0 and k * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS)]
+        if allowed:
+            out[a] = max(allowed)[2]
+    return out
+
+
+def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """:func:`sequence_twins` of ``trace`` (its actions and episodes, never its states)."""
+    return sequence_twins(trace.actions, trace.episodes(), ov, colour, trace.action_kinds())
 
 
 def acting_at(a: int, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
@@ -229,7 +304,7 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     presence = presence.copy()
     refined = np.zeros(len(counts), dtype=bool)
     kinds = trace.action_kinds()
-    twin = twins(ov, colour, kinds)
+    twin = action_twins(trace, ov, colour)
     episodes, episode = trace.episodes(), trace.episode_index()
     for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
         labels = site_labels(trace.actions, episodes,
@@ -243,7 +318,8 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
 
 
 def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.ndarray,
-           colour: np.ndarray, counts: np.ndarray, site_overlap: float
+           colour: np.ndarray, counts: np.ndarray, site_overlap: float,
+           x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5
            ) -> tuple[np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
@@ -256,8 +332,16 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       holds, a passing distractor) cannot mislead;
     * elsewhere (an episode that never acts at the site, or whose actions contradict each
       other there) the site holds one thing from one action at it to the next: every
-      observation of such a run takes the run's median presence and mean colour posterior,
-      so a frame in which the site is hidden is outvoted by the frames in which it is seen.
+      observation of such a run takes one presence and the run's mean colour posterior.
+      With the frames ``x``, the presence may be read per pose of the hand from a window the
+      labelled frames teach (:mod:`vggc_cp.vision.untouched`), so that a frame in which the
+      arm hides the site weighs nothing: where that reading agrees with the labelled frames
+      more often than the footprint presence does. Otherwise (or where no pose can read the
+      site, or without ``x``) the run's median presence, so a frame in which the site is
+      hidden is outvoted by the frames in which it is seen.
+
+    The actions at a site are found with the twins the trace's sequence allows
+    (:func:`action_twins`).
 
     Parameters
     ----------
@@ -268,6 +352,11 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     ov : ndarray, shape (A, A)
     colour, counts : ndarray, shape (A,)
     site_overlap : float
+    x : ndarray of float32, shape (N, H, W, 3), optional
+        Working frames (:func:`~vggc_cp.vision.working.working_frames`).
+    support, saturation : float
+        Of :class:`~vggc_cp.vision.footprints.FootprintConfig`: the share of a window's peak
+        subtracted, and the share of the way to an occupied look at which presence is 1.
 
     Returns
     -------
@@ -276,7 +365,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     """
     presence, posterior = presence.copy(), posterior.copy()
     kinds = trace.action_kinds()
-    twin = twins(ov, colour, kinds)
+    twin = action_twins(trace, ov, colour)
+    pose = poses(trace.actions)
     episodes = trace.episodes()
     actions = trace.actions
     n_col = posterior.shape[2]
@@ -287,6 +377,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         acting = acting_at(int(a), ov, colour, twin, site_overlap)
         labels = site_labels(actions, episodes, acting, kinds, colour)
         known = labels != UNLABELLED
+        raw = presence[:, a].copy()
         presence[known, a] = (labels[known] >= 0).astype(np.float64)
         full = np.flatnonzero(labels >= 0)
         if n_col > 1 and len(full):
@@ -300,9 +391,17 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         loose = np.flatnonzero(~known)
         if not len(loose):
             continue
+        read = {}
+        if x is not None:
+            window = site_window(x, labels, pose, EMPTY, support)
+            if window is not None:
+                reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+                own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
+                if agreement(reading, strength, labels, EMPTY) > own:
+                    read = run_presence(reading, strength, run, loose)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
-            presence[members, a] = np.median(presence[members, a])
+            presence[members, a] = read.get(int(ids[k]), np.median(presence[members, a]))
             posterior[members, a] = posterior[members, a].mean(axis=0)
     return presence, posterior

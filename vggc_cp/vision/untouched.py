@@ -1,0 +1,199 @@
+"""Sites no action of an episode touches, read per pose of the hand (beyond the paper).
+
+The actions of an episode say what a site holds wherever they act at it
+(:func:`vggc_cp.vision.occupancy.site_labels`); an episode that never acts at a site leaves
+it to the pixels. A robot's own camera sees its arm: it rests above the place it last acted
+on, it hides or overlaps other places, and it is most of what each transition changes, so a
+site's footprint and its one empty look (:mod:`vggc_cp.vision.footprints`) may describe the
+arm rather than what the site holds. The labelled frames teach the reading instead:
+
+**Pose.** What the hand does in a frame is set by the action that led to it (a robot that
+rests above the place it last acted on, or one that goes home after each action, looks the
+same after the same action). The *pose* of an observation is that action (``-1`` for the
+first of an episode).
+
+**Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
+differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
+(summed over the channels, weighted by ``n_e n_o / (n_e + n_o)``), less its median over the
+image, less ``support`` of its peak, on its heaviest connected component, is where the site
+shows what it holds (:func:`site_window`); arm, lighting and other sites average out.
+
+**Reading.** In a frame of pose ``b``, the deviation from the empty look of that pose,
+``m(o) = sum_p W(p) |x_o(p) - e_b(p)|_1``, is scaled as the footprint presence is: 0 at the
+median of the pose's empty frames and 1 at ``saturation`` of the way to the median of its
+faintest typical object (the colour whose occupied frames deviate least), so that any object
+of any class counts as present. An empty frame's own deviation is taken from the mean of the
+pose's other empty frames, so that it cannot feign a separation. Each frame weighs
+``d_b^2``, the separation of the pose's empty frames from those of the faintest object
+(difference of the means over their pooled standard deviation); a pose whose labelled
+frames do not show a separation at odds of :data:`READ_ODDS` (an arm that hides the site,
+too few frames) weighs nothing. A run of observations between actions at the site holds one
+thing: it takes the weighted mean of its frames' readings (:func:`pose_readings`,
+:func:`run_presence`).
+
+**Which reading.** Where the footprints already describe the site (a scene without an arm),
+their presence is the better reading of one frame; where an arm stands over the site it is
+not. The labelled frames tell which: a site takes the pose reading only where it agrees with
+the actions' labels on more of them (weighted by strength) than the footprint presence does
+(:func:`agreement`; :func:`vggc_cp.vision.occupancy.settle`).
+
+Nothing reads action names or ground-truth states.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vggc_cp.vision.blobs import heaviest_component
+
+#: Fewest labelled frames of each kind a pose needs to teach the reading.
+MIN_LOOKS = 2
+#: Odds at which a pose's labelled frames must show a separation for the pose to read the
+#: site: ``z^2 / 2 >= ln 20`` for the difference of the means over its standard error, the
+#: bar of the warning's description-length margin.
+READ_ODDS = 20.0
+
+
+def poses(actions: np.ndarray) -> np.ndarray:
+    """Pose of every observation, int64 of shape (N,): the action that led to it, -1 for the
+    first observation of an episode.
+
+    >>> poses(np.array([3, 1, -1, 2])).tolist()
+    [-1, 3, 1, -1, 2]
+    """
+    out = np.full(len(actions) + 1, -1, dtype=np.int64)
+    out[1:] = actions
+    return out
+
+
+def _groups(labels: np.ndarray, pose: np.ndarray, empty: int):
+    """Per pose with enough labelled looks of both kinds: (pose, empty frames, occupied)."""
+    for b in np.unique(pose):
+        at = pose == b
+        e, o = np.flatnonzero(at & (labels == empty)), np.flatnonzero(at & (labels >= 0))
+        if min(len(e), len(o)) >= MIN_LOOKS:
+            yield int(b), e, o
+
+
+def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
+                support: float) -> np.ndarray | None:
+    """Where a site shows what it holds (module docstring), shape (H, W), summing to 1.
+
+    Parameters
+    ----------
+    x : ndarray of float32, shape (N, H, W, 3)
+        Working frames.
+    labels : ndarray of int, shape (N,)
+        :func:`~vggc_cp.vision.occupancy.site_labels` of the site.
+    pose : ndarray of int, shape (N,)
+        :func:`poses`.
+    empty : int
+        The label of an empty site.
+    support : float
+        Share of the peak subtracted.
+
+    Returns
+    -------
+    ndarray or None
+        None when no pose has :data:`MIN_LOOKS` labelled frames of each kind, or nothing
+        differs.
+    """
+    acc = np.zeros(x.shape[1:3], dtype=np.float64)
+    total = 0.0
+    for _, e, o in _groups(labels, pose, empty):
+        w = len(e) * len(o) / (len(e) + len(o))
+        acc += w * np.abs(x[o].mean(axis=0) - x[e].mean(axis=0)).sum(axis=-1)
+        total += w
+    if total == 0:
+        return None
+    m = np.maximum(acc / total - np.median(acc / total), 0.0)
+    m = heaviest_component(np.maximum(m - support * m.max(), 0.0))
+    s = m.sum()
+    return m / s if s > 0 else None
+
+
+def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: np.ndarray,
+                  empty: int, saturation: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every observation's reading of the site from its pose (module docstring).
+
+    Parameters
+    ----------
+    x, labels, pose, empty
+        As for :func:`site_window`.
+    window : ndarray, shape (H, W)
+        :func:`site_window`.
+    saturation : float
+        Share of the way from the empty to the faintest object's median at which presence
+        is 1.
+
+    Returns
+    -------
+    reading : ndarray of float64, shape (N,)
+        Presence in ``[0, 1]``.
+    strength : ndarray of float64, shape (N,)
+        ``d_b^2`` of the observation's pose; 0 where the pose cannot read the site: fewer
+        than :data:`MIN_LOOKS` labelled frames of a kind, or a separation of its labelled
+        frames short of :data:`READ_ODDS`.
+    """
+    on = window > 0
+    weight = window[on]
+    pixels = x[:, on]                                                    # (N, P, 3)
+    reading = np.zeros(len(x))
+    strength = np.zeros(len(x))
+    for b, e, o in _groups(labels, pose, empty):
+        ref = pixels[e].mean(axis=0)
+        dev = lambda idx: np.abs(pixels[idx] - ref).sum(axis=-1) @ weight  # noqa: E731
+        # an empty frame is judged on the mean of the others (it would pull its own reference
+        # toward itself and feign a separation where the arm hides the site)
+        loo = (len(e) * ref - pixels[e]) / (len(e) - 1)
+        de = np.abs(pixels[e] - loo).sum(axis=-1) @ weight
+        # the faintest typical object: the colour whose occupied frames deviate least
+        looks = [dev(o[labels[o] == c]) for c in np.unique(labels[o])
+                 if (labels[o] == c).sum() >= MIN_LOOKS] or [dev(o)]
+        do = min(looks, key=np.median)
+        lo, hi = np.median(de), np.median(do)
+        spread = np.sqrt(0.5 * (de.var() + do.var()))
+        error = np.sqrt(de.var() / len(de) + do.var() / len(do))
+        z = (do.mean() - de.mean()) / error if error > 0 else 0.0
+        if not hi > lo or spread == 0 or z <= 0 or z * z / 2 < math.log(READ_ODDS):
+            continue                   # the arm hides the site, or too few frames to tell
+        these = np.flatnonzero(pose == b)
+        reading[these] = np.clip((dev(these) - lo) / (saturation * (hi - lo)), 0.0, 1.0)
+        strength[these] = ((do.mean() - de.mean()) / spread) ** 2
+    return reading, strength
+
+
+def agreement(reading: np.ndarray, strength: np.ndarray, labels: np.ndarray,
+              empty: int) -> float:
+    """Share of the labelled observations (weighted by ``strength``) whose reading says what
+    their label says (present above 1/2); 0 when none can be read.
+
+    >>> agreement(np.array([0.9, 0.2, 0.6]), np.array([1.0, 1.0, 2.0]), np.array([0, -1, -1]), -1)
+    0.5
+    """
+    known = (labels == empty) | (labels >= 0)
+    w = strength[known]
+    if not w.sum() > 0:
+        return 0.0
+    right = (reading[known] > 0.5) == (labels[known] >= 0)
+    return float(np.average(right, weights=w))
+
+
+def run_presence(reading: np.ndarray, strength: np.ndarray, runs: np.ndarray,
+                 loose: np.ndarray) -> dict[int, float]:
+    """Presence of every run of the unlabelled observations ``loose``: the mean of its frames'
+    readings weighted by their strength; runs with no readable frame are left out.
+
+    >>> run_presence(np.array([1.0, 0.0, 0.8, 0.2]), np.array([4.0, 1.0, 0.0, 0.0]),
+    ...              np.array([0, 0, 1, 1]), np.array([0, 1, 2, 3]))
+    {0: 0.8}
+    """
+    out = {}
+    for r in np.unique(runs[loose]):
+        members = loose[runs[loose] == r]
+        w = strength[members]
+        if w.sum() > 0:
+            out[int(r)] = float(np.average(reading[members], weights=w))
+    return out
