@@ -75,6 +75,26 @@ def test_a_faint_object_counts_as_present():
     assert np.mean((reading[seen] > 0.5) == holds[seen]) > 0.95
 
 
+
+def test_the_reading_is_judged_on_episodes_it_did_not_learn_from():
+    """With the labels of the scene, the pose reading agrees with the labels it did not learn
+    from; with labels that say nothing (shuffled), it does not, although judged on the very
+    frames that taught it, it would look better than chance."""
+    x, labels, pose, episode, _ = _scene(seed=2, n_episodes=60)
+    assert un.held_out_agreement(x, labels, pose, episode, EMPTY, 0.2, 0.5) > 0.97
+    rng = np.random.default_rng(0)
+    noise = labels.copy()
+    known = np.flatnonzero(labels >= EMPTY)
+    noise[known] = rng.permutation(labels[known])
+    w = un.site_window(x, noise, pose, EMPTY, 0.2)
+    held = un.held_out_agreement(x, noise, pose, episode, EMPTY, 0.2, 0.5)
+    assert held < 0.75
+    if w is not None:
+        reading, strength = un.pose_readings(x, noise, pose, w, EMPTY, 0.5)
+        if strength.sum() > 0:
+            assert un.agreement(reading, strength, noise, EMPTY) >= held
+
+
 @pytest.mark.slow
 def test_a_robot_camera_fruit_4x6_is_read_and_learned_right():
     """fruit-4x6 through a robot's camera (tuning seed 1: a Panda resting above the place it

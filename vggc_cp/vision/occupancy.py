@@ -40,7 +40,14 @@ import math
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
-from vggc_cp.vision.untouched import agreement, pose_readings, poses, run_presence, site_window
+from vggc_cp.vision.untouched import (
+    agreement,
+    held_out_agreement,
+    pose_readings,
+    poses,
+    run_presence,
+    site_window,
+)
 
 #: Label of an empty site (colours are numbered from 0; -2: unlabelled).
 EMPTY = -1
@@ -336,7 +343,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       With the frames ``x``, the presence may be read per pose of the hand from a window the
       labelled frames teach (:mod:`vggc_cp.vision.untouched`), so that a frame in which the
       arm hides the site weighs nothing: where that reading agrees with the labelled frames
-      more often than the footprint presence does. Otherwise (or where no pose can read the
+      more often than the footprint presence does (each half of the episodes judged on what
+      the other half teaches). Otherwise (or where no pose can read the
       site, or without ``x``) the run's median presence, so a frame in which the site is
       hidden is outvoted by the frames in which it is seen.
 
@@ -366,7 +374,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, posterior = presence.copy(), posterior.copy()
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour)
-    pose = poses(trace.actions)
+    pose, episode = poses(trace.actions), trace.episode_index()
     episodes = trace.episodes()
     actions = trace.actions
     n_col = posterior.shape[2]
@@ -395,9 +403,11 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         if x is not None:
             window = site_window(x, labels, pose, EMPTY, support)
             if window is not None:
-                reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
                 own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
-                if agreement(reading, strength, labels, EMPTY) > own:
+                if held_out_agreement(x, labels, pose, episode, EMPTY, support,
+                                      saturation) > own:
+                    reading, strength = pose_readings(x, labels, pose, window, EMPTY,
+                                                      saturation)
                     read = run_presence(reading, strength, run, loose)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):

@@ -34,8 +34,9 @@ thing: it takes the weighted mean of its frames' readings (:func:`pose_readings`
 **Which reading.** Where the footprints already describe the site (a scene without an arm),
 their presence is the better reading of one frame; where an arm stands over the site it is
 not. The labelled frames tell which: a site takes the pose reading only where it agrees with
-the actions' labels on more of them (weighted by strength) than the footprint presence does
-(:func:`agreement`; :func:`vggc_cp.vision.occupancy.settle`).
+the actions' labels on more of them (weighted by strength) than the footprint presence does,
+each half of the episodes read with what the other half teaches (:func:`held_out_agreement`;
+:func:`vggc_cp.vision.occupancy.settle`).
 
 Nothing reads action names or ground-truth states.
 """
@@ -179,6 +180,43 @@ def agreement(reading: np.ndarray, strength: np.ndarray, labels: np.ndarray,
         return 0.0
     right = (reading[known] > 0.5) == (labels[known] >= 0)
     return float(np.average(right, weights=w))
+
+
+def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
+                       episode: np.ndarray, empty: int, support: float, saturation: float
+                       ) -> float:
+    """:func:`agreement` of the pose reading on labelled frames it did not learn from: the
+    episodes with labels are split in two (alternately, in order), each half is read with
+    the window and looks the other half teaches, and the two are pooled (0 when nothing can
+    be read). A reading
+    judged on the frames that taught it would flatter itself against the footprint
+    presence.
+
+    Parameters
+    ----------
+    x, labels, pose, empty, support, saturation
+        As for :func:`site_window` and :func:`pose_readings`.
+    episode : ndarray of int, shape (N,)
+        Episode of every observation.
+    """
+    known = (labels == empty) | (labels >= 0)
+    # the episodes with labels, alternately in one half and the other
+    taught = np.unique(episode[known])
+    half_of = np.full(int(episode.max()) + 1 if len(episode) else 0, -1)
+    half_of[taught] = np.arange(len(taught)) % 2
+    right = total = 0.0
+    for half in (0, 1):
+        judged = half_of[episode] == half
+        teach = np.where(judged, empty - 1, labels)      # neither empty nor a colour
+        window = site_window(x, teach, pose, empty, support)
+        if window is None:
+            continue
+        reading, strength = pose_readings(x, teach, pose, window, empty, saturation)
+        known = judged & ((labels == empty) | (labels >= 0))
+        w = strength[known]
+        total += w.sum()
+        right += (w * ((reading[known] > 0.5) == (labels[known] >= 0))).sum()
+    return float(right / total) if total > 0 else 0.0
 
 
 def run_presence(reading: np.ndarray, strength: np.ndarray, runs: np.ndarray,
