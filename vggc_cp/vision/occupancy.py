@@ -400,15 +400,14 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         if not len(loose):
             continue
         read = {}
-        if x is not None:
+        own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
+        # a footprint presence that agrees with every label cannot be bettered: not read again
+        if x is not None and own < 1.0:
             window = site_window(x, labels, pose, EMPTY, support)
-            if window is not None:
-                own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
-                if held_out_agreement(x, labels, pose, episode, EMPTY, support,
-                                      saturation) > own:
-                    reading, strength = pose_readings(x, labels, pose, window, EMPTY,
-                                                      saturation)
-                    read = run_presence(reading, strength, run, loose)
+            if window is not None and held_out_agreement(x, labels, pose, episode, EMPTY,
+                                                         support, saturation) > own:
+                reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+                read = run_presence(reading, strength, run, loose)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
