@@ -111,7 +111,8 @@ def test_the_margin_binned_against_the_chance_it_implies_and_its_bar_moved(tmp_p
                                   "robustness-tasks-seeds15-16.csv",
                                   "robustness-tasks-seeds17-18.csv",
                                   "robustness-tasks-seeds19-20.csv",
-                                  "robustness-tasks-seeds21-22.csv"])
+                                  "robustness-tasks-seeds21-22.csv",
+                                  "robustness-tasks-tuning-session12.csv"])
 def test_the_fixed_checks_recomputed_from_a_row_agree_with_its_verdict(name):
     """The committed tables were written with the fixed checks on beside the chance of change:
     every run they flag (the margin in nats), recomputed from the row's figures, is flagged; a
