@@ -162,3 +162,14 @@ def test_the_sequence_pairs_a_pick_with_the_place_that_refills_its_slot():
     # candidate breaks the rule and the pixels' choice stands
     two = np.array([0, 1, 1, 0])
     assert occ.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [3, 2, 1, 0]
+
+
+def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
+    """Pick 0 once per episode, place 2 twice in a row in another, place 3 never: no
+    neighbours alternate, so the sequence says nothing and the footprints decide (no
+    division by a zero rate)."""
+    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
+    ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
+    actions = np.array([0, -1, 2, 2])
+    out = occ.sequence_twins(actions, [(0, 1), (2, 4)], ov, np.zeros(4, dtype=np.int64), kinds)
+    assert out.tolist() == occ.twins(ov, np.zeros(4, dtype=np.int64), kinds).tolist()

@@ -10,8 +10,9 @@ knows every look, taught by the trace itself.
 episode state what a site holds for every observation of that episode: before a pick of a
 class at the site, an object of the class's colour; after it, nothing; before a place,
 nothing; after it, that colour (:func:`site_labels`). The actions at site ``a`` are ``a``, its
-*twin* (the action of the other kind and the same colour whose footprint overlaps ``a``'s
-most: a pick and a place of one slot), every action of another colour overlapping ``a``'s
+*twin* (the action of the other kind and the same colour that refills or empties its slot: read
+from the sequence where it settles it, :func:`sequence_twins`, else the one whose footprint
+overlaps ``a``'s most), every action of another colour overlapping ``a``'s
 footprint by ``site_overlap`` or more, and their twins. An episode whose actions contradict
 each other at the site (two picks with no place between) is not labelled; an episode with no
 action at the site is not either.
@@ -130,6 +131,8 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
             continue                       # no candidate ever breaks it: the pixels decide
         # how often an unrelated pair alternates, from the candidates together
         p_alt = counts[:, 1].sum() / total
+        if p_alt <= 0:
+            continue                       # nothing ever alternates with it
         allowed = [(float(ov[a, b]), int(k), int(b)) for b, (broken, k) in zip(cand, counts)
                    if broken == 0 and k * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS)]
         if allowed:
@@ -344,9 +347,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       labelled frames teach (:mod:`vggc_cp.vision.untouched`), so that a frame in which the
       arm hides the site weighs nothing: where that reading agrees with the labelled frames
       more often than the footprint presence does (each half of the episodes judged on what
-      the other half teaches). Otherwise (or where no pose can read the
-      site, or without ``x``) the run's median presence, so a frame in which the site is
-      hidden is outvoted by the frames in which it is seen.
+      the other half teaches). Otherwise (or where no pose can read the site, or without
+      ``x``) the run's median presence, so a frame in which the site is hidden is outvoted
+      by the frames in which it is seen.
 
     The actions at a site are found with the twins the trace's sequence allows
     (:func:`action_twins`).
