@@ -51,9 +51,13 @@ other colours' actions that overlap it, ``G_a = F_a + sum_b ov(a, b) F_b`` with
 
 **Settled by the actions.** Between two actions at one place nothing changes there: where
 an episode's actions state what a site holds, that is its presence and colour, and elsewhere a
-run of observations between actions at the site takes its median presence and mean colour
-(:func:`vggc_cp.vision.occupancy.settle`), so a frame in which an arm, the object it holds or a
-distractor hides the site cannot mislead.
+run of observations between actions at the site takes one presence (its median, or where the
+labelled frames show it reads better, a reading per pose of the hand that they teach,
+:mod:`vggc_cp.vision.untouched`) and its mean colour (:func:`vggc_cp.vision.occupancy.settle`),
+so a frame in which an arm, the object it holds or a distractor hides the site cannot mislead.
+Which pick and place share a slot is read from the sequence where it settles it (they
+alternate in every episode, :func:`vggc_cp.vision.occupancy.sequence_twins`), so footprints
+that lie on an arm do not pair the wrong actions.
 
 **Nuisance.** Across a transition of an action that acts elsewhere, a site should not change;
 what it does change there is noise, lighting and gripper residue. ``nu_a`` is the
