@@ -188,9 +188,8 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
     """:func:`agreement` of the pose reading on labelled frames it did not learn from: the
     episodes with labels are split in two (alternately, in order), each half is read with
     the window and looks the other half teaches, and the two are pooled (0 when nothing can
-    be read). A reading
-    judged on the frames that taught it would flatter itself against the footprint
-    presence.
+    be read). A reading judged on the frames that taught it would flatter itself against
+    the footprint presence.
 
     Parameters
     ----------
@@ -212,10 +211,10 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
         if window is None:
             continue
         reading, strength = pose_readings(x, teach, pose, window, empty, saturation)
-        known = judged & ((labels == empty) | (labels >= 0))
-        w = strength[known]
+        held = judged & known
+        w = strength[held]
         total += w.sum()
-        right += (w * ((reading[known] > 0.5) == (labels[known] >= 0))).sum()
+        right += (w * ((reading[held] > 0.5) == (labels[held] >= 0))).sum()
     return float(right / total) if total > 0 else 0.0
 
 
