@@ -230,11 +230,12 @@ def margin_rows(rows: list[dict]) -> list[dict]:
         sub = [(margin_nats(r), r) for r in rows if r.get("split") == split]
         lo = None
         for hi in MARGIN_BINS:
-            g = [r for m, r in sub if m is not None and (lo is None or m > lo) and m <= hi]
-            quiet = [r for r in g if not other_warning(r)]
-            chance = [1.0 / (1.0 + math.exp(min(margin_nats(r), 700.0))) for r in quiet]
+            g = [(m, r) for m, r in sub if m is not None and (lo is None or m > lo) and m <= hi]
+            quiet = [(m, r) for m, r in g if not other_warning(r)]
+            chance = [1.0 / (1.0 + math.exp(min(m, 700.0))) for m, _ in quiet]
             out.append({"split": split, "margin": _bin_name(lo, hi), "runs": len(g),
-                        "quiet_else": len(quiet), "missed": sum(not passes(r) for r in quiet),
+                        "quiet_else": len(quiet),
+                        "missed": sum(not passes(r) for _, r in quiet),
                         "implied": sum(chance) / len(chance) if chance else None})
             lo = hi
     return out
@@ -247,16 +248,16 @@ def margin_tradeoff_rows(rows: list[dict], bars=MARGIN_BARS) -> list[dict]:
     other reasons only."""
     out = []
     for split in _splits(rows):
-        sub = [r for r in rows if r.get("split") == split]
+        # (passed, warned for another reason, margin) of every run, read once
+        runs = [(passes(r), other_warning(r), margin_nats(r)) for r in rows
+                if r.get("split") == split]
+        n_ok = sum(ok for ok, _, _ in runs)
         for bar in bars:
-            def warned(r, bar=bar):
-                m = margin_nats(r)
-                return other_warning(r) or (m is not None and m < bar)
-            ok = [r for r in sub if passes(r)]
-            miss = [r for r in sub if not passes(r)]
-            out.append({"split": split, "bar": float(bar), "passed": len(ok),
-                        "false_alarms": sum(warned(r) for r in ok), "missed": len(miss),
-                        "silent": sum(not warned(r) for r in miss)})
+            warned = [other or (m is not None and m < bar) for _, other, m in runs]
+            out.append({"split": split, "bar": float(bar), "passed": n_ok,
+                        "false_alarms": sum(w for (ok, _, _), w in zip(runs, warned) if ok),
+                        "missed": len(runs) - n_ok,
+                        "silent": sum(not w for (ok, _, _), w in zip(runs, warned) if not ok)})
     return out
 
 

@@ -84,7 +84,7 @@ from scipy import ndimage
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.blobs import heaviest_component
-from vggc_cp.vision.occupancy import refine_presence, settle
+from vggc_cp.vision.occupancy import action_twins, refine_presence, settle
 from vggc_cp.vision.registration import steady
 from vggc_cp.vision.working import (
     FOOTPRINT_SIDE,
@@ -536,12 +536,15 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     examples = [np.concatenate([chroma[occupied_of[a], a] for a in np.flatnonzero(colour == c)])
                 for c in range(n_col)]
     posterior = colour_posteriors(chroma, examples, params.bandwidth)
+    # which place refills the slot a pick empties, from the sequence where it settles it
+    twin = action_twins(trace, ov, colour)
     # a site that shares its pixels with another slot of its colour has many empty looks
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
-                                  params.site_overlap)
+                                  params.site_overlap, twin)
     # what the actions state a site holds, and one look per run between actions at it
     presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
-                                 params.site_overlap, x, params.support, params.saturation)
+                                 params.site_overlap, x, params.support, params.saturation,
+                                 twin)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
                       resolution)

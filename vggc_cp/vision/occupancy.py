@@ -115,17 +115,18 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     [2, 2, 0, 0]
     """
     out = twins(ov, colour, kinds)
-    runs = [actions[first:last] for first, last in episodes]
-    runs = [r[r >= 0] for r in runs]
+    actions = np.asarray(actions)
+    episode_of = np.full(len(actions), -1, dtype=np.int64)   # of every action
+    for i, (first, last) in enumerate(episodes):
+        episode_of[first:last] = i
     for a in np.flatnonzero(colour >= 0):
         cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
         counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, alternated
         for i, b in enumerate(cand):
-            for r in runs:
-                ev = kinds[r[(r == a) | (r == b)]]
-                if len(ev) > 1:
-                    same = ev[1:] == ev[:-1]
-                    counts[i] += (int(same.sum()), int((~same).sum()))
+            at = np.flatnonzero((actions == a) | (actions == b))
+            neighbours = episode_of[at[1:]] == episode_of[at[:-1]]   # within one episode
+            same = kinds[actions[at[1:]]] == kinds[actions[at[:-1]]]
+            counts[i] = ((neighbours & same).sum(), (neighbours & ~same).sum())
         total = counts.sum()
         if total == 0 or counts[:, 0].sum() == 0:
             continue                       # no candidate ever breaks it: the pixels decide
@@ -287,7 +288,8 @@ def stacked(ov: np.ndarray, colour: np.ndarray, twin: np.ndarray, site_overlap: 
 
 def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarray,
                     colour: np.ndarray, counts: np.ndarray, presence: np.ndarray,
-                    site_overlap: float) -> tuple[np.ndarray, np.ndarray]:
+                    site_overlap: float, twin: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Give every stacked site (:func:`stacked`) the nearest-look presence.
 
     Parameters
@@ -302,6 +304,8 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     presence : ndarray, shape (N, A)
         The hand-made presence.
     site_overlap : float
+    twin : ndarray of int, shape (A,), optional
+        :func:`action_twins` (computed when not given).
 
     Returns
     -------
@@ -314,7 +318,7 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     presence = presence.copy()
     refined = np.zeros(len(counts), dtype=bool)
     kinds = trace.action_kinds()
-    twin = action_twins(trace, ov, colour)
+    twin = action_twins(trace, ov, colour) if twin is None else twin
     episodes, episode = trace.episodes(), trace.episode_index()
     for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
         labels = site_labels(trace.actions, episodes,
@@ -329,8 +333,8 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
 
 def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.ndarray,
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
-           x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5
-           ) -> tuple[np.ndarray, np.ndarray]:
+           x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
+           twin: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -368,6 +372,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     support, saturation : float
         Of :class:`~vggc_cp.vision.footprints.FootprintConfig`: the share of a window's peak
         subtracted, and the share of the way to an occupied look at which presence is 1.
+    twin : ndarray of int, shape (A,), optional
+        :func:`action_twins` (computed when not given).
 
     Returns
     -------
@@ -376,7 +382,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     """
     presence, posterior = presence.copy(), posterior.copy()
     kinds = trace.action_kinds()
-    twin = action_twins(trace, ov, colour)
+    twin = action_twins(trace, ov, colour) if twin is None else twin
     pose, episode = poses(trace.actions), trace.episode_index()
     episodes = trace.episodes()
     actions = trace.actions
