@@ -18,7 +18,9 @@ from vggc_cp.vision.footprints import (
     colour_posteriors,
     footprint_distances,
     overlaps,
+    pooled,
     site_maps,
+    window_colours,
 )
 from vggc_cp.vision.working import normalise_frames
 
@@ -161,3 +163,49 @@ def test_a_class_of_one_example_joins_the_colour_it_looks_like():
     assert group[2] == group[1] != group[0]
     group = colour_classes([lone_yellow, red, yellow], bandwidth=0.02)
     assert group[0] == group[2] != group[1]
+
+
+def test_classes_pooled_by_grey_footprints_are_read_again_in_the_windows():
+    """Footprints on a robot arm show every class as the arm's grey and pool them; the
+    windows the labels teach tell red from yellow. A class the windows cannot read joins the
+    readable class its footprints resemble; without pooling nothing is read again."""
+    rng = np.random.default_rng(0)
+    classes = np.array([0, 0, 1, 1, 2, 3])
+    counts = np.array([5, 5, 5, 5, 2, 0])                 # action 5 never taken
+    grey = [0.33 + 0.003 * rng.standard_normal((20, 2)) for _ in range(3)]
+    grey[2] = grey[0][:2] + 0.0005                        # class 2 looks like class 0
+    grey.append(np.zeros((0, 2)))
+    red = [0.75, 0.13] + 0.01 * rng.standard_normal((30, 2))
+    yellow = [0.5, 0.4] + 0.01 * rng.standard_normal((30, 2))
+    window = [red, yellow, np.zeros((1, 2)), np.zeros((0, 2))]
+    one = np.array([0, 0, 0, 0, 0, -1])
+    assert pooled(one, classes, counts)
+    out = window_colours(one, classes, counts, grey, window, 0.02)
+    assert out.tolist() == [0, 0, 1, 1, 0, -1]
+    # colours the footprints already tell apart are kept as they are
+    apart = np.array([0, 0, 1, 1, 2, -1])
+    assert not pooled(apart, classes, counts)
+    assert window_colours(apart, classes, counts, grey, window, 0.02) is apart
+    # the windows see one colour too: one colour
+    same = [red, red + 0.001, np.zeros((0, 2)), np.zeros((0, 2))]
+    assert window_colours(one, classes, counts, grey, same, 0.02).tolist() == [0] * 5 + [-1]
+
+
+@pytest.mark.slow
+def test_two_classes_through_a_robot_camera_keep_their_colours():
+    """multifruit-4x6 through a robot's camera (tuning seed 1): the footprints of both
+    classes lie on the arm (one colour before); the windows the labels teach separate red
+    from yellow, and the sites read right go up from 83 % to over 95 %."""
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("multifruit-4x6", seed=1, look="robot").trace
+    fp = action_footprints(trace.without_states())
+    names = trace.action_names
+    shade = np.array([n.split("_")[1] for n in names])
+    taken = fp.taken
+    same_colour = fp.colour[taken][:, None] == fp.colour[taken][None, :]
+    np.testing.assert_array_equal(same_colour, shade[taken][:, None] == shade[taken][None, :])
+    site = np.array([int(n.rsplit("_", 1)[1]) for n in names])
+    truth = np.array([[c != "-" for c in s.split("|")[0]] for s in trace.states])
+    right = np.abs(fp.presence[:, taken] - truth[:, site[taken]]) < 0.5
+    assert right.mean() > 0.95                             # 96.2 %; before, 83.0 %

@@ -173,3 +173,66 @@ def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
     actions = np.array([0, -1, 2, 2])
     out = occ.sequence_twins(actions, [(0, 1), (2, 4)], ov, np.zeros(4, dtype=np.int64), kinds)
     assert out.tolist() == occ.twins(ov, np.zeros(4, dtype=np.int64), kinds).tolist()
+
+
+def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():
+    """A red pair (0, 1) and a yellow pair (2, 3) at one slot, a yellow pair (4, 5) at another
+    whose footprints overlap the first slot's (a footprint on an arm): the yellow pair
+    elsewhere is placed while the slot holds red, which a slot of one thing cannot; the
+    sequence rules it out and takes the pair that always agrees."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    on = np.isin(np.arange(6), [0, 1, 4, 5])
+    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    actions = np.array([0, 3, 2, 1, 5, 4, 0, 3, 2, 1] * 4)
+    mates = occ.sequence_mates(actions, [(0, 40)], ov, colour, kinds, twin, 0.2)
+    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
+    assert occ.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+    # the pixels alone would have taken the wrong pair
+    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 4, 5]
+
+
+def test_too_little_sequence_leaves_the_slot_to_the_pixels():
+    """Two agreements are not 20:1: the candidates that never break the rule keep what the
+    footprints say; one that breaks it is still ruled out."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    on = np.isin(np.arange(6), [0, 1, 4, 5])
+    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    actions = np.array([0, 3, 2, 1, 5, 4])
+    mates = occ.sequence_mates(actions, [(0, 6)], ov, colour, kinds, twin, 0.2)
+    assert not mates[0, [4, 5]].any()                # 1 leaves red, 5 finds the slot empty
+    assert not mates[0, [2, 3]].any()                # too few to overrule the pixels (no overlap)
+    # no candidate of another colour ever met: the footprints decide
+    alone = occ.sequence_mates(np.array([0, 1, -1, 2, 3]), [(0, 2), (3, 5)], ov, colour,
+                               kinds, twin, 0.2)
+    np.testing.assert_array_equal(alone, (colour[:, None] != colour) & (ov >= 0.2))
+
+
+def test_unlabelled_runs_take_the_colour_their_window_shows():
+    """Two sites read per pose: the labelled frames of each colour teach what red and yellow
+    look like in the windows, and a run no action labels takes the colour its frames show
+    (weighted by strength); a run whose frames show nothing keeps its posterior."""
+    rng = np.random.default_rng(0)
+    n = 12
+    posterior = np.full((n, 2, 2), 0.5)
+    red = [0.7, 0.15] + 0.005 * rng.standard_normal((n, 2))
+    yellow = [0.5, 0.4] + 0.005 * rng.standard_normal((n, 2))
+    chroma = np.where((np.arange(n) % 2 == 0)[:, None], red, yellow)
+    strength = np.ones(n)
+    shows = np.ones(n, dtype=bool)
+    shows[9:] = False                                         # run 3 shows nothing
+    run = np.repeat(np.arange(4), 3)
+    loose = np.arange(6, 12)
+    chroma[6:9] = yellow[6:9]                                 # run 2: yellow
+    examples = [[chroma[[0, 2, 4]]], [chroma[[1, 3, 5]]]]
+    occ.window_colour(posterior, {0: (chroma, strength, shows, run, loose)}, examples, 0.02)
+    assert posterior[6:9, 0, 1].min() > 0.99                  # yellow
+    assert np.all(posterior[9:12, 0] == 0.5)                  # nothing to read there
+    assert np.all(posterior[:6] == 0.5)                       # labelled frames untouched
+    assert np.all(posterior[:, 1] == 0.5)                     # the other site was not read
+    # a colour without two examples teaches nothing
+    before = posterior.copy()
+    occ.window_colour(posterior, {0: (chroma, strength, shows, run, loose)},
+                      [[chroma[[0, 2]]], [chroma[[1]]]], 0.02)
+    np.testing.assert_array_equal(posterior, before)

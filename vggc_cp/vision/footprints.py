@@ -84,7 +84,14 @@ from scipy import ndimage
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.blobs import heaviest_component
-from vggc_cp.vision.occupancy import action_twins, refine_presence, settle
+from vggc_cp.vision.density import kernel_loglik, kernel_posterior
+from vggc_cp.vision.occupancy import (
+    action_mates,
+    action_twins,
+    refine_presence,
+    settle,
+    window_class_chroma,
+)
 from vggc_cp.vision.registration import steady
 from vggc_cp.vision.working import (
     FOOTPRINT_SIDE,
@@ -276,18 +283,6 @@ def action_classes(trace: Trace) -> np.ndarray:
     return np.unique(roots, return_inverse=True)[1].astype(np.int64)
 
 
-def kernel_loglik(query: np.ndarray, examples: np.ndarray, bandwidth: float,
-                  chunk: int = 256) -> np.ndarray:
-    """Log of the Gaussian kernel density of ``examples`` (n, 2) at ``query`` (m, 2), up to
-    the constant every density shares; shape (m,)."""
-    out = np.empty(len(query))
-    for s in range(0, len(query), chunk):
-        d2 = ((query[s:s + chunk, None, :] - examples[None]) ** 2).sum(-1) / bandwidth ** 2
-        m = (-0.5 * d2).max(axis=1)
-        out[s:s + chunk] = m + np.log(np.exp(-0.5 * d2 - m[:, None]).mean(axis=1))
-    return out
-
-
 def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float = 1.0
                    ) -> np.ndarray:
     """Pool task classes whose colours cannot be told apart.
@@ -345,23 +340,93 @@ def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float =
     return np.unique(group, return_inverse=True)[1].astype(np.int64)
 
 
-def action_colours(chroma: np.ndarray, counts: np.ndarray, classes: np.ndarray,
-                   occupied: dict[int, np.ndarray], params: FootprintConfig
-                   ) -> np.ndarray:
+def class_points(chroma: np.ndarray, counts: np.ndarray, classes: np.ndarray,
+                 occupied: dict[int, np.ndarray]) -> list[np.ndarray]:
+    """Chroma of every task class's occupied observations, each seen in its own action's
+    footprint: one array (n_k, 2) per class, indexed by class (empty for a class never
+    taken)."""
+    n_cls = int(classes.max()) + 1 if len(classes) else 0
+    return [np.concatenate([chroma[occupied[a], a] for a in
+                            np.flatnonzero((classes == k) & (counts > 0))] or [np.zeros((0, 2))])
+            for k in range(n_cls)]
+
+
+def action_colours(points: list[np.ndarray], counts: np.ndarray, classes: np.ndarray,
+                   params: FootprintConfig) -> np.ndarray:
     """Colour of every action, shape (A,) (-1 for an action never taken): the task classes
     (:func:`action_classes`) pooled by :func:`colour_classes` on the chroma of their actions'
-    occupied observations, each seen in its own action's footprint."""
+    occupied observations (:func:`class_points`)."""
     colour = np.full(len(counts), -1, dtype=np.int64)
     known = [k for k in np.unique(classes) if (counts[classes == k] > 0).any()]
     if not known:
         return colour
-    points = [np.concatenate([chroma[occupied[a], a]
-                              for a in np.flatnonzero((classes == k) & (counts > 0))])
-              for k in known]
-    group = colour_classes(points, params.bandwidth)
+    group = colour_classes([points[k] for k in known], params.bandwidth)
     for k, g in zip(known, group):
         colour[(classes == k) & (counts > 0)] = g
     return colour
+
+
+def pooled(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray) -> bool:
+    """Whether the taken actions have fewer colours than task classes."""
+    taken = counts > 0
+    return len(np.unique(colour[taken])) < len(np.unique(classes[taken]))
+
+
+def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
+                   footprint_points: list[np.ndarray], window_points: list[np.ndarray],
+                   bandwidth: float) -> np.ndarray:
+    """Colours read again where the footprints pooled task classes, shape (A,).
+
+    Pooling says two classes look alike; a footprint that lies on a robot arm says so of
+    every class (it reads the arm's grey). Where :func:`action_colours` pooled classes, they
+    are pooled again (:func:`colour_classes`) on the chroma their labels show in the sites'
+    windows (``window_points``, :func:`~vggc_cp.vision.occupancy.window_class_chroma`).
+    A class with fewer than two window examples cannot be read there: it joins the readable
+    class under whose footprint chroma its own footprint chroma (``footprint_points``) is
+    likeliest. Without pooling, or with fewer than two readable classes, ``colour`` is
+    returned as it is.
+
+    Parameters
+    ----------
+    colour : ndarray of int, shape (A,)
+        :func:`action_colours`.
+    classes, counts : ndarray, shape (A,)
+    footprint_points, window_points : list of ndarray, shape (n_k, 2)
+        Chroma of each task class (indexed by class) in its footprints and in the windows.
+    bandwidth : float
+
+    Examples
+    --------
+    Two classes of grey footprints (an arm) that the windows tell apart, and a third that
+    only the footprints show:
+
+    >>> rng = np.random.default_rng(0)
+    >>> grey = [0.33 + 0.001 * rng.standard_normal((20, 2)) for _ in range(3)]
+    >>> red, yellow = [0.6, 0.3] + 0.01 * rng.standard_normal((20, 2)), [0.45, 0.4] + 0.01 * rng.standard_normal((20, 2))
+    >>> window_colours(np.zeros(3, int), np.arange(3), np.ones(3), grey,
+    ...                [red, yellow, np.zeros((0, 2))], 0.02).tolist()
+    [0, 1, 0]
+    """
+    taken = counts > 0
+    known = [int(k) for k in np.unique(classes[taken])]
+    if not pooled(colour, classes, counts):
+        return colour
+    readable = [k for k in known if len(window_points[k]) >= 2]
+    if len(readable) < 2:
+        return colour
+    out = np.full(len(colour), -1, dtype=np.int64)
+    group = colour_classes([window_points[k] for k in readable], bandwidth)
+    for k, g in zip(readable, group):
+        out[(classes == k) & taken] = g
+    for k in known:
+        if k in readable:
+            continue
+        lik = [float(np.median(kernel_loglik(footprint_points[k], footprint_points[r],
+                                             bandwidth))) for r in readable]
+        out[(classes == k) & taken] = out[(classes == readable[int(np.argmax(lik))]) & taken][0]
+    ids = np.unique(out[taken])
+    out[taken] = np.searchsorted(ids, out[taken])
+    return out
 
 
 def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth: float
@@ -375,10 +440,8 @@ def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth:
     n, n_act = chroma.shape[:2]
     if len(examples) <= 1:
         return np.ones((n, n_act, 1))
-    flat = chroma.reshape(-1, 2)
-    logp = np.stack([kernel_loglik(flat, ex, bandwidth) for ex in examples], axis=1)
-    w = np.exp(logp - logp.max(axis=1, keepdims=True))
-    return (w / w.sum(axis=1, keepdims=True)).reshape(n, n_act, len(examples))
+    return kernel_posterior(chroma.reshape(-1, 2), examples, bandwidth).reshape(
+        n, n_act, len(examples))
 
 
 def describe(x: np.ndarray, weights: np.ndarray, empty_of: dict[int, np.ndarray]
@@ -521,7 +584,16 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
         empty_of[int(a)], occupied_of[int(a)] = ((after, before) if kinds[a] == PICK
                                                  else (before, after))
     _, own_chroma = describe(x, maps, empty_of)
-    colour = action_colours(own_chroma, counts, action_classes(trace), occupied_of, params)
+    classes = action_classes(trace)
+    points = class_points(own_chroma, counts, classes, occupied_of)
+    colour = action_colours(points, counts, classes, params)
+    if pooled(colour, classes, counts):
+        # pooled classes may be a footprint on an arm: ask the windows the labels teach
+        colour = window_colours(colour, classes, counts, points,
+                                window_class_chroma(trace, x, ov, classes, counts,
+                                                    params.site_overlap, params.support,
+                                                    params.saturation),
+                                params.bandwidth)
     sites = site_maps(maps, ov, colour)
     mag, chroma = describe(x, sites, empty_of)
     presence = np.zeros((trace.n_obs, n_act))
@@ -538,13 +610,15 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     posterior = colour_posteriors(chroma, examples, params.bandwidth)
     # which place refills the slot a pick empties, from the sequence where it settles it
     twin = action_twins(trace, ov, colour)
+    # which actions of other colours act at the same slot, from the sequence where it settles it
+    mates = action_mates(trace, ov, colour, twin, params.site_overlap)
     # a site that shares its pixels with another slot of its colour has many empty looks
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
-                                  params.site_overlap, twin)
+                                  params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
     presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
                                  params.site_overlap, x, params.support, params.saturation,
-                                 twin)
+                                 twin, mates, params.bandwidth)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
                       resolution)

@@ -41,6 +41,7 @@ import math
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
+from vggc_cp.vision.density import kernel_posterior
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_agreement,
@@ -48,6 +49,7 @@ from vggc_cp.vision.untouched import (
     poses,
     run_presence,
     site_window,
+    window_chroma,
 )
 
 #: Label of an empty site (colours are numbered from 0; -2: unlabelled).
@@ -56,6 +58,8 @@ UNLABELLED = -2
 #: Odds from which a candidate that always alternates with an action is taken for its twin
 #: (:func:`sequence_twins`): 20 to 1, the bar of the warning's description-length margin.
 TWIN_ODDS = 20.0
+#: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
+MAX_EXAMPLES = 2000
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
 
@@ -146,10 +150,102 @@ def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray
     return sequence_twins(trace.actions, trace.episodes(), ov, colour, trace.action_kinds())
 
 
+def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
+                   colour: np.ndarray, kinds: np.ndarray, twin: np.ndarray,
+                   site_overlap: float) -> np.ndarray:
+    """Which actions of another colour act at each action's slot, boolean shape (A, A).
+
+    A slot holds one thing at a time: a pick there empties it of the colour it lifts, a
+    place fills an empty one. So with ``b`` (another colour) at the slot of ``a``, every pair
+    of neighbours in an episode's actions restricted to ``a``, ``b`` and their twins, one of
+    ``a``'s pair and one of ``b``'s, agrees: what the first leaves is what the second finds.
+    A candidate that breaks this once does not act at ``a``'s slot, whatever the pixels say
+    (a footprint on a robot arm overlaps other places'). One that never breaks it qualifies
+    at odds of :data:`TWIN_ODDS`, the chance of agreeing estimated from all of ``a``'s
+    candidates together, as for :func:`sequence_twins`. For the others (too few
+    neighbours to tell, or no candidate ever breaking it: nothing to tell them apart), the
+    footprints decide: an action of another colour overlapping ``a``'s footprint by
+    ``site_overlap`` or more acts at its slot.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+    episodes : list of (first, last)
+    ov : ndarray, shape (A, A)
+    colour, kinds, twin : ndarray, shape (A,)
+    site_overlap : float
+
+    Examples
+    --------
+    A red pick and place (0, 1) and a yellow pick and place (2, 3) at one slot, and a yellow
+    pair (4, 5) elsewhere whose footprints overlap the slot's; the sequence says which:
+
+    >>> from vggc_cp.trace import PLACE
+    >>> kinds = np.array([PICK, PLACE] * 3)
+    >>> colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    >>> on = np.isin(np.arange(6), [0, 1, 4, 5])
+    >>> ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    >>> actions = np.array([0, 3, 2, 1, 5, 4, 0, 3, 2, 1] * 4)
+    >>> m = sequence_mates(actions, [(0, 40)], ov, colour, kinds, twin, 0.2)
+    >>> np.flatnonzero(m[0]).tolist()
+    [2, 3]
+    """
+    n = len(colour)
+    other = (colour[:, None] != colour[None, :]) & (colour[:, None] >= 0) & (colour >= 0)
+    out = other & (ov >= site_overlap)
+    actions = np.asarray(actions)
+    episode_of = np.full(len(actions), -1, dtype=np.int64)
+    for i, (first, last) in enumerate(episodes):
+        episode_of[first:last] = i
+    # what each action finds at its slot and what it leaves (-1: empty)
+    finds = np.where(kinds == PICK, colour, EMPTY)
+    leaves = np.where(kinds == PICK, EMPTY, colour)
+    taken = np.zeros(n, dtype=bool)
+    taken[actions[actions >= 0]] = True
+    for a in np.flatnonzero(taken & (colour >= 0)):
+        own = np.zeros(n, dtype=bool)
+        own[[a, twin[a]] if twin[a] >= 0 else [a]] = True
+        cand = np.flatnonzero(taken & other[a])
+        counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, agreed
+        for i, b in enumerate(cand):
+            group = own.copy()
+            group[[b, twin[b]] if twin[b] >= 0 else [b]] = True
+            at = np.flatnonzero((actions >= 0) & group[np.maximum(actions, 0)])
+            seq = actions[at]
+            cross = (episode_of[at[1:]] == episode_of[at[:-1]]) & (own[seq[1:]] != own[seq[:-1]])
+            agree = leaves[seq[:-1]] == finds[seq[1:]]
+            counts[i] = ((cross & ~agree).sum(), (cross & agree).sum())
+        total = counts.sum()
+        if total == 0 or counts[:, 0].sum() == 0:
+            continue                       # no candidate ever breaks it: the pixels decide
+        p_agree = counts[:, 1].sum() / total
+        out[a, cand[counts[:, 0] > 0]] = False          # ruled out by the sequence
+        if p_agree <= 0:
+            continue
+        sure = (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_agree)
+                                      >= math.log(TWIN_ODDS))
+        out[a, cand[sure]] = True
+    return out
+
+
+def action_mates(trace: Trace, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
+                 site_overlap: float) -> np.ndarray:
+    """:func:`sequence_mates` of ``trace`` (its actions and episodes, never its states)."""
+    return sequence_mates(trace.actions, trace.episodes(), ov, colour, trace.action_kinds(),
+                          twin, site_overlap)
+
+
 def acting_at(a: int, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
-              site_overlap: float) -> np.ndarray:
-    """Actions that change what site ``a`` holds (module docstring), sorted int array."""
-    other = np.flatnonzero((colour >= 0) & (colour != colour[a]) & (ov[a] >= site_overlap))
+              site_overlap: float, mates: np.ndarray | None = None) -> np.ndarray:
+    """Actions that change what site ``a`` holds (module docstring), sorted int array.
+
+    ``mates`` (:func:`sequence_mates`) names the actions of another colour at the slot;
+    without it, those overlapping ``a``'s footprint by ``site_overlap`` or more.
+    """
+    if mates is None:
+        other = np.flatnonzero((colour >= 0) & (colour != colour[a]) & (ov[a] >= site_overlap))
+    else:
+        other = np.flatnonzero(mates[a])
     acts = {a, *other.tolist()}
     acts |= {int(twin[b]) for b in list(acts) if twin[b] >= 0}
     return np.array(sorted(acts), dtype=np.int64)
@@ -194,6 +290,63 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
             labels[prev[0] + 1:nxt[0] + 1] = prev[2]
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
     return labels
+
+
+def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
+                        counts: np.ndarray, site_overlap: float, support: float,
+                        saturation: float) -> list[np.ndarray]:
+    """Chroma of every task class where the actions' labels show it, one array (n_k, 2) per
+    class (``n_k = 0`` where no site shows the class).
+
+    Every taken action's site is labelled with the classes as its colours
+    (:func:`site_labels`); the frames they label teach the site's window
+    (:func:`~vggc_cp.vision.untouched.site_window`), and each frame labelled with a class
+    gives the chroma of what deviates in it from its pose's empty look
+    (:func:`~vggc_cp.vision.untouched.window_chroma`), where its pose shows the site at
+    :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
+    (:func:`~vggc_cp.vision.untouched.pose_readings`). A footprint on a robot arm reads the
+    arm's grey for every class; the window lies where the objects differ. At most
+    :data:`MAX_EXAMPLES` per class, evenly spaced.
+
+    Parameters
+    ----------
+    trace : Trace
+        Its actions and episodes (never its states).
+    x : ndarray of float32, shape (N, H, W, 3)
+        Working frames.
+    ov : ndarray, shape (A, A)
+    classes : ndarray of int, shape (A,)
+        :func:`~vggc_cp.vision.footprints.action_classes`.
+    counts : ndarray, shape (A,)
+    site_overlap, support, saturation : float
+        Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.
+    """
+    colour = np.where(counts > 0, classes, -1)
+    n_cls = int(classes.max()) + 1 if len(classes) else 0
+    twin = action_twins(trace, ov, colour)
+    mates = action_mates(trace, ov, colour, twin, site_overlap)
+    kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
+    found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
+    for a in np.flatnonzero(counts > 0):
+        labels = site_labels(trace.actions, episodes,
+                             acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
+                             colour)
+        window = site_window(x, labels, pose, EMPTY, support)
+        if window is None:
+            continue
+        chroma = window_chroma(x, labels, pose, window, EMPTY)
+        # only the poses that show the site, and frames in which the object shows
+        reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+        seen = (labels >= 0) & np.isfinite(chroma[:, 0]) & (strength > 0) & (reading > 0.5)
+        for k in np.unique(labels[seen]):
+            found[k].append(chroma[seen & (labels == k)])
+    out = []
+    for parts in found:
+        pts = np.concatenate(parts) if parts else np.zeros((0, 2))
+        if len(pts) > MAX_EXAMPLES:
+            pts = pts[np.linspace(0, len(pts) - 1, MAX_EXAMPLES).round().astype(int)]
+        out.append(pts)
+    return out
 
 
 def nearest_looks(features: np.ndarray, ref: np.ndarray, episode: np.ndarray,
@@ -288,8 +441,8 @@ def stacked(ov: np.ndarray, colour: np.ndarray, twin: np.ndarray, site_overlap: 
 
 def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarray,
                     colour: np.ndarray, counts: np.ndarray, presence: np.ndarray,
-                    site_overlap: float, twin: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    site_overlap: float, twin: np.ndarray | None = None,
+                    mates: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Give every stacked site (:func:`stacked`) the nearest-look presence.
 
     Parameters
@@ -306,6 +459,8 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     site_overlap : float
     twin : ndarray of int, shape (A,), optional
         :func:`action_twins` (computed when not given).
+    mates : ndarray of bool, shape (A, A), optional
+        :func:`action_mates` (computed when not given).
 
     Returns
     -------
@@ -319,10 +474,12 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     refined = np.zeros(len(counts), dtype=bool)
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
+    mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
     episodes, episode = trace.episodes(), trace.episode_index()
     for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
         labels = site_labels(trace.actions, episodes,
-                             acting_at(int(a), ov, colour, twin, site_overlap), kinds, colour)
+                             acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
+                             colour)
         support = sites[a] > 0
         look = look_presence(site_features(x[:, support], sites[a][support]), labels, episode)
         if look is not None:
@@ -334,7 +491,8 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
 def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.ndarray,
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
-           twin: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+           twin: np.ndarray | None = None, mates: np.ndarray | None = None,
+           bandwidth: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -374,6 +532,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         subtracted, and the share of the way to an occupied look at which presence is 1.
     twin : ndarray of int, shape (A,), optional
         :func:`action_twins` (computed when not given).
+    mates : ndarray of bool, shape (A, A), optional
+        :func:`action_mates` (computed when not given).
+    bandwidth : float
+        Width of the colour kernel (:func:`window_colour`).
 
     Returns
     -------
@@ -383,6 +545,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, posterior = presence.copy(), posterior.copy()
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
+    mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
     pose, episode = poses(trace.actions), trace.episode_index()
     episodes = trace.episodes()
     actions = trace.actions
@@ -390,8 +553,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     start = np.zeros(trace.n_obs, dtype=bool)
     start[0] = True
     start[1:] = actions < 0
+    examples: list[list[np.ndarray]] = [[] for _ in range(n_col)]
+    looks: dict = {}
     for a in np.flatnonzero((counts > 0) & (colour >= 0)):
-        acting = acting_at(int(a), ov, colour, twin, site_overlap)
+        acting = acting_at(int(a), ov, colour, twin, site_overlap, mates)
         labels = site_labels(actions, episodes, acting, kinds, colour)
         known = labels != UNLABELLED
         raw = presence[:, a].copy()
@@ -417,9 +582,50 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                                                          support, saturation) > own:
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
                 read = run_presence(reading, strength, run, loose)
+                if n_col > 1:
+                    chroma = window_chroma(x, labels, pose, window, EMPTY)
+                    shows = (strength > 0) & (reading > 0.5) & np.isfinite(chroma[:, 0])
+                    for c in range(n_col):
+                        examples[c].append(chroma[shows & (labels == c)])
+                    looks[int(a)] = (chroma, strength, shows, run, loose)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
             presence[members, a] = read.get(int(ids[k]), np.median(presence[members, a]))
             posterior[members, a] = posterior[members, a].mean(axis=0)
+    if looks:
+        window_colour(posterior, looks, examples, bandwidth)
     return presence, posterior
+
+
+def window_colour(posterior: np.ndarray, looks: dict, examples: list[list[np.ndarray]],
+                  bandwidth: float) -> None:
+    """Colour of the unlabelled runs of the sites read per pose, in place.
+
+    The colours' examples are what the labelled frames show in the sites' windows
+    (:func:`~vggc_cp.vision.untouched.window_chroma`, frames whose pose reads the site and
+    that read present); a run takes the mean posterior of its frames that show an object,
+    weighted by their strength. Nothing changes where a colour has fewer than two examples
+    or a run no such frame.
+
+    Parameters
+    ----------
+    posterior : ndarray, shape (N, A, C)
+    looks : dict
+        Site -> (chroma (N, 2), strength (N,), shows (N,) bool, run (N,), loose).
+    examples : list of list of ndarray
+        Per colour, the chroma arrays of its examples.
+    bandwidth : float
+    """
+    pooled = [np.concatenate(parts) if parts else np.zeros((0, 2)) for parts in examples]
+    if min(len(p) for p in pooled) < 2:
+        return
+    for a, (chroma, strength, shows, run, loose) in looks.items():
+        seen = loose[shows[loose]]
+        if not len(seen):
+            continue
+        post = kernel_posterior(chroma[seen], pooled, bandwidth)
+        for r in np.unique(run[seen]):
+            these = run[seen] == r
+            w = strength[seen][these]
+            posterior[loose[run[loose] == r], a] = np.average(post[these], axis=0, weights=w)

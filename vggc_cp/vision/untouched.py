@@ -166,6 +166,37 @@ def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: n
     return reading, strength
 
 
+def window_chroma(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: np.ndarray,
+                  empty: int) -> np.ndarray:
+    """Chromaticity ``(r, g) / (r + g + b)`` of what deviates from the empty look of its pose
+    in the window, for every observation, shape (N, 2); ``nan`` where the observation's pose
+    has fewer than :data:`MIN_LOOKS` frames labelled empty.
+
+    The deviating pixels weigh ``W(p) |x_o(p) - e_b(p)|_1``, as the footprints weigh theirs
+    (:func:`vggc_cp.vision.footprints.describe`), but against the empty look of the frame's
+    own pose: an arm that rests over the site looks the same in both and drops out.
+
+    >>> x = np.zeros((4, 1, 2, 3), np.float32); x[2:, 0, 0] = [0.8, 0.1, 0.1]
+    >>> w = np.array([[1.0, 0.0]])
+    >>> window_chroma(x, np.array([-1, -1, 0, 0]), np.zeros(4, int), w, -1)[2].round(2).tolist()
+    [0.8, 0.1]
+    """
+    on = window > 0
+    weight = window[on]
+    pixels = x[:, on]                                                    # (N, P, 3)
+    out = np.full((len(x), 2), np.nan)
+    for b in np.unique(pose):
+        these = np.flatnonzero(pose == b)
+        e = these[labels[these] == empty]
+        if len(e) < MIN_LOOKS:
+            continue
+        dev = np.abs(pixels[these] - pixels[e].mean(axis=0)).sum(axis=-1) * weight   # (n, P)
+        mean = np.einsum("np,npc->nc", dev, pixels[these])
+        mean /= np.maximum(dev.sum(axis=1), 1e-12)[:, None]
+        out[these] = mean[:, :2] / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
+    return out
+
+
 def agreement(reading: np.ndarray, strength: np.ndarray, labels: np.ndarray,
               empty: int) -> float:
     """Share of the labelled observations (weighted by ``strength``) whose reading says what
