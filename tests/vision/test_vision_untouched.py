@@ -45,6 +45,27 @@ def test_the_window_is_where_the_site_shows_what_it_holds_not_the_arm():
     assert un.site_window(x, np.where(labels >= 0, 0, -2), pose, EMPTY, 0.2) is None
 
 
+def test_the_window_ignores_edges_a_shaking_camera_moves():
+    """A bright marker's edge that a camera shake moves by a pixel in some frames differs
+    more between the means of the few occupied and empty frames than a faint object does;
+    counted in standard errors, the object's pixels win: they differ alike in every frame."""
+    rng = np.random.default_rng(3)
+    n = 24
+    holds = np.arange(n) % 2 == 0
+    x = np.full((n, 12, 12, 3), 0.3, dtype=np.float32)
+    x[holds, SITE[0], SITE[1]] = (0.45, 0.3, 0.3)          # a faint object
+    shift = rng.integers(0, 2, n)
+    for i in range(n):                                       # a marker edge, shaken
+        x[i, :, 8 + shift[i]:] = 2.0
+    x += 0.01 * rng.standard_normal(x.shape).astype(np.float32)
+    labels = np.where(holds, 0, EMPTY)
+    w = un.site_window(x, labels, np.zeros(n, dtype=np.int64), EMPTY, support=0.2)
+    assert w is not None and w[SITE].sum() > 0.9
+    # the plain difference of the means lies on the edge
+    plain = np.abs(x[holds].mean(0) - x[~holds].mean(0)).sum(-1)
+    assert plain[:, 8].mean() > plain[SITE].mean()
+
+
 def test_a_pose_whose_arm_hides_the_site_weighs_nothing_and_runs_are_read_right():
     x, labels, pose, episode, holds = _scene()
     w = un.site_window(x, labels, pose, EMPTY, support=0.2)
@@ -112,7 +133,8 @@ def test_a_robot_camera_fruit_4x6_is_read_and_learned_right():
     truth = np.array([[c != "-" for c in s.split("|")[0]] for s in trace.states])
     fp = action_footprints(trace.without_states())
     right = np.abs(fp.presence[:, fp.taken] - truth[:, site[fp.taken]]) < 0.5
-    assert right.mean() > 0.95                      # 97.6 %; before this reading, 78 %
+    assert right.mean() > 0.98                      # 99.5 %; 97.6 % with the plain window
+                                                    # (session 12), 78 % before either
     learned = learn_graph(trace.without_states(), LearnConfig(), progress=False)
     metrics, _ = evaluate_trace(trace, learned.graph, learned.labels, n_queries=300, seed=0)
     assert metrics.nodes == metrics.true_states == 35

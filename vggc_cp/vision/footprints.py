@@ -375,16 +375,18 @@ def pooled(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray) -> bool:
 def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
                    footprint_points: list[np.ndarray], window_points: list[np.ndarray],
                    bandwidth: float) -> np.ndarray:
-    """Colours read again where the footprints pooled task classes, shape (A,).
+    """Colours split again where the footprints pooled task classes, shape (A,).
 
     Pooling says two classes look alike; a footprint that lies on a robot arm says so of
-    every class (it reads the arm's grey). Where :func:`action_colours` pooled classes, they
-    are pooled again (:func:`colour_classes`) on the chroma their labels show in the sites'
-    windows (``window_points``, :func:`~vggc_cp.vision.occupancy.window_class_chroma`).
-    A class with fewer than two window examples cannot be read there: it joins the readable
-    class under whose footprint chroma its own footprint chroma (``footprint_points``) is
-    likeliest. Without pooling, or with fewer than two readable classes, ``colour`` is
-    returned as it is.
+    every class (it reads the arm's grey). The classes are pooled again
+    (:func:`colour_classes`) on the chroma their labels show in the sites' windows
+    (``window_points``, :func:`~vggc_cp.vision.occupancy.window_class_chroma`), and two
+    classes keep one colour only where both readings pool them: the windows split what the
+    footprints pooled, never pool what the footprints tell apart. A class with fewer than
+    two window examples cannot be read there: it follows the readable class of its
+    footprint colour under whose footprint chroma its own (``footprint_points``) is
+    likeliest, or stays with the footprints' choice where its colour has none. Without
+    pooling, or with fewer than two readable classes, ``colour`` is returned as it is.
 
     Parameters
     ----------
@@ -402,7 +404,8 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
 
     >>> rng = np.random.default_rng(0)
     >>> grey = [0.33 + 0.001 * rng.standard_normal((20, 2)) for _ in range(3)]
-    >>> red, yellow = [0.6, 0.3] + 0.01 * rng.standard_normal((20, 2)), [0.45, 0.4] + 0.01 * rng.standard_normal((20, 2))
+    >>> red = [0.6, 0.3] + 0.01 * rng.standard_normal((20, 2))
+    >>> yellow = [0.45, 0.4] + 0.01 * rng.standard_normal((20, 2))
     >>> window_colours(np.zeros(3, int), np.arange(3), np.ones(3), grey,
     ...                [red, yellow, np.zeros((0, 2))], 0.02).tolist()
     [0, 1, 0]
@@ -414,18 +417,21 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     readable = [k for k in known if len(window_points[k]) >= 2]
     if len(readable) < 2:
         return colour
-    out = np.full(len(colour), -1, dtype=np.int64)
-    group = colour_classes([window_points[k] for k in readable], bandwidth)
-    for k, g in zip(readable, group):
-        out[(classes == k) & taken] = g
+    first = {k: int(colour[(classes == k) & taken][0]) for k in known}
+    seen = dict(zip(readable, colour_classes([window_points[k] for k in readable],
+                                             bandwidth).tolist()))
     for k in known:
-        if k in readable:
+        if k in seen:
             continue
+        near = [r for r in readable if first[r] == first[k]]
         lik = [float(np.median(kernel_loglik(footprint_points[k], footprint_points[r],
-                                             bandwidth))) for r in readable]
-        out[(classes == k) & taken] = out[(classes == readable[int(np.argmax(lik))]) & taken][0]
-    ids = np.unique(out[taken])
-    out[taken] = np.searchsorted(ids, out[taken])
+                                             bandwidth))) for r in near]
+        seen[k] = seen[near[int(np.argmax(lik))]] if near else -1
+    key = {k: (first[k], seen[k]) for k in known}
+    ids = sorted(set(key.values()))
+    out = np.full(len(colour), -1, dtype=np.int64)
+    for k in known:
+        out[(classes == k) & taken] = ids.index(key[k])
     return out
 
 

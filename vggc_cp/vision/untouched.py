@@ -14,9 +14,12 @@ first of an episode).
 
 **Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
 differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
-(summed over the channels, weighted by ``n_e n_o / (n_e + n_o)``), less its median over the
-image, less ``support`` of its peak, on its heaviest connected component, is where the site
-shows what it holds (:func:`site_window`); arm, lighting and other sites average out.
+(summed over the channels) over its standard error (``sqrt(sum_c var_o / n_o + var_e / n_e)``,
+at least its median over the image), weighted by ``n_e n_o / (n_e + n_o)``, less its median
+over the image, less ``support`` of its peak, on its heaviest connected component, is where
+the site shows what it holds (:func:`site_window`): an object differs alike in every frame,
+while the edges a shaking camera or a drifting light moves differ by chance, and arm,
+lighting and other sites average out.
 
 **Reading.** In a frame of pose ``b``, the deviation from the empty look of that pose,
 ``m(o) = sum_p W(p) |x_o(p) - e_b(p)|_1``, is scaled as the footprint presence is: 0 at the
@@ -105,7 +108,13 @@ def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
     total = 0.0
     for _, e, o in _groups(labels, pose, empty):
         w = len(e) * len(o) / (len(e) + len(o))
-        acc += w * np.abs(x[o].mean(axis=0) - x[e].mean(axis=0)).sum(axis=-1)
+        diff = np.abs(x[o].mean(axis=0) - x[e].mean(axis=0)).sum(axis=-1)
+        # in units of its standard error: a pixel that differs because the camera shakes or
+        # the light drifts (a marker's edge) varies within both kinds of frame; an object's
+        # pixels differ alike in every frame. The error's floor is its median over the image,
+        # so that a pixel that never varies cannot claim certainty.
+        err = np.sqrt((x[o].var(axis=0) / len(o) + x[e].var(axis=0) / len(e)).sum(axis=-1))
+        acc += w * diff / np.maximum(err, np.median(err) + 1e-6)
         total += w
     if total == 0:
         return None
