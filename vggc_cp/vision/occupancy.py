@@ -316,7 +316,7 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
         Working frames.
     ov : ndarray, shape (A, A)
     classes : ndarray of int, shape (A,)
-        :func:`~vggc_cp.vision.footprints.action_classes`.
+        :func:`~vggc_cp.vision.colours.action_classes`.
     counts : ndarray, shape (A,)
     site_overlap, support, saturation : float
         Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.

@@ -154,7 +154,7 @@ def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: n
     strength = np.zeros(len(x))
     for b, e, o in _groups(labels, pose, empty):
         ref = pixels[e].mean(axis=0)
-        dev = lambda idx: np.abs(pixels[idx] - ref).sum(axis=-1) @ weight  # noqa: E731
+        dev = lambda idx, ref=ref: np.abs(pixels[idx] - ref).sum(axis=-1) @ weight  # noqa: E731
         # an empty frame is judged on the mean of the others (it would pull its own reference
         # toward itself and feign a separation where the arm hides the site)
         loo = (len(e) * ref - pixels[e]) / (len(e) - 1)

@@ -1,0 +1,217 @@
+"""Colours of task classes: which actions move objects of one class, and which classes look
+alike (beyond the paper).
+
+**Classes.** What a pick lifts is what the next place puts down, so a pick and the place that
+follows it move one task class: the classes are the connected components of that relation
+(:func:`action_classes`, names are not read).
+
+**Colours.** Classes whose colours cannot be told apart are one colour: the chroma
+``(r, g) / (r + g + b)`` of their objects must be clearly likelier under its own class's
+kernel density (:mod:`vggc_cp.vision.density`) than under another's (:func:`colour_classes`).
+The footprints give each class its examples (:func:`class_points`, :func:`action_colours`);
+where they pool classes (on a robot's camera every footprint may read the arm's grey), the
+windows the actions' labels teach read them again and may split what the footprints pooled
+(:func:`window_colours`). A site's colour is the posterior of each colour given the chroma it
+shows (:func:`colour_posteriors`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.trace import PICK, PLACE, Trace
+from vggc_cp.vision.density import kernel_loglik, kernel_posterior
+
+
+def action_classes(trace: Trace) -> np.ndarray:
+    """Task class of every action, int64 array of shape (A,), from the trace's structure.
+
+    What a pick lifts is what the next place puts down: a pick and the place that follows it
+    (the two actions around one place-role observation) move an object of one class. The
+    classes are the connected components of that relation (union-find); an action never
+    linked that way is a class of its own. Names are not read.
+    """
+    parent = np.arange(trace.n_actions)
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return int(a)
+
+    kinds = trace.action_kinds()
+    prev, nxt = trace.actions[:-1], trace.actions[1:]
+    link = (prev >= 0) & (nxt >= 0)
+    for a, b in zip(prev[link], nxt[link]):
+        if kinds[a] == PICK and kinds[b] == PLACE:
+            ra, rb = find(int(a)), find(int(b))
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(a) for a in range(trace.n_actions)], dtype=np.int64)
+    return np.unique(roots, return_inverse=True)[1].astype(np.int64)
+
+
+def colour_classes(points: list[np.ndarray], bandwidth: float, distinct: float = 1.0
+                   ) -> np.ndarray:
+    """Pool task classes whose colours cannot be told apart.
+
+    A class is a colour of its own when its examples are clearly likelier under its own
+    kernel density (each example left out of it) than under any other class's: the median
+    log-likelihood ratio exceeds ``distinct`` nats. Otherwise (an action the trace never
+    linked to its class, or two classes of one colour) it joins the class it is least
+    distinct from, the least distinct first, until every class is distinct. A class of one
+    example cannot show it and joins the class under whose density its example is likeliest
+    (not whichever class comes first).
+
+    Parameters
+    ----------
+    points : list of ndarray, shape (n_k, 2)
+        Chroma of each task class's occupied observations.
+    bandwidth : float
+    distinct : float
+
+    Returns
+    -------
+    ndarray of int, shape (K,)
+        Colour of every task class, numbered from 0.
+    """
+    group = np.arange(len(points))
+    while len(np.unique(group)) > 1:
+        ids = list(np.unique(group))
+        pooled = {g: np.concatenate([points[k] for k in np.flatnonzero(group == g)])
+                  for g in ids}
+        worst = None
+        single = [g for g in ids if len(pooled[g]) == 1]
+        if single:  # it cannot show a colour of its own: it joins its likeliest class
+            g = single[0]
+            others = [h for h in ids if h != g]
+            lik = [float(kernel_loglik(pooled[g], pooled[h], bandwidth)[0]) for h in others]
+            group[group == g] = others[int(np.argmax(lik))]
+            continue
+        for g in ids:
+            own = pooled[g]
+            # leave each example out of its own class's density
+            d2 = ((own[:, None] - own[None]) ** 2).sum(-1) / bandwidth ** 2
+            np.fill_diagonal(d2, np.inf)
+            m = (-0.5 * d2).max(axis=1)
+            loo = m + np.log(np.exp(-0.5 * d2 - m[:, None]).sum(axis=1) / (len(own) - 1))
+            for h in ids:
+                if h == g:
+                    continue
+                ratio = float(np.median(loo - kernel_loglik(own, pooled[h], bandwidth)))
+                if ratio < distinct and (worst is None or ratio < worst[0]):
+                    worst = (ratio, g, h)
+        if worst is None:
+            break
+        _, g, h = worst
+        group[group == g] = h
+    return np.unique(group, return_inverse=True)[1].astype(np.int64)
+
+
+def class_points(chroma: np.ndarray, counts: np.ndarray, classes: np.ndarray,
+                 occupied: dict[int, np.ndarray]) -> list[np.ndarray]:
+    """Chroma of every task class's occupied observations, each seen in its own action's
+    footprint: one array (n_k, 2) per class, indexed by class (empty for a class never
+    taken)."""
+    n_cls = int(classes.max()) + 1 if len(classes) else 0
+    return [np.concatenate([chroma[occupied[a], a] for a in
+                            np.flatnonzero((classes == k) & (counts > 0))] or [np.zeros((0, 2))])
+            for k in range(n_cls)]
+
+
+def action_colours(points: list[np.ndarray], counts: np.ndarray, classes: np.ndarray,
+                   bandwidth: float) -> np.ndarray:
+    """Colour of every action, shape (A,) (-1 for an action never taken): the task classes
+    (:func:`action_classes`) pooled by :func:`colour_classes` on the chroma of their actions'
+    occupied observations (:func:`class_points`)."""
+    colour = np.full(len(counts), -1, dtype=np.int64)
+    known = [k for k in np.unique(classes) if (counts[classes == k] > 0).any()]
+    if not known:
+        return colour
+    group = colour_classes([points[k] for k in known], bandwidth)
+    for k, g in zip(known, group):
+        colour[(classes == k) & (counts > 0)] = g
+    return colour
+
+
+def pooled(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray) -> bool:
+    """Whether the taken actions have fewer colours than task classes."""
+    taken = counts > 0
+    return len(np.unique(colour[taken])) < len(np.unique(classes[taken]))
+
+
+def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
+                   footprint_points: list[np.ndarray], window_points: list[np.ndarray],
+                   bandwidth: float) -> np.ndarray:
+    """Colours split again where the footprints pooled task classes, shape (A,).
+
+    Pooling says two classes look alike; a footprint that lies on a robot arm says so of
+    every class (it reads the arm's grey). The classes are pooled again
+    (:func:`colour_classes`) on the chroma their labels show in the sites' windows
+    (``window_points``, :func:`~vggc_cp.vision.occupancy.window_class_chroma`), and two
+    classes keep one colour only where both readings pool them: the windows split what the
+    footprints pooled, never pool what the footprints tell apart. A class with fewer than
+    two window examples cannot be read there: it follows the readable class of its
+    footprint colour under whose footprint chroma its own (``footprint_points``) is
+    likeliest, or stays with the footprints' choice where its colour has none. Without
+    pooling, or with fewer than two readable classes, ``colour`` is returned as it is.
+
+    Parameters
+    ----------
+    colour : ndarray of int, shape (A,)
+        :func:`action_colours`.
+    classes, counts : ndarray, shape (A,)
+    footprint_points, window_points : list of ndarray, shape (n_k, 2)
+        Chroma of each task class (indexed by class) in its footprints and in the windows.
+    bandwidth : float
+
+    Examples
+    --------
+    Two classes of grey footprints (an arm) that the windows tell apart, and a third that
+    only the footprints show:
+
+    >>> rng = np.random.default_rng(0)
+    >>> grey = [0.33 + 0.001 * rng.standard_normal((20, 2)) for _ in range(3)]
+    >>> red = [0.6, 0.3] + 0.01 * rng.standard_normal((20, 2))
+    >>> yellow = [0.45, 0.4] + 0.01 * rng.standard_normal((20, 2))
+    >>> window_colours(np.zeros(3, int), np.arange(3), np.ones(3), grey,
+    ...                [red, yellow, np.zeros((0, 2))], 0.02).tolist()
+    [0, 1, 0]
+    """
+    taken = counts > 0
+    known = [int(k) for k in np.unique(classes[taken])]
+    if not pooled(colour, classes, counts):
+        return colour
+    readable = [k for k in known if len(window_points[k]) >= 2]
+    if len(readable) < 2:
+        return colour
+    first = {k: int(colour[(classes == k) & taken][0]) for k in known}
+    seen = dict(zip(readable, colour_classes([window_points[k] for k in readable],
+                                             bandwidth).tolist()))
+    for k in known:
+        if k in seen:
+            continue
+        near = [r for r in readable if first[r] == first[k]]
+        lik = [float(np.median(kernel_loglik(footprint_points[k], footprint_points[r],
+                                             bandwidth))) for r in near]
+        seen[k] = seen[near[int(np.argmax(lik))]] if near else -1
+    key = {k: (first[k], seen[k]) for k in known}
+    ids = sorted(set(key.values()))
+    out = np.full(len(colour), -1, dtype=np.int64)
+    for k in known:
+        out[(classes == k) & taken] = ids.index(key[k])
+    return out
+
+
+def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth: float
+                      ) -> np.ndarray:
+    """Posterior of every colour for the chroma seen in every site, shape (N, A, C).
+
+    Each colour's likelihood is a kernel density over its examples (Gaussian kernel of width
+    ``bandwidth``): a class of several looks keeps every look, which one prototype and spread
+    would not. Equal priors. One colour (or none): all ones.
+    """
+    n, n_act = chroma.shape[:2]
+    if len(examples) <= 1:
+        return np.ones((n, n_act, 1))
+    return kernel_posterior(chroma.reshape(-1, 2), examples, bandwidth).reshape(
+        n, n_act, len(examples))
