@@ -236,3 +236,15 @@ def test_unlabelled_runs_take_the_colour_their_window_shows():
     occ.window_colour(posterior, {0: (chroma, strength, shows, run, loose)},
                       [[chroma[[0, 2]]], [chroma[[1]]]], 0.02)
     np.testing.assert_array_equal(posterior, before)
+
+
+def test_a_footprint_presence_no_better_than_the_majority_is_not_a_reading():
+    """A site whose footprint presence agrees with its labelled frames no more often than
+    saying what most of them hold (stacked sites of several colours, a site under an arm)
+    gives its unread runs that majority; a better presence keeps its own reading; a site no
+    frame of which is labelled keeps it too."""
+    mostly_full = np.array([0, 0, 0, 1, occ.EMPTY, occ.UNLABELLED])
+    assert occ.majority_guess(0.8, mostly_full) == 1.0          # 4 of 5 occupied: 0.8
+    assert occ.majority_guess(0.81, mostly_full) is None
+    assert occ.majority_guess(0.6, np.array([occ.EMPTY] * 3 + [0])) == 0.0
+    assert occ.majority_guess(0.0, np.full(4, occ.UNLABELLED)) is None

@@ -511,7 +511,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       more often than the footprint presence does (each half of the episodes judged on what
       the other half teaches). Otherwise (or where no pose can read the site, or without
       ``x``) the run's median presence, so a frame in which the site is hidden is outvoted
-      by the frames in which it is seen.
+      by the frames in which it is seen; or, where the footprint presence does no better on
+      the labelled frames than saying what most of them hold, that (:func:`majority_guess`).
 
     The actions at a site are found with the twins the trace's sequence allows
     (:func:`action_twins`).
@@ -588,14 +589,37 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                     for c in range(n_col):
                         examples[c].append(chroma[shows & (labels == c)])
                     looks[int(a)] = (chroma, strength, shows, run, loose)
+        guess = majority_guess(own, labels)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
-            presence[members, a] = read.get(int(ids[k]), np.median(presence[members, a]))
+            fallback = np.median(presence[members, a]) if guess is None else guess
+            presence[members, a] = read.get(int(ids[k]), fallback)
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
     return presence, posterior
+
+
+def majority_guess(own: float, labels: np.ndarray) -> float | None:
+    """What the unread runs of a site hold when its footprint presence is no reading.
+
+    A presence that agrees with the labelled frames (``own``, :func:`agreement`) no more
+    often than saying what most of them hold does is not a reading of the site (on a stacked
+    site of several colours, or under an arm): the runs no pose reading reaches take what
+    most labelled frames hold (1.0 occupied, 0.0 empty). Otherwise None: the run's median
+    footprint presence stands.
+
+    >>> majority_guess(0.55, np.array([-1, -1, -1, 0, -2]))     # 3 of 4 labelled empty
+    0.0
+    >>> majority_guess(0.9, np.array([-1, -1, -1, 0, -2])) is None
+    True
+    """
+    known = labels != UNLABELLED
+    if not known.any():
+        return None
+    full = float(np.mean(labels[known] >= 0))
+    return None if own > max(full, 1.0 - full) else float(full > 0.5)
 
 
 def window_colour(posterior: np.ndarray, looks: dict, examples: list[list[np.ndarray]],
