@@ -12,8 +12,9 @@ class at the site, an object of the class's colour; after it, nothing; before a 
 nothing; after it, that colour (:func:`site_labels`). The actions at site ``a`` are ``a``, its
 *twin* (the action of the other kind and the same colour that refills or empties its slot: read
 from the sequence where it settles it, :func:`sequence_twins`, else the one whose footprint
-overlaps ``a``'s most), every action of another colour overlapping ``a``'s
-footprint by ``site_overlap`` or more, and their twins. An episode whose actions contradict
+overlaps ``a``'s most), every action of another colour at its slot (read from the sequence
+where it settles it, :func:`sequence_mates`, else those overlapping ``a``'s footprint by
+``site_overlap`` or more), and their twins. An episode whose actions contradict
 each other at the site (two picks with no place between) is not labelled; an episode with no
 action at the site is not either.
 
@@ -513,9 +514,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       ``x``) the run's median presence, so a frame in which the site is hidden is outvoted
       by the frames in which it is seen; or, where the footprint presence does no better on
       the labelled frames than saying what most of them hold, that (:func:`majority_guess`).
+      A run read per pose also takes the colour its window shows (:func:`window_colour`).
 
-    The actions at a site are found with the twins the trace's sequence allows
-    (:func:`action_twins`).
+    The actions at a site are found with the twins and slot mates the trace's sequence
+    allows (:func:`action_twins`, :func:`action_mates`).
 
     Parameters
     ----------
