@@ -21,6 +21,11 @@ import numpy as np
 
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.density import kernel_loglik, kernel_posterior
+from vggc_cp.vision.occupancy import EMPTY, acting_at, action_mates, action_twins, site_labels
+from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
+
+#: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
+MAX_EXAMPLES = 2000
 
 
 def action_classes(trace: Trace) -> np.ndarray:
@@ -147,7 +152,7 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     Pooling says two classes look alike; a footprint that lies on a robot arm says so of
     every class (it reads the arm's grey). The classes are pooled again
     (:func:`colour_classes`) on the chroma their labels show in the sites' windows
-    (``window_points``, :func:`~vggc_cp.vision.occupancy.window_class_chroma`), and two
+    (``window_points``, :func:`window_class_chroma`), and two
     classes keep one colour only where both readings pool them: the windows split what the
     footprints pooled, never pool what the footprints tell apart. A class with fewer than
     two window examples cannot be read there: it follows the readable class of its
@@ -215,3 +220,60 @@ def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth:
         return np.ones((n, n_act, 1))
     return kernel_posterior(chroma.reshape(-1, 2), examples, bandwidth).reshape(
         n, n_act, len(examples))
+
+
+def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
+                        counts: np.ndarray, site_overlap: float, support: float,
+                        saturation: float) -> list[np.ndarray]:
+    """Chroma of every task class where the actions' labels show it, one array (n_k, 2) per
+    class (``n_k = 0`` where no site shows the class).
+
+    Every taken action's site is labelled with the classes as its colours
+    (:func:`~vggc_cp.vision.occupancy.site_labels`); the frames they label teach the site's
+    window (:func:`~vggc_cp.vision.untouched.site_window`), and each frame labelled with a class
+    gives the chroma of what deviates in it from its pose's empty look
+    (:func:`~vggc_cp.vision.untouched.window_chroma`), where its pose shows the site at
+    :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
+    (:func:`~vggc_cp.vision.untouched.pose_readings`). A footprint on a robot arm reads the
+    arm's grey for every class; the window lies where the objects differ. At most
+    :data:`MAX_EXAMPLES` per class, evenly spaced.
+
+    Parameters
+    ----------
+    trace : Trace
+        Its actions and episodes (never its states).
+    x : ndarray of float32, shape (N, H, W, 3)
+        Working frames.
+    ov : ndarray, shape (A, A)
+    classes : ndarray of int, shape (A,)
+        :func:`action_classes`.
+    counts : ndarray, shape (A,)
+    site_overlap, support, saturation : float
+        Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.
+    """
+    colour = np.where(counts > 0, classes, -1)
+    n_cls = int(classes.max()) + 1 if len(classes) else 0
+    twin = action_twins(trace, ov, colour)
+    mates = action_mates(trace, ov, colour, twin, site_overlap)
+    kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
+    found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
+    for a in np.flatnonzero(counts > 0):
+        labels = site_labels(trace.actions, episodes,
+                             acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
+                             colour)
+        window = site_window(x, labels, pose, EMPTY, support)
+        if window is None:
+            continue
+        chroma = window_chroma(x, labels, pose, window, EMPTY)
+        # only the poses that show the site, and frames in which the object shows
+        reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+        seen = (labels >= 0) & np.isfinite(chroma[:, 0]) & (strength > 0) & (reading > 0.5)
+        for k in np.unique(labels[seen]):
+            found[k].append(chroma[seen & (labels == k)])
+    out = []
+    for parts in found:
+        pts = np.concatenate(parts) if parts else np.zeros((0, 2))
+        if len(pts) > MAX_EXAMPLES:
+            pts = pts[np.linspace(0, len(pts) - 1, MAX_EXAMPLES).round().astype(int)]
+        out.append(pts)
+    return out

@@ -91,6 +91,7 @@ from vggc_cp.vision.colours import (
     class_points,
     colour_posteriors,
     pooled,
+    window_class_chroma,
     window_colours,
 )
 from vggc_cp.vision.occupancy import (
@@ -98,7 +99,6 @@ from vggc_cp.vision.occupancy import (
     action_twins,
     refine_presence,
     settle,
-    window_class_chroma,
 )
 from vggc_cp.vision.registration import steady
 from vggc_cp.vision.working import (

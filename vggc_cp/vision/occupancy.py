@@ -59,8 +59,6 @@ UNLABELLED = -2
 #: Odds from which a candidate that always alternates with an action is taken for its twin
 #: (:func:`sequence_twins`): 20 to 1, the bar of the warning's description-length margin.
 TWIN_ODDS = 20.0
-#: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
-MAX_EXAMPLES = 2000
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
 
@@ -76,6 +74,19 @@ def twins(ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
         cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
         if len(cand) and ov[a, cand].max() > 0:
             out[a] = int(cand[np.argmax(ov[a, cand])])
+    return out
+
+
+def action_episodes(n: int, episodes: list[tuple[int, int]]) -> np.ndarray:
+    """Episode of each of the ``n`` actions of a trace, int64 of shape (n,) (-1 for the
+    separators between episodes).
+
+    >>> action_episodes(5, [(0, 2), (3, 5)]).tolist()
+    [0, 0, -1, 1, 1]
+    """
+    out = np.full(n, -1, dtype=np.int64)
+    for i, (first, last) in enumerate(episodes):
+        out[first:last] = i
     return out
 
 
@@ -121,9 +132,7 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     """
     out = twins(ov, colour, kinds)
     actions = np.asarray(actions)
-    episode_of = np.full(len(actions), -1, dtype=np.int64)   # of every action
-    for i, (first, last) in enumerate(episodes):
-        episode_of[first:last] = i
+    episode_of = action_episodes(len(actions), episodes)
     for a in np.flatnonzero(colour >= 0):
         cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
         counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, alternated
@@ -195,9 +204,7 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     other = (colour[:, None] != colour[None, :]) & (colour[:, None] >= 0) & (colour >= 0)
     out = other & (ov >= site_overlap)
     actions = np.asarray(actions)
-    episode_of = np.full(len(actions), -1, dtype=np.int64)
-    for i, (first, last) in enumerate(episodes):
-        episode_of[first:last] = i
+    episode_of = action_episodes(len(actions), episodes)
     # what each action finds at its slot and what it leaves (-1: empty)
     finds = np.where(kinds == PICK, colour, EMPTY)
     leaves = np.where(kinds == PICK, EMPTY, colour)
@@ -291,63 +298,6 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
             labels[prev[0] + 1:nxt[0] + 1] = prev[2]
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
     return labels
-
-
-def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
-                        counts: np.ndarray, site_overlap: float, support: float,
-                        saturation: float) -> list[np.ndarray]:
-    """Chroma of every task class where the actions' labels show it, one array (n_k, 2) per
-    class (``n_k = 0`` where no site shows the class).
-
-    Every taken action's site is labelled with the classes as its colours
-    (:func:`site_labels`); the frames they label teach the site's window
-    (:func:`~vggc_cp.vision.untouched.site_window`), and each frame labelled with a class
-    gives the chroma of what deviates in it from its pose's empty look
-    (:func:`~vggc_cp.vision.untouched.window_chroma`), where its pose shows the site at
-    :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
-    (:func:`~vggc_cp.vision.untouched.pose_readings`). A footprint on a robot arm reads the
-    arm's grey for every class; the window lies where the objects differ. At most
-    :data:`MAX_EXAMPLES` per class, evenly spaced.
-
-    Parameters
-    ----------
-    trace : Trace
-        Its actions and episodes (never its states).
-    x : ndarray of float32, shape (N, H, W, 3)
-        Working frames.
-    ov : ndarray, shape (A, A)
-    classes : ndarray of int, shape (A,)
-        :func:`~vggc_cp.vision.colours.action_classes`.
-    counts : ndarray, shape (A,)
-    site_overlap, support, saturation : float
-        Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.
-    """
-    colour = np.where(counts > 0, classes, -1)
-    n_cls = int(classes.max()) + 1 if len(classes) else 0
-    twin = action_twins(trace, ov, colour)
-    mates = action_mates(trace, ov, colour, twin, site_overlap)
-    kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
-    found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
-    for a in np.flatnonzero(counts > 0):
-        labels = site_labels(trace.actions, episodes,
-                             acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
-                             colour)
-        window = site_window(x, labels, pose, EMPTY, support)
-        if window is None:
-            continue
-        chroma = window_chroma(x, labels, pose, window, EMPTY)
-        # only the poses that show the site, and frames in which the object shows
-        reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
-        seen = (labels >= 0) & np.isfinite(chroma[:, 0]) & (strength > 0) & (reading > 0.5)
-        for k in np.unique(labels[seen]):
-            found[k].append(chroma[seen & (labels == k)])
-    out = []
-    for parts in found:
-        pts = np.concatenate(parts) if parts else np.zeros((0, 2))
-        if len(pts) > MAX_EXAMPLES:
-            pts = pts[np.linspace(0, len(pts) - 1, MAX_EXAMPLES).round().astype(int)]
-        out.append(pts)
-    return out
 
 
 def nearest_looks(features: np.ndarray, ref: np.ndarray, episode: np.ndarray,
