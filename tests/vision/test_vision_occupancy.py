@@ -192,6 +192,64 @@ def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():
     assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 4, 5]
 
 
+def test_a_slot_has_one_mate_of_each_colour_and_kind():
+    """A red pair (0, 1) and a yellow pair (2, 3) at the bottom slot of a stack, a yellow pair
+    (4, 5) on top of it: the top's footprints overlap the bottom's (0.5, above the site
+    bar), the bottom yellow pair's overlap more (0.8). Short episodes never meet, so the
+    pixels decide: the bottom slot's yellow mates are 2 and 3 alone, and the top pair, whose
+    red candidates already have their yellow mates, gets none."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    ov = np.full((6, 6), 0.5)
+    ov[np.ix_([0, 1, 2, 3], [0, 1, 2, 3])] = 0.8
+    ov[[4, 5], [5, 4]] = 0.8
+    np.fill_diagonal(ov, 1.0)
+    actions = np.array([0, 1, -1, 2, 3, -1, 4, 5])
+    mates = occ.sequence_mates(actions, [(0, 2), (3, 5), (6, 8)], ov, colour, kinds, twin, 0.2)
+    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
+    assert np.flatnonzero(mates[1]).tolist() == [2, 3]
+    assert not mates[4].any() and not mates[5].any()
+    assert occ.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+    # the pixels alone would have put the top pair at the bottom slot
+    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 2, 3, 4, 5]
+
+
+def test_one_mate_per_colour_prefers_what_the_pixels_confirm():
+    """Of two candidates of one colour and kind, one that the footprints put at the slot too
+    beats one only the sequence names; among equals, the larger overlap."""
+    kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    ov = np.array([[1, .1, .6], [.1, 1, 0], [.6, 0, 1]])
+    mates = np.array([[0, 1, 1], [1, 0, 0], [1, 0, 0]], dtype=bool)
+    seen = mates & (ov >= 0.2)
+    assert occ.one_per_colour(mates, seen, ov, colour, kinds)[0].tolist() == [False, False, True]
+    nothing = np.zeros_like(mates)
+    assert occ.one_per_colour(mates, nothing, ov, colour, kinds)[0].tolist() == [False, False,
+                                                                                 True]
+    # another kind or colour is another mate
+    kinds2 = np.array([PICK, PICK, PLACE])
+    assert occ.one_per_colour(mates, nothing, ov, colour, kinds2)[0].tolist() == [False, True,
+                                                                                  True]
+
+
+def test_a_place_whose_own_pick_was_never_taken_has_no_twin():
+    """A red place (0) and pick (1) at the bottom of a stack and a red place on top (2) whose
+    pick the trace never took: the footprints' nearest pick for 2 is 1, which pairs with 0
+    both ways, so 2 has no twin, and its site's labels are its own place alone."""
+    kinds = np.array([PLACE, PICK, PLACE], dtype=np.int8)
+    colour = np.zeros(3, dtype=np.int64)
+    ov = np.array([[1, .9, .5], [.9, 1, .5], [.5, .5, 1]])
+    twin = occ.twins(ov, colour, kinds)
+    assert twin.tolist() == [1, 0, 1]
+    assert occ.exclusive_twins(twin).tolist() == [1, 0, -1]
+    actions = np.array([0, -1, 2, -1, 1, 0])
+    trace_twin = occ.sequence_twins(actions, [(0, 1), (2, 3), (4, 6)], ov, colour, kinds)
+    assert occ.exclusive_twins(trace_twin)[2] == -1
+    labels = occ.site_labels(actions, [(0, 1), (2, 3), (4, 6)],
+                             occ.acting_at(2, ov, colour, occ.exclusive_twins(twin), 0.2),
+                             kinds, colour)
+    assert labels.tolist() == [-2, -2, -1, 0, -2, -2, -2]
+
+
 def test_too_little_sequence_leaves_the_slot_to_the_pixels():
     """Two agreements are not 20:1: the candidates that never break the rule keep what the
     footprints say; one that breaks it is still ruled out."""

@@ -12,9 +12,10 @@ class at the site, an object of the class's colour; after it, nothing; before a 
 nothing; after it, that colour (:func:`site_labels`). The actions at site ``a`` are ``a``, its
 *twin* (the action of the other kind and the same colour that refills or empties its slot: read
 from the sequence where it settles it, :func:`sequence_twins`, else the one whose footprint
-overlaps ``a``'s most), every action of another colour at its slot (read from the sequence
+overlaps ``a``'s most; none where that one pairs with another action both ways,
+:func:`exclusive_twins`), every action of another colour at its slot (read from the sequence
 where it settles it, :func:`sequence_mates`, else those overlapping ``a``'s footprint by
-``site_overlap`` or more), and their twins. An episode whose actions contradict
+``site_overlap`` or more; one of each colour and kind), and their twins. An episode whose actions contradict
 each other at the site (two picks with no place between) is not labelled; an episode with no
 action at the site is not either.
 
@@ -156,8 +157,10 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
 
 
 def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
-    """:func:`sequence_twins` of ``trace`` (its actions and episodes, never its states)."""
-    return sequence_twins(trace.actions, trace.episodes(), ov, colour, trace.action_kinds())
+    """:func:`sequence_twins` of ``trace`` (its actions and episodes, never its states), each
+    :func:`exclusive_twins`."""
+    return exclusive_twins(sequence_twins(trace.actions, trace.episodes(), ov, colour,
+                                          trace.action_kinds()))
 
 
 def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
@@ -175,7 +178,11 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     candidates together, as for :func:`sequence_twins`. For the others (too few
     neighbours to tell, or no candidate ever breaking it: nothing to tell them apart), the
     footprints decide: an action of another colour overlapping ``a``'s footprint by
-    ``site_overlap`` or more acts at its slot.
+    ``site_overlap`` or more acts at its slot. A slot has one pick and one place of each
+    colour, so at most one of each is kept (:func:`one_per_colour`), and only where the
+    other side does not give its own mate of ``a``'s colour and kind to another action
+    (:func:`exclusive_mates`): a block on top of ``a``'s overlaps it, but it is not at its
+    slot.
 
     Parameters
     ----------
@@ -233,6 +240,70 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
         sure = (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_agree)
                                       >= math.log(TWIN_ODDS))
         out[a, cand[sure]] = True
+    seen = out & (ov >= site_overlap)                  # the pixels put them at the slot too
+    return exclusive_mates(one_per_colour(out, seen, ov, colour, kinds), colour, kinds)
+
+
+def one_per_colour(mates: np.ndarray, seen: np.ndarray, ov: np.ndarray, colour: np.ndarray,
+                   kinds: np.ndarray) -> np.ndarray:
+    """At most one mate of each colour and kind per action, boolean shape (A, A).
+
+    A slot has one pick and one place of each colour: of several candidates of one colour
+    and kind (a block on the block at ``a``'s slot overlaps it too), the one the footprints
+    put at the slot as well (``seen``: overlapping ``a``'s by the site bar) before one only
+    the sequence names (agreements of a pick with a later place are cheap: one leaves the
+    slot empty, the other finds its own slot empty), then the one whose footprint overlaps
+    ``a``'s most, is the mate.
+
+    >>> kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    >>> ov = np.array([[1, .8, .5], [.8, 1, .6], [.5, .6, 1]])
+    >>> m = np.array([[0, 1, 1], [1, 0, 0], [1, 0, 0]], dtype=bool)
+    >>> one_per_colour(m, np.zeros((3, 3), bool), ov, colour, kinds)[0].tolist()
+    [False, True, False]
+    """
+    out = np.zeros_like(mates)
+    for a in range(len(mates)):
+        cand = np.flatnonzero(mates[a])
+        for key in {(int(colour[b]), int(kinds[b])) for b in cand}:
+            group = [b for b in cand if (colour[b], kinds[b]) == key]
+            out[a, max(group, key=lambda b: (bool(seen[a, b]), float(ov[a, b])))] = True
+    return out
+
+
+def exclusive_mates(mates: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Mates that the other side does not give to another action, boolean shape (A, A).
+
+    ``b`` is at ``a``'s slot only if ``a`` is at ``b``'s: where ``b``'s mate of ``a``'s
+    colour and kind is another action (the slot below a block overlaps the block above, and
+    the block above's own mate was never taken), ``b`` is not ``a``'s mate.
+
+    >>> kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    >>> m = np.array([[0, 1, 0], [1, 0, 0], [1, 0, 0]], dtype=bool)   # 2 claims 0, 0 has 1
+    >>> exclusive_mates(m, colour, kinds)[2].tolist()
+    [False, False, False]
+    """
+    out = mates.copy()
+    for a, b in zip(*np.nonzero(mates)):
+        others = np.flatnonzero(mates[b] & (colour == colour[a]) & (kinds == kinds[a]))
+        if len(others) and a not in others:
+            out[a, b] = False
+    return out
+
+
+def exclusive_twins(twin: np.ndarray) -> np.ndarray:
+    """Twins that are not another action's twin in return, int shape (A,) (-1 when none).
+
+    A slot has one pick and one place of a colour: where ``a``'s twin ``b`` and another
+    action ``c`` are each other's twins, ``b`` is ``c``'s and ``a`` has none in the trace
+    (its own was never taken; the nearest of the other kind is the slot below or above).
+
+    >>> exclusive_twins(np.array([2, 2, 1])).tolist()     # 1 and 2 pair; 0 has no twin
+    [-1, 2, 1]
+    """
+    out = twin.copy()
+    for a, b in enumerate(twin):
+        if b >= 0 and twin[b] != a and twin[b] >= 0 and twin[twin[b]] == b:
+            out[a] = -1
     return out
 
 
