@@ -41,7 +41,7 @@ from vggc_cp.solvers.confidence import (
     plateau_length,
     resample,
 )
-from vggc_cp.solvers.doubts import Doubt, DoubtRule, find_doubts
+from vggc_cp.solvers.doubts import Doubt, DoubtRule, disputed_doubts, find_doubts
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
@@ -532,6 +532,9 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         # warned (e.g. a graph of another size nearly as probable) with no close call near
         # t*: the decisions on the way to that graph, so the warning says what is doubtful
         doubts = learned_doubts(chosen, toward_runner_up=True)
+    if chosen.confidence.suspect and not doubts:
+        # nor on the way to it: the nodes that held-out transitions dispute
+        doubts = learned_doubts(chosen, disputed=True)
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
                    options, trace, doubts)
 
@@ -541,7 +544,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
 DOUBTS_MAX_OBS = 8000
 
 
-def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[Doubt, ...]:
+def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: bool = False
+                   ) -> tuple[Doubt, ...]:
     """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
     of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
     (none beyond: the matrices would cost what the codes save).
@@ -549,12 +553,18 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False) -> tuple[D
     With ``toward_runner_up``, the decisions between the chosen threshold and that of the
     runner-up graph (the least description length among graphs of another size, the one the
     margin is measured to): the window reaches it and the description length does not
-    settle a decision (what questions the graph is that the two are nearly as probable)."""
+    settle a decision (what questions the graph is that the two are nearly as probable).
+    With ``disputed``, the node pairs that contradicted held-out transitions name
+    (:func:`~vggc_cp.solvers.doubts.disputed_doubts`)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem):
         if problem.n_obs > DOUBTS_MAX_OBS:
             return ()
         problem = problem.dense()
+    if disputed:
+        held = chosen.confidence.heldout
+        return (() if held is None else
+                disputed_doubts(problem, chosen.path, chosen.best.labels, held.disputed))
     rule = None
     if toward_runner_up:
         other = runner_up(chosen.path, chosen.description_lengths)

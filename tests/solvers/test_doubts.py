@@ -16,6 +16,7 @@ from vggc_cp.solvers.doubts import (
     SPLIT,
     Doubt,
     DoubtRule,
+    disputed_doubts,
     find_doubts,
     format_doubts,
     parse_doubts,
@@ -89,6 +90,30 @@ def test_the_ambiguous_pair_is_the_one_doubt():
     assert 0.05 <= ev["distance"] <= 0.052
     assert ev["thresholds_apart"] + ev["thresholds_together"] == len(GRID)
     assert abs(ev["steps"]) <= DoubtRule().window and ev["closeness"] <= 1.0
+
+
+def test_the_pair_held_out_transitions_dispute_is_a_doubt_whatever_the_window():
+    """Held-out prediction says a transition the graph sends to the node of look '1a' ended
+    in the node of look '1b': that pair is the doubt, its sides are the two looks, and its
+    evidence counts the disputing transitions; a pair of another role or a node that does
+    not exist is skipped."""
+    trace, problem = _one_state_two_looks()
+    path = threshold_path(problem, GRID, "mdl")
+    labels = path.results[0].labels                   # the two looks apart
+    states = trace.states
+    node_a = int(labels[np.flatnonzero(states == "1a")[0]])
+    node_b = int(labels[np.flatnonzero(states == "1b")[0]])
+    place = int(labels[np.flatnonzero(states == "H")[0]])
+    doubts = disputed_doubts(problem, path, labels,
+                             [(node_b, node_a, 4), (node_a, place, 1), (node_a, 999, 1)])
+    assert len(doubts) == 1
+    (d,) = doubts
+    assert d.kind == MERGE and d.nodes == (min(node_a, node_b), max(node_a, node_b))
+    assert sorted(sorted(set(states[list(side)].tolist())) for side in d.observations) == \
+        [["1a"], ["1b"]]
+    assert d.evidence["contradicted"] == 4
+    assert 0.05 <= d.evidence["distance"] <= 0.052
+    assert disputed_doubts(problem, path, labels, []) == ()
 
 
 def test_without_the_second_look_there_is_no_doubt():

@@ -248,3 +248,15 @@ def test_the_margin_is_judged_in_nats_over_the_whole_trace():
     assert not assess(0.005, 10, None, 10.0, WarningRule(fixed_checks=False),
                       transitions=100).suspect
     assert not assess(float("inf"), 10, None, 10.0, transitions=100).suspect
+
+
+def test_contradicted_transitions_name_the_chosen_nodes_they_dispute():
+    """A fold graph's node stands for the chosen node most of its kept observations are in;
+    a contradicted transition whose predicted and observed chosen nodes differ names them."""
+    from vggc_cp.solvers.confidence import disputed_pairs
+
+    labels = np.array([0, 0, 1, 1, 2, 2, 3])
+    kept = np.array([0, 1, 2, 3, 4])                  # 5 and 6 left out
+    lab = np.array([7, 7, 8, 8, 8])                   # fold node 8: chosen 1 (2 of 3) and 2
+    wrong = [(8, 5), (7, 6), (8, 2), (9, 5)]          # (fold node predicted, observed o')
+    assert disputed_pairs(labels, kept, lab, wrong) == [(1, 2), (0, 3)]

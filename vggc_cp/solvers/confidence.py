@@ -158,13 +158,20 @@ def fixed_check_reasons(margin_nats: float, plateau: int, heldout, obs_per_node:
 
 @dataclass(frozen=True)
 class HeldOut:
-    """Held-out prediction over ``folds`` parts of the episodes (shares of transitions)."""
+    """Held-out prediction over ``folds`` parts of the episodes (shares of transitions).
+
+    ``disputed`` lists, for the contradicted transitions ``(o, a, o')``, the chosen node the
+    fold's graph predicted ``o'`` in (through the node holding most of that graph's node)
+    and the chosen node ``o'`` is in, when they differ, with how many transitions say so:
+    ``(predicted, observed, count)``, most often first. Those are nodes that might be one
+    state (:func:`~vggc_cp.solvers.doubts.disputed_doubts`)."""
 
     predicted: float
     contradicted: float
     unseen: float
     transitions: int
     folds: int
+    disputed: tuple[tuple[int, int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -460,6 +467,7 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
     drop_k = max(1, int(round(n_units / folds)))
     counts = np.zeros(3, dtype=np.int64)  # held-out predicted, contradicted, total
     unstable: dict[int, int] = {}
+    disputed: dict[tuple[int, int], int] = {}
     runs = changed = novel_runs = 0
     while runs < most:
         if runs < folds_here:
@@ -473,7 +481,10 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
         else:
             lab = np.arange(sub.n_obs, dtype=np.int64)
         if runs < folds_here:
-            counts += _predict(problem, kept, lab, sub, train)
+            wrong: list = []
+            counts += _predict(problem, kept, lab, sub, train, wrong)
+            for pair in disputed_pairs(labels, kept, lab, wrong):
+                disputed[pair] = disputed.get(pair, 0) + 1
         runs += 1
         regrouped = not same_partition(labels[kept], lab)
         # the left-out part as a new recording: its observations in nodes that no kept
@@ -495,14 +506,17 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
     held = None
     if counts[2]:
         p, c, t = (int(x) for x in counts)
-        held = HeldOut(p / t, c / t, (t - p - c) / t, t, folds_here)
+        ranked = sorted(disputed.items(), key=lambda kv: (-kv[1], kv[0]))
+        held = HeldOut(p / t, c / t, (t - p - c) / t, t, folds_here,
+                       tuple((x, y, n) for (x, y), n in ranked))
     order = sorted(unstable.items(), key=lambda kv: (-kv[1], kv[0]))
     return Resampled(runs, changed, tuple(order), held, kind, folds_here, novel_runs)
 
 
 def _predict(problem: Problem, kept: np.ndarray, lab: np.ndarray, sub: Problem,
-             train: np.ndarray) -> np.ndarray:
-    """Predicted, contradicted and total left-out transitions of one fold re-run."""
+             train: np.ndarray, wrong: list | None = None) -> np.ndarray:
+    """Predicted, contradicted and total left-out transitions of one fold re-run; with
+    ``wrong``, each contradicted one's predicted node (of ``lab``) and ``o'`` are appended."""
     edges = {(int(u), int(a)): int(v) for u, a, v in zip(lab[sub.src], sub.act, lab[sub.dst])}
     node_of = _localize(problem, kept, lab, ~train)
     held = ~train[problem.src] & ~train[problem.dst]  # both ends left out (a block's edge)
@@ -516,7 +530,26 @@ def _predict(problem: Problem, kept: np.ndarray, lab: np.ndarray, sub: Problem,
             predicted += 1
         else:
             contradicted += 1
+            if wrong is not None:
+                wrong.append((v, int(d)))
     return np.array([predicted, contradicted, total], dtype=np.int64)
+
+
+def disputed_pairs(labels: np.ndarray, kept: np.ndarray, lab: np.ndarray,
+                   wrong: list) -> list[tuple[int, int]]:
+    """Chosen-node pairs ``(predicted, observed)`` of one fold's contradicted transitions
+    (:class:`HeldOut`): the fold's node ``v`` stands for the chosen node most of its kept
+    observations are in."""
+    out = []
+    for v, d in wrong:
+        members = labels[kept[lab == v]]
+        if not len(members):
+            continue
+        ids, n = np.unique(members, return_counts=True)
+        x, y = int(ids[np.argmax(n)]), int(labels[d])
+        if x != y:
+            out.append((x, y))
+    return out
 
 
 def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_node: float,

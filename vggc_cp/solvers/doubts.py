@@ -62,6 +62,11 @@ settle it. Doubts are ranked by ``closeness`` and at most ``limit`` are kept; th
 observations of each side are its ``typical`` most typical ones (least mean distance to
 the others of its side).
 
+**Disputed pairs** (:func:`disputed_doubts`): where a warning names no decision near ``t*``,
+the held-out prediction may: a graph learned without an episode sends one of its transitions
+to node ``A`` and the images put the transition's end in node ``B``. The pair is a merge doubt
+whatever its closeness, with ``contradicted`` added to its evidence.
+
 Everything here reads the problem (distances, actions) and the path only, never
 ground-truth states.
 """
@@ -359,6 +364,72 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             break
     found.sort(key=lambda x: (x.closeness, x.kind, x.nodes))
     return tuple(found[:rule.limit])
+
+
+def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
+                    disputed, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
+    """Merge doubts that the held-out prediction names (:class:`~vggc_cp.solvers.confidence.
+    HeldOut`'s ``disputed``): a graph learned without an episode predicted that one of its
+    transitions ends in node ``A``, and the images put its end in node ``B``. ``A`` and ``B``
+    might be one state (or the end's render was misplaced). Each pair (most transitions
+    first, at most ``rule.limit``) is a doubt whatever the window says: the check that
+    warned named it. Its evidence is that of :func:`find_doubts`' merge doubts (the join of
+    the two nodes alone, its ``steps`` from the distance between them) plus
+    ``contradicted``, the left-out transitions that dispute it.
+
+    Parameters
+    ----------
+    problem : Problem
+    path : ThresholdPath
+    labels : ndarray of int, shape (N,)
+        The chosen partition.
+    disputed : sequence of (int, int, int)
+        ``(predicted, observed, count)``.
+    rule : DoubtRule, optional
+
+    Returns
+    -------
+    tuple of Doubt
+    """
+    rule = rule or DoubtRule()
+    k = path.selected
+    labels = np.asarray(labels, dtype=np.int64)
+    if k is None or len(problem.act) == 0 or rule.limit == 0:
+        return ()
+    t_star = float(path.thresholds[k])
+    log_r = math.log(_grid_ratio(path.thresholds))
+    noise = noise_scale(problem)
+    n_trans = len(problem.act)
+    dl0 = description_length(problem, labels)
+    sides = _Sides(problem)
+    names = problem.action_names
+    found, seen = [], set()
+    for x, y, count in disputed:
+        a, b = min(int(x), int(y)), max(int(x), int(y))
+        ma, mb = np.flatnonzero(labels == a), np.flatnonzero(labels == b)
+        if (a, b) in seen or not len(ma) or not len(mb) or \
+                problem.roles[ma[0]] != problem.roles[mb[0]]:
+            continue
+        seen.add((a, b))
+        dist_ab = sides.link(ma, mb)
+        merged = labels.copy()
+        merged[mb] = a
+        steps = math.log(dist_ab / t_star) / log_r if dist_ab > 0 and t_star > 0 else 0.0
+        ev = _evidence(dist_ab, t_star, max(sides.spread(ma), sides.spread(mb)),
+                       max(noise, 1e-3 * t_star), steps,
+                       (description_length(problem, merged) - dl0) / n_trans,
+                       _count_together(path, ma, mb),
+                       _actions_from(problem, ma) - _actions_from(problem, mb),
+                       _actions_from(problem, mb) - _actions_from(problem, ma), names, n_trans)
+        ev["contradicted"] = int(count)
+        ev["closeness"] = round(max(0.0, steps) / rule.window + ev["dl_nats"] / rule.max_nats,
+                                4)
+        found.append(Doubt(MERGE, (a, b), (sides.typical(ma, rule.typical),
+                                           sides.typical(mb, rule.typical)), ev,
+                           ev["closeness"]))
+        if len(found) == rule.limit:
+            break
+    return tuple(found)
 
 
 def _evidence(distance: float, threshold: float, spread: float, noise: float, steps: float,
