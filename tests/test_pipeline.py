@@ -198,3 +198,21 @@ def test_a_warning_from_held_out_contradictions_lists_the_nodes_they_dispute():
     record = learned.solution_record()
     assert record["doubts"][0]["evidence"]["contradicted"] == d.evidence["contradicted"]
     assert record["confidence"]["heldout"]["disputed"][0][2] >= 1
+
+
+@pytest.mark.slow  # a PyBullet trace
+def test_a_margin_warning_with_no_close_call_lists_what_the_runner_up_decides_otherwise():
+    """multifruit-2x3 randomized, seed 30, |D| = 95 (drawn for session 14's held-out set):
+    the right 12 nodes, warned because the 14-node graph lies within ln 20 nats, with no
+    doubt near t* nor toward the runner-up (its splits are within the noise step). The
+    doubts then name the two nodes the runner-up splits; each side of each is one state."""
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("multifruit-2x3", 95, seed=30, look="randomized").trace
+    learned = learn_graph(trace.without_states())
+    assert learned.confidence.suspect and learned.chosen.best.n_nodes == 12
+    assert learned_doubts(learned.chosen, toward_runner_up=True) == ()
+    assert len(learned.doubts) == 2
+    for d in learned.doubts:
+        assert d.kind == "split" and d.evidence["runner_up"]
+        assert len({str(trace.states[o]) for side in d.observations for o in side}) == 1

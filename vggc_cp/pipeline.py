@@ -41,7 +41,13 @@ from vggc_cp.solvers.confidence import (
     plateau_length,
     resample,
 )
-from vggc_cp.solvers.doubts import Doubt, DoubtRule, disputed_doubts, find_doubts
+from vggc_cp.solvers.doubts import (
+    Doubt,
+    DoubtRule,
+    disputed_doubts,
+    find_doubts,
+    runner_up_doubts,
+)
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
@@ -533,8 +539,10 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         # t*: the decisions on the way to that graph, so the warning says what is doubtful
         doubts = learned_doubts(chosen, toward_runner_up=True)
     if chosen.confidence.suspect and not doubts:
-        # nor on the way to it: the nodes that held-out transitions dispute
-        doubts = learned_doubts(chosen, disputed=True)
+        # nor on the way to it: the nodes that held-out transitions dispute, else the nodes
+        # the runner-up graph splits or joins
+        doubts = (learned_doubts(chosen, disputed=True)
+                  or learned_doubts(chosen, toward_runner_up=True, differences=True))
     return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
                    options, trace, doubts)
 
@@ -544,8 +552,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
 DOUBTS_MAX_OBS = 8000
 
 
-def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: bool = False
-                   ) -> tuple[Doubt, ...]:
+def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: bool = False,
+                   differences: bool = False) -> tuple[Doubt, ...]:
     """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
     of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
     (none beyond: the matrices would cost what the codes save).
@@ -555,7 +563,9 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     margin is measured to): the window reaches it and the description length does not
     settle a decision (what questions the graph is that the two are nearly as probable).
     With ``disputed``, the node pairs that contradicted held-out transitions name
-    (:func:`~vggc_cp.solvers.doubts.disputed_doubts`)."""
+    (:func:`~vggc_cp.solvers.doubts.disputed_doubts`); with ``toward_runner_up`` and
+    ``differences``, the nodes the runner-up graph splits or joins
+    (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem):
         if problem.n_obs > DOUBTS_MAX_OBS:
@@ -570,6 +580,10 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
         other = runner_up(chosen.path, chosen.description_lengths)
         if other is None:
             return ()
+        if differences:
+            labels = chosen.path.results[other].labels
+            return (() if labels is None else
+                    runner_up_doubts(problem, chosen.path, chosen.best.labels, labels))
         rule = DoubtRule(window=max(DoubtRule().window, abs(other - chosen.path.selected)),
                          max_nats=math.inf)
     return find_doubts(problem, chosen.path, chosen.best.labels, rule=rule)

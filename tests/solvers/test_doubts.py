@@ -20,6 +20,7 @@ from vggc_cp.solvers.doubts import (
     find_doubts,
     format_doubts,
     parse_doubts,
+    runner_up_doubts,
 )
 from vggc_cp.solvers.merge import PartitionClosure, threshold_path
 
@@ -114,6 +115,28 @@ def test_the_pair_held_out_transitions_dispute_is_a_doubt_whatever_the_window():
     assert d.evidence["contradicted"] == 4
     assert 0.05 <= d.evidence["distance"] <= 0.052
     assert disputed_doubts(problem, path, labels, []) == ()
+
+
+def test_what_the_runner_up_decides_the_other_way_is_listed():
+    """Against a partition that keeps the two looks of '1' apart, the one that joins them
+    makes a split doubt (sides: the looks); the other way round, a merge doubt of the two
+    nodes. Partitions that agree make none."""
+    trace, problem = _one_state_two_looks()
+    path = threshold_path(problem, GRID, "mdl")
+    joined = path.results[-1].labels
+    states = trace.states
+    apart = joined.copy()
+    apart[states == "1b"] = joined.max() + 1
+    (split,) = runner_up_doubts(problem, path, joined, apart)
+    assert split.kind == SPLIT and split.evidence["runner_up"]
+    assert sorted(sorted(set(states[list(side)].tolist())) for side in split.observations) == \
+        [["1a"], ["1b"]]
+    (merge,) = runner_up_doubts(problem, path, apart, joined)
+    assert merge.kind == MERGE and len(merge.nodes) == 2
+    assert sorted(sorted(set(states[list(side)].tolist())) for side in merge.observations) == \
+        [["1a"], ["1b"]]
+    assert "runner-up" in format_doubts((merge,))[1]
+    assert runner_up_doubts(problem, path, apart, apart) == ()
 
 
 def test_without_the_second_look_there_is_no_doubt():

@@ -67,6 +67,11 @@ the held-out prediction may: a graph learned without an episode sends one of its
 to node ``A`` and the images put the transition's end in node ``B``. The pair is a merge doubt
 whatever its closeness, with ``contradicted`` added to its evidence.
 
+**The runner-up's differences** (:func:`runner_up_doubts`): where the warning is that a graph
+of another size is nearly as probable and no doubt lies between the two thresholds, the nodes
+that graph splits or joins are the doubts, whatever their closeness (``runner_up`` is then
+set in their evidence, and ``closeness`` is the flip's ``dl_nats``).
+
 Everything here reads the problem (distances, actions) and the path only, never
 ground-truth states.
 """
@@ -432,6 +437,88 @@ def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     return tuple(found)
 
 
+def runner_up_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
+                     other: np.ndarray, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
+    """The decisions that set the chosen partition ``labels`` apart from ``other`` (the
+    runner-up graph, nearly as probable): a chosen node ``other`` splits is a split doubt
+    (its sides: the largest of ``other``'s groups within it against the rest), two chosen
+    nodes ``other`` joins a merge doubt (the two largest). Listed whatever their closeness
+    (a split whose sides differ by rendering noise alone included: the warning rests on
+    it), the description length settling none; at most ``rule.limit``, the decision whose
+    flip costs the fewest nats first. For a warning that :func:`find_doubts` finds nothing
+    to point at, even toward the runner-up's threshold.
+
+    Parameters
+    ----------
+    problem : Problem
+    path : ThresholdPath
+    labels, other : ndarray of int, shape (N,)
+        The chosen partition and the runner-up's.
+    rule : DoubtRule, optional
+
+    Returns
+    -------
+    tuple of Doubt
+    """
+    rule = rule or DoubtRule()
+    k = path.selected
+    labels, other = np.asarray(labels, dtype=np.int64), np.asarray(other, dtype=np.int64)
+    if k is None or len(problem.act) == 0 or rule.limit == 0:
+        return ()
+    t_star = float(path.thresholds[k])
+    log_r = math.log(_grid_ratio(path.thresholds))
+    noise = max(noise_scale(problem), 1e-3 * t_star)
+    n_trans = len(problem.act)
+    dl0 = description_length(problem, labels)
+    sides = _Sides(problem)
+    names = problem.action_names
+
+    def steps_of(x: float) -> float:
+        return math.log(x / t_star) / log_r if x > 0 and t_star > 0 else 0.0
+
+    found = []
+    for u in np.unique(labels):
+        m = np.flatnonzero(labels == u)
+        groups, sizes = np.unique(other[m], return_counts=True)
+        if len(groups) < 2:
+            continue
+        big = groups[np.argmax(sizes)]
+        p_side, q_side = m[other[m] == big], m[other[m] != big]
+        split = labels.copy()
+        split[q_side] = int(labels.max()) + 1
+        d = sides.link(p_side, q_side)
+        ap, aq = _actions_from(problem, p_side), _actions_from(problem, q_side)
+        ev = _evidence(d, t_star, max(sides.spread(p_side), sides.spread(q_side)), noise,
+                       steps_of(d), (description_length(problem, split) - dl0) / n_trans,
+                       _count_together(path, p_side, q_side), ap - aq, aq - ap, names, n_trans)
+        found.append(Doubt(SPLIT, (int(u),), (sides.typical(p_side, rule.typical),
+                                              sides.typical(q_side, rule.typical)), ev,
+                           ev["dl_nats"]))
+    for v in np.unique(other):
+        inside, sizes = np.unique(labels[other == v], return_counts=True)
+        if len(inside) < 2:
+            continue
+        a, b = sorted(int(x) for x in inside[np.argsort(-sizes, kind="stable")[:2]])
+        ma, mb = np.flatnonzero(labels == a), np.flatnonzero(labels == b)
+        if problem.roles[ma[0]] != problem.roles[mb[0]]:
+            continue
+        merged = labels.copy()
+        merged[mb] = a
+        d = sides.link(ma, mb)
+        ev = _evidence(d, t_star, max(sides.spread(ma), sides.spread(mb)), noise, steps_of(d),
+                       (description_length(problem, merged) - dl0) / n_trans,
+                       _count_together(path, ma, mb),
+                       _actions_from(problem, ma) - _actions_from(problem, mb),
+                       _actions_from(problem, mb) - _actions_from(problem, ma), names, n_trans)
+        found.append(Doubt(MERGE, (a, b), (sides.typical(ma, rule.typical),
+                                           sides.typical(mb, rule.typical)), ev, ev["dl_nats"]))
+    for doubt in found:
+        doubt.evidence["closeness"] = round(doubt.closeness, 4)
+        doubt.evidence["runner_up"] = True
+    found.sort(key=lambda x: (x.closeness, x.kind, x.nodes))
+    return tuple(found[:rule.limit])
+
+
 def _evidence(distance: float, threshold: float, spread: float, noise: float, steps: float,
               dl_change: float, apart_together: tuple[int, int], only_a: set[int],
               only_b: set[int], names: tuple[str, ...], n_trans: int) -> dict:
@@ -480,7 +567,10 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
         obs = " | ".join(",".join(str(o) for o in side) for side in d.observations)
         ratio = ev.get("distance", 0.0) / ev["threshold"] if ev.get("threshold") else 0.0
         steps = ev.get("steps")
-        note = "Exactly-One forbids" if ev.get("forbidden") else ""
+        note = ("Exactly-One forbids" if ev.get("forbidden") else
+                f"{ev['contradicted']} held-out transition(s) dispute it"
+                if ev.get("contradicted") else
+                "the runner-up graph decides it the other way" if ev.get("runner_up") else "")
         lines.append(f"{k:>3}  {d.kind:<5}  {nodes:<9}  {obs[:24]:<24}  {ratio:>7.2f}  "
                      f"{'-' if steps is None else f'{steps:+.2f}':>6}  "
                      f"{ev.get('dl_change', 0.0):>+7.4f}  "
