@@ -8,6 +8,7 @@ import numpy as np
 
 from vggc_cp.trace import PICK, PLACE, load_trace
 from vggc_cp.vision import occupancy as occ
+from vggc_cp.vision import slots
 from vggc_cp.vision.footprints import action_footprints, overlaps
 from vggc_cp.vision.working import normalise_frames
 
@@ -24,7 +25,7 @@ def test_the_actions_state_what_a_site_holds_between_them():
     actions = np.array([3, 0, 3, 1, -1, 3, -1, 2, 2])
     episodes = [(0, 4), (5, 6), (7, 9)]
     lab = occ.site_labels(actions, episodes, acting, kinds, colour)
-    assert lab.tolist() == [0, 0, occ.EMPTY, occ.EMPTY, 0,
+    assert lab.tolist() == [0, 0, slots.EMPTY, slots.EMPTY, 0,
                             occ.UNLABELLED, occ.UNLABELLED,
                             occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED]
 
@@ -39,10 +40,10 @@ def test_twins_actions_at_a_site_and_stacked_sites():
                    [0.3, 0.3, 0.9, 0.0, 1.0]])
     colour = np.array([0, 0, 0, 1, 0])
     kinds = np.array([PICK, PLACE, PLACE, PLACE, PICK], dtype=np.int8)
-    twin = occ.twins(ov, colour, kinds)
+    twin = slots.twins(ov, colour, kinds)
     assert twin.tolist() == [1, 0, 4, -1, 2]
-    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
-    assert occ.acting_at(3, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
+    assert slots.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
+    assert slots.acting_at(3, ov, colour, twin, 0.2).tolist() == [0, 1, 3]
     assert occ.stacked(ov, colour, twin, 0.2).tolist() == [True, True, True, False, True]
     # apart (overlap below site_overlap) nothing is stacked
     assert not occ.stacked(ov, colour, twin, 0.5).any()
@@ -59,7 +60,7 @@ def _two_look_site(rng, n_episodes=30, per=6):
     px[below & ~truth, :4] = 0.6                    # the block below shows in half the site
     px[truth] = 1.0
     px += 0.05 * rng.standard_normal(px.shape).astype(np.float32)
-    labels = np.where(truth, 0, occ.EMPTY)
+    labels = np.where(truth, 0, slots.EMPTY)
     labels[episode % 2 == 1] = occ.UNLABELLED
     return px, np.full(8, 1 / 8), labels, episode, truth
 
@@ -72,7 +73,7 @@ def test_nearest_looks_know_every_empty_look():
     assert p.min() >= 0 and p.max() <= 1
     assert np.all((p >= 0.5) == truth)              # unlabelled episodes included
     # the mean of the empties (what one template compares with) sits between the two looks
-    mean_empty = px[labels == occ.EMPTY].mean(axis=0)
+    mean_empty = px[labels == slots.EMPTY].mean(axis=0)
     dev = np.abs(px - mean_empty).sum(-1) @ w
     assert dev[~truth & ~(px[:, 0, 0] > 0.3)].mean() > 0.2
     # a label of one kind only, or too few, teaches nothing
@@ -98,7 +99,7 @@ def test_side_by_side_sites_keep_the_hand_made_presence():
     fp = action_footprints(trace)
     ov = overlaps(fp.maps)
     kinds = trace.action_kinds()
-    twin = occ.twins(ov, fp.colour, kinds)
+    twin = slots.twins(ov, fp.colour, kinds)
     assert not occ.stacked(ov, fp.colour, twin, 0.2).any()
     p, refined = occ.refine_presence(trace, normalise_frames(trace.observations), fp.sites, ov,
                                      fp.colour, fp.counts, fp.presence, 0.2)
@@ -132,139 +133,6 @@ def test_settled_sites_are_what_the_actions_state_even_where_a_frame_hides_them(
     learned = learn_graph(hidden.without_states(), LearnConfig(evidence="footprints"))
     same = learned.labels[:, None] == learned.labels[None, :]
     np.testing.assert_array_equal(same, tr.states[:, None] == tr.states[None, :])
-
-
-def test_the_sequence_pairs_a_pick_with_the_place_that_refills_its_slot():
-    """Footprints that pair a pick with the wrong place (an arm's, not the object's) are
-    overruled by the sequence: the twin alternates with the action in every episode; a
-    candidate seen alternating too rarely, or when no candidate ever breaks the rule, leaves
-    the choice to the pixels."""
-    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
-    wrong = np.array([[1, 0, .1, .6], [0, 1, .6, .1], [.1, .6, 1, 0], [.6, .1, 0, 1]])
-    colour = np.zeros(4, dtype=np.int64)
-    assert occ.twins(wrong, colour, kinds).tolist() == [3, 2, 1, 0]
-    rng = np.random.default_rng(0)
-    # two slots: 0/2 at one, 1/3 at the other, one object, random episodes
-    actions, episodes, start = [], [], 0
-    for _ in range(12):
-        held_at, ep = int(rng.integers(2)), []
-        for _ in range(int(rng.integers(3, 7))):
-            ep += [held_at, 2 + (held_at := int(rng.integers(2)))]
-        actions += ep + [-1]
-        episodes.append((start, start + len(ep)))
-        start += len(ep) + 1
-    actions = np.array(actions[:-1])
-    assert occ.sequence_twins(actions, episodes, wrong, colour, kinds).tolist() == [2, 3, 0, 1]
-    # one short episode is too little evidence against the pixels
-    few = np.array([0, 2, 1, 3])
-    assert occ.sequence_twins(few, [(0, 4)], wrong, colour, kinds).tolist() == [3, 2, 1, 0]
-    # other colours are never candidates: with the true twins in another colour, the only
-    # candidate breaks the rule and the pixels' choice stands
-    two = np.array([0, 1, 1, 0])
-    assert occ.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [3, 2, 1, 0]
-
-
-def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
-    """Pick 0 once per episode, place 2 twice in a row in another, place 3 never: no
-    neighbours alternate, so the sequence says nothing and the footprints decide (no
-    division by a zero rate)."""
-    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
-    ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
-    actions = np.array([0, -1, 2, 2])
-    out = occ.sequence_twins(actions, [(0, 1), (2, 4)], ov, np.zeros(4, dtype=np.int64), kinds)
-    assert out.tolist() == occ.twins(ov, np.zeros(4, dtype=np.int64), kinds).tolist()
-
-
-def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():
-    """A red pair (0, 1) and a yellow pair (2, 3) at one slot, a yellow pair (4, 5) at another
-    whose footprints overlap the first slot's (a footprint on an arm): the yellow pair
-    elsewhere is placed while the slot holds red, which a slot of one thing cannot; the
-    sequence rules it out and takes the pair that always agrees."""
-    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
-    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
-    on = np.isin(np.arange(6), [0, 1, 4, 5])
-    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
-    actions = np.array([0, 3, 2, 1, 5, 4, 0, 3, 2, 1] * 4)
-    mates = occ.sequence_mates(actions, [(0, 40)], ov, colour, kinds, twin, 0.2)
-    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
-    assert occ.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
-    # the pixels alone would have taken the wrong pair
-    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 4, 5]
-
-
-def test_a_slot_has_one_mate_of_each_colour_and_kind():
-    """A red pair (0, 1) and a yellow pair (2, 3) at the bottom slot of a stack, a yellow pair
-    (4, 5) on top of it: the top's footprints overlap the bottom's (0.5, above the site
-    bar), the bottom yellow pair's overlap more (0.8). Short episodes never meet, so the
-    pixels decide: the bottom slot's yellow mates are 2 and 3 alone, and the top pair, whose
-    red candidates already have their yellow mates, gets none."""
-    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
-    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
-    ov = np.full((6, 6), 0.5)
-    ov[np.ix_([0, 1, 2, 3], [0, 1, 2, 3])] = 0.8
-    ov[[4, 5], [5, 4]] = 0.8
-    np.fill_diagonal(ov, 1.0)
-    actions = np.array([0, 1, -1, 2, 3, -1, 4, 5])
-    mates = occ.sequence_mates(actions, [(0, 2), (3, 5), (6, 8)], ov, colour, kinds, twin, 0.2)
-    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
-    assert np.flatnonzero(mates[1]).tolist() == [2, 3]
-    assert not mates[4].any() and not mates[5].any()
-    assert occ.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
-    # the pixels alone would have put the top pair at the bottom slot
-    assert occ.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 2, 3, 4, 5]
-
-
-def test_one_mate_per_colour_prefers_what_the_pixels_confirm():
-    """Of two candidates of one colour and kind, one that the footprints put at the slot too
-    beats one only the sequence names; among equals, the larger overlap."""
-    kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
-    ov = np.array([[1, .1, .6], [.1, 1, 0], [.6, 0, 1]])
-    mates = np.array([[0, 1, 1], [1, 0, 0], [1, 0, 0]], dtype=bool)
-    seen = mates & (ov >= 0.2)
-    assert occ.one_per_colour(mates, seen, ov, colour, kinds)[0].tolist() == [False, False, True]
-    nothing = np.zeros_like(mates)
-    assert occ.one_per_colour(mates, nothing, ov, colour, kinds)[0].tolist() == [False, False,
-                                                                                 True]
-    # another kind or colour is another mate
-    kinds2 = np.array([PICK, PICK, PLACE])
-    assert occ.one_per_colour(mates, nothing, ov, colour, kinds2)[0].tolist() == [False, True,
-                                                                                  True]
-
-
-def test_a_place_whose_own_pick_was_never_taken_has_no_twin():
-    """A red place (0) and pick (1) at the bottom of a stack and a red place on top (2) whose
-    pick the trace never took: the footprints' nearest pick for 2 is 1, which pairs with 0
-    both ways, so 2 has no twin, and its site's labels are its own place alone."""
-    kinds = np.array([PLACE, PICK, PLACE], dtype=np.int8)
-    colour = np.zeros(3, dtype=np.int64)
-    ov = np.array([[1, .9, .5], [.9, 1, .5], [.5, .5, 1]])
-    twin = occ.twins(ov, colour, kinds)
-    assert twin.tolist() == [1, 0, 1]
-    assert occ.exclusive_twins(twin).tolist() == [1, 0, -1]
-    actions = np.array([0, -1, 2, -1, 1, 0])
-    trace_twin = occ.sequence_twins(actions, [(0, 1), (2, 3), (4, 6)], ov, colour, kinds)
-    assert occ.exclusive_twins(trace_twin)[2] == -1
-    labels = occ.site_labels(actions, [(0, 1), (2, 3), (4, 6)],
-                             occ.acting_at(2, ov, colour, occ.exclusive_twins(twin), 0.2),
-                             kinds, colour)
-    assert labels.tolist() == [-2, -2, -1, 0, -2, -2, -2]
-
-
-def test_too_little_sequence_leaves_the_slot_to_the_pixels():
-    """Two agreements are not 20:1: the candidates that never break the rule keep what the
-    footprints say; one that breaks it is still ruled out."""
-    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
-    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
-    on = np.isin(np.arange(6), [0, 1, 4, 5])
-    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
-    actions = np.array([0, 3, 2, 1, 5, 4])
-    mates = occ.sequence_mates(actions, [(0, 6)], ov, colour, kinds, twin, 0.2)
-    assert not mates[0, [4, 5]].any()                # 1 leaves red, 5 finds the slot empty
-    assert not mates[0, [2, 3]].any()                # too few to overrule the pixels (no overlap)
-    # no candidate of another colour ever met: the footprints decide
-    alone = occ.sequence_mates(np.array([0, 1, -1, 2, 3]), [(0, 2), (3, 5)], ov, colour,
-                               kinds, twin, 0.2)
-    np.testing.assert_array_equal(alone, (colour[:, None] != colour) & (ov >= 0.2))
 
 
 def test_unlabelled_runs_take_the_colour_their_window_shows():
@@ -301,8 +169,8 @@ def test_a_footprint_presence_no_better_than_the_majority_is_not_a_reading():
     saying what most of them hold (stacked sites of several colours, a site under an arm)
     gives its unread runs that majority; a better presence keeps its own reading; a site no
     frame of which is labelled keeps it too."""
-    mostly_full = np.array([0, 0, 0, 1, occ.EMPTY, occ.UNLABELLED])
+    mostly_full = np.array([0, 0, 0, 1, slots.EMPTY, occ.UNLABELLED])
     assert occ.majority_guess(0.8, mostly_full) == 1.0          # 4 of 5 occupied: 0.8
     assert occ.majority_guess(0.81, mostly_full) is None
-    assert occ.majority_guess(0.6, np.array([occ.EMPTY] * 3 + [0])) == 0.0
+    assert occ.majority_guess(0.6, np.array([slots.EMPTY] * 3 + [0])) == 0.0
     assert occ.majority_guess(0.0, np.full(4, occ.UNLABELLED)) is None

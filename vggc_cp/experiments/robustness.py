@@ -82,7 +82,7 @@ MIN_OBS_PER_STATE = 2.0
 CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.pairs",
                 "vggc_cp.solvers.mdl", "vggc_cp.solvers.confidence", "vggc_cp.solvers.doubts",
                 "vggc_cp.vision.evidence", "vggc_cp.vision.footprints",
-                "vggc_cp.vision.occupancy", "vggc_cp.vision.untouched",
+                "vggc_cp.vision.occupancy", "vggc_cp.vision.slots", "vggc_cp.vision.untouched",
                 "vggc_cp.vision.blobs", "vggc_cp.vision.colours", "vggc_cp.vision.density",
                 "vggc_cp.vision.registration",
                 "vggc_cp.vision.working", "vggc_cp.vision.distances",

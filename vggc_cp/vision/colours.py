@@ -21,7 +21,8 @@ import numpy as np
 
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.density import kernel_loglik, kernel_posterior
-from vggc_cp.vision.occupancy import EMPTY, acting_at, action_mates, action_twins, site_labels
+from vggc_cp.vision.occupancy import site_labels
+from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
 from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
 
 #: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).

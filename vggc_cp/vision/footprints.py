@@ -57,7 +57,7 @@ labelled frames show it reads better, a reading per pose of the hand that they t
 :mod:`vggc_cp.vision.untouched`) and its mean colour (:func:`vggc_cp.vision.occupancy.settle`),
 so a frame in which an arm, the object it holds or a distractor hides the site cannot mislead.
 Which pick and place share a slot is read from the sequence where it settles it (they
-alternate in every episode, :func:`vggc_cp.vision.occupancy.sequence_twins`), so footprints
+alternate in every episode, :func:`vggc_cp.vision.slots.sequence_twins`), so footprints
 that lie on an arm do not pair the wrong actions.
 
 **Nuisance.** Across a transition of an action that acts elsewhere, a site should not change;
@@ -94,13 +94,9 @@ from vggc_cp.vision.colours import (
     window_class_chroma,
     window_colours,
 )
-from vggc_cp.vision.occupancy import (
-    action_mates,
-    action_twins,
-    refine_presence,
-    settle,
-)
+from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.registration import steady
+from vggc_cp.vision.slots import action_mates, action_twins
 from vggc_cp.vision.working import (
     FOOTPRINT_SIDE,
     WorkingResolution,

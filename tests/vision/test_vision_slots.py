@@ -1,0 +1,142 @@
+"""Slots: which actions act at one place, from the sequence and the footprints."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.trace import PICK, PLACE
+from vggc_cp.vision import occupancy as occ
+from vggc_cp.vision import slots
+
+
+def test_the_sequence_pairs_a_pick_with_the_place_that_refills_its_slot():
+    """Footprints that pair a pick with the wrong place (an arm's, not the object's) are
+    overruled by the sequence: the twin alternates with the action in every episode; a
+    candidate seen alternating too rarely, or when no candidate ever breaks the rule, leaves
+    the choice to the pixels."""
+    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
+    wrong = np.array([[1, 0, .1, .6], [0, 1, .6, .1], [.1, .6, 1, 0], [.6, .1, 0, 1]])
+    colour = np.zeros(4, dtype=np.int64)
+    assert slots.twins(wrong, colour, kinds).tolist() == [3, 2, 1, 0]
+    rng = np.random.default_rng(0)
+    # two slots: 0/2 at one, 1/3 at the other, one object, random episodes
+    actions, episodes, start = [], [], 0
+    for _ in range(12):
+        held_at, ep = int(rng.integers(2)), []
+        for _ in range(int(rng.integers(3, 7))):
+            ep += [held_at, 2 + (held_at := int(rng.integers(2)))]
+        actions += ep + [-1]
+        episodes.append((start, start + len(ep)))
+        start += len(ep) + 1
+    actions = np.array(actions[:-1])
+    assert slots.sequence_twins(actions, episodes, wrong, colour, kinds).tolist() == [2, 3, 0, 1]
+    # one short episode is too little evidence against the pixels
+    few = np.array([0, 2, 1, 3])
+    assert slots.sequence_twins(few, [(0, 4)], wrong, colour, kinds).tolist() == [3, 2, 1, 0]
+    # other colours are never candidates: with the true twins in another colour, the only
+    # candidate breaks the rule and the pixels' choice stands
+    two = np.array([0, 1, 1, 0])
+    assert slots.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [3, 2, 1, 0]
+
+
+def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
+    """Pick 0 once per episode, place 2 twice in a row in another, place 3 never: no
+    neighbours alternate, so the sequence says nothing and the footprints decide (no
+    division by a zero rate)."""
+    kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
+    ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
+    actions = np.array([0, -1, 2, 2])
+    out = slots.sequence_twins(actions, [(0, 1), (2, 4)], ov, np.zeros(4, dtype=np.int64), kinds)
+    assert out.tolist() == slots.twins(ov, np.zeros(4, dtype=np.int64), kinds).tolist()
+
+
+def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():
+    """A red pair (0, 1) and a yellow pair (2, 3) at one slot, a yellow pair (4, 5) at another
+    whose footprints overlap the first slot's (a footprint on an arm): the yellow pair
+    elsewhere is placed while the slot holds red, which a slot of one thing cannot; the
+    sequence rules it out and takes the pair that always agrees."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    on = np.isin(np.arange(6), [0, 1, 4, 5])
+    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    actions = np.array([0, 3, 2, 1, 5, 4, 0, 3, 2, 1] * 4)
+    mates = slots.sequence_mates(actions, [(0, 40)], ov, colour, kinds, twin, 0.2)
+    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
+    assert slots.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+    # the pixels alone would have taken the wrong pair
+    assert slots.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 4, 5]
+
+
+def test_a_slot_has_one_mate_of_each_colour_and_kind():
+    """A red pair (0, 1) and a yellow pair (2, 3) at the bottom slot of a stack, a yellow pair
+    (4, 5) on top of it: the top's footprints overlap the bottom's (0.5, above the site
+    bar), the bottom yellow pair's overlap more (0.8). Short episodes never meet, so the
+    pixels decide: the bottom slot's yellow mates are 2 and 3 alone, and the top pair, whose
+    red candidates already have their yellow mates, gets none."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    ov = np.full((6, 6), 0.5)
+    ov[np.ix_([0, 1, 2, 3], [0, 1, 2, 3])] = 0.8
+    ov[[4, 5], [5, 4]] = 0.8
+    np.fill_diagonal(ov, 1.0)
+    actions = np.array([0, 1, -1, 2, 3, -1, 4, 5])
+    mates = slots.sequence_mates(actions, [(0, 2), (3, 5), (6, 8)], ov, colour, kinds, twin, 0.2)
+    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
+    assert np.flatnonzero(mates[1]).tolist() == [2, 3]
+    assert not mates[4].any() and not mates[5].any()
+    assert slots.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+    # the pixels alone would have put the top pair at the bottom slot
+    assert slots.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 2, 3, 4, 5]
+
+
+def test_one_mate_per_colour_prefers_what_the_pixels_confirm():
+    """Of two candidates of one colour and kind, one that the footprints put at the slot too
+    beats one only the sequence names; among equals, the larger overlap."""
+    kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    ov = np.array([[1, .1, .6], [.1, 1, 0], [.6, 0, 1]])
+    mates = np.array([[0, 1, 1], [1, 0, 0], [1, 0, 0]], dtype=bool)
+    seen = mates & (ov >= 0.2)
+    assert slots.one_per_colour(mates, seen, ov, colour, kinds)[0].tolist() == [False, False, True]
+    nothing = np.zeros_like(mates)
+    assert slots.one_per_colour(mates, nothing, ov, colour, kinds)[0].tolist() == [False, False,
+                                                                                 True]
+    # another kind or colour is another mate
+    kinds2 = np.array([PICK, PICK, PLACE])
+    assert slots.one_per_colour(mates, nothing, ov, colour, kinds2)[0].tolist() == [False, True,
+                                                                                  True]
+
+
+def test_a_place_whose_own_pick_was_never_taken_has_no_twin():
+    """A red place (0) and pick (1) at the bottom of a stack and a red place on top (2) whose
+    pick the trace never took: the footprints' nearest pick for 2 is 1, which pairs with 0
+    both ways, so 2 has no twin, and its site's labels are its own place alone."""
+    kinds = np.array([PLACE, PICK, PLACE], dtype=np.int8)
+    colour = np.zeros(3, dtype=np.int64)
+    ov = np.array([[1, .9, .5], [.9, 1, .5], [.5, .5, 1]])
+    twin = slots.twins(ov, colour, kinds)
+    assert twin.tolist() == [1, 0, 1]
+    assert slots.exclusive_twins(twin).tolist() == [1, 0, -1]
+    actions = np.array([0, -1, 2, -1, 1, 0])
+    trace_twin = slots.sequence_twins(actions, [(0, 1), (2, 3), (4, 6)], ov, colour, kinds)
+    assert slots.exclusive_twins(trace_twin)[2] == -1
+    labels = occ.site_labels(actions, [(0, 1), (2, 3), (4, 6)],
+                             slots.acting_at(2, ov, colour, slots.exclusive_twins(twin), 0.2),
+                             kinds, colour)
+    assert labels.tolist() == [-2, -2, -1, 0, -2, -2, -2]
+
+
+def test_too_little_sequence_leaves_the_slot_to_the_pixels():
+    """Two agreements are not 20:1: the candidates that never break the rule keep what the
+    footprints say; one that breaks it is still ruled out."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    on = np.isin(np.arange(6), [0, 1, 4, 5])
+    ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    actions = np.array([0, 3, 2, 1, 5, 4])
+    mates = slots.sequence_mates(actions, [(0, 6)], ov, colour, kinds, twin, 0.2)
+    assert not mates[0, [4, 5]].any()                # 1 leaves red, 5 finds the slot empty
+    assert not mates[0, [2, 3]].any()                # too few to overrule the pixels (no overlap)
+    # no candidate of another colour ever met: the footprints decide
+    alone = slots.sequence_mates(np.array([0, 1, -1, 2, 3]), [(0, 2), (3, 5)], ov, colour,
+                               kinds, twin, 0.2)
+    np.testing.assert_array_equal(alone, (colour[:, None] != colour) & (ov >= 0.2))

@@ -1,0 +1,303 @@
+"""Slots: which of a trace's actions act at one place, read from the sequence and the footprints.
+
+A slot holds one object at a time. Its actions are a pick and a place of each colour that can
+stand there: for action ``a``, its *twin* (the other kind, the same colour: the place that
+refills the slot ``a`` empties, or the pick that empties the slot ``a`` fills) and its *mates*
+(the actions of the other colours at the slot). The footprints of :mod:`vggc_cp.vision.footprints`
+say where an action acts, but a footprint may lie on a robot arm, and a block's footprint
+overlaps the block's below it; the trace's own sequence says what it can:
+
+* **twins** (:func:`sequence_twins`): a pick and the place at its slot alternate in every
+  episode; a candidate that breaks this once is not the twin, one that never does is taken at
+  odds of :data:`TWIN_ODDS`; the footprints decide the rest (:func:`twins`). A slot has one
+  pick and one place of a colour, so an action whose nearest candidate pairs with another
+  action both ways has no twin in the trace (:func:`exclusive_twins`);
+* **mates** (:func:`sequence_mates`): what one action leaves at a slot is what the next one
+  there finds; a candidate that breaks this once is ruled out, one that always agrees is taken
+  at :data:`TWIN_ODDS`, the footprints decide the rest; one mate of each colour and kind
+  (:func:`one_per_colour`), and none that the other side gives to another action
+  (:func:`exclusive_mates`).
+
+:func:`acting_at` gathers them: the actions that change what site ``a`` holds. Nothing here
+reads action names or ground-truth states.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vggc_cp.trace import PICK, Trace
+
+#: Label of an empty slot (colours are numbered from 0).
+EMPTY = -1
+#: Odds from which a candidate that always alternates with an action is taken for its twin
+#: (:func:`sequence_twins`): 20 to 1, the bar of the warning's description-length margin.
+TWIN_ODDS = 20.0
+
+
+def twins(ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Twin of every taken action, int array of shape (A,) (-1 when none).
+
+    The twin of ``a`` is the action of the other kind (pick / place) and the same colour whose
+    footprint overlaps ``a``'s most (positive overlap).
+    """
+    out = np.full(len(ov), -1, dtype=np.int64)
+    for a in np.flatnonzero(colour >= 0):
+        cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
+        if len(cand) and ov[a, cand].max() > 0:
+            out[a] = int(cand[np.argmax(ov[a, cand])])
+    return out
+
+
+def action_episodes(n: int, episodes: list[tuple[int, int]]) -> np.ndarray:
+    """Episode of each of the ``n`` actions of a trace, int64 of shape (n,) (-1 for the
+    separators between episodes).
+
+    >>> action_episodes(5, [(0, 2), (3, 5)]).tolist()
+    [0, 0, -1, 1, 1]
+    """
+    out = np.full(n, -1, dtype=np.int64)
+    for i, (first, last) in enumerate(episodes):
+        out[first:last] = i
+    return out
+
+
+def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
+                   colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Twin of every taken action as the trace's own sequence allows, int array of shape (A,)
+    (-1 when none).
+
+    A slot holds one object: between two picks at it comes a place at it, and between two
+    places a pick. So the twin ``b`` of ``a`` (the other kind, the same colour) alternates with
+    ``a`` in every episode: in the actions of an episode restricted to ``a`` and ``b``, no two
+    neighbours are of one kind. A candidate that breaks this once is not the twin, whatever
+    the pixels say (a footprint on a robot arm overlaps the wrong place's). One that never
+    breaks it may still do so by chance: with ``q`` the share of neighbours that alternate
+    over all of ``a``'s candidates together (most are not its twin), ``k`` alternations
+    without a break are ``(1/q)^k`` times likelier from the twin, and a candidate qualifies
+    at odds of :data:`TWIN_ODDS` (the warning's bar, 20 to 1). Among those that qualify, the
+    one whose footprint overlaps ``a``'s most (then the one seen alternating most often) is
+    the twin; where none does, or no candidate ever breaks the rule (nothing to tell them
+    apart), the footprints decide alone (:func:`twins`).
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+        The trace's actions (-1 between episodes).
+    episodes : list of (first, last)
+    ov : ndarray, shape (A, A)
+        Footprint overlaps.
+    colour, kinds : ndarray, shape (A,)
+
+    Examples
+    --------
+    Picks 0, 1 and places 2, 3; the footprints pair 0 with 3 and 1 with 2. In the first
+    episode 0 and 2 alternate eleven times, and 0 comes six times with no 3 between: 2 is the
+    twin of 0 (and 0 of 2). 1 and 3 alternate once, too little to overrule the pixels:
+
+    >>> from vggc_cp.trace import PLACE
+    >>> kinds = np.array([PICK, PICK, PLACE, PLACE])
+    >>> ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
+    >>> actions = np.array([0, 2] * 6 + [-1, 1, 3])
+    >>> sequence_twins(actions, [(0, 12), (13, 15)], ov, np.zeros(4, int), kinds).tolist()
+    [2, 2, 0, 0]
+    """
+    out = twins(ov, colour, kinds)
+    actions = np.asarray(actions)
+    episode_of = action_episodes(len(actions), episodes)
+    for a in np.flatnonzero(colour >= 0):
+        cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
+        counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, alternated
+        for i, b in enumerate(cand):
+            at = np.flatnonzero((actions == a) | (actions == b))
+            neighbours = episode_of[at[1:]] == episode_of[at[:-1]]   # within one episode
+            same = kinds[actions[at[1:]]] == kinds[actions[at[:-1]]]
+            counts[i] = ((neighbours & same).sum(), (neighbours & ~same).sum())
+        total = counts.sum()
+        if total == 0 or counts[:, 0].sum() == 0:
+            continue                       # no candidate ever breaks it: the pixels decide
+        # how often an unrelated pair alternates, from the candidates together
+        p_alt = counts[:, 1].sum() / total
+        if p_alt <= 0:
+            continue                       # nothing ever alternates with it
+        allowed = [(float(ov[a, b]), int(k), int(b)) for b, (broken, k) in zip(cand, counts)
+                   if broken == 0 and k * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS)]
+        if allowed:
+            out[a] = max(allowed)[2]
+    return out
+
+
+def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """:func:`sequence_twins` of ``trace`` (its actions and episodes, never its states), each
+    :func:`exclusive_twins`."""
+    return exclusive_twins(sequence_twins(trace.actions, trace.episodes(), ov, colour,
+                                          trace.action_kinds()))
+
+
+def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
+                   colour: np.ndarray, kinds: np.ndarray, twin: np.ndarray,
+                   site_overlap: float) -> np.ndarray:
+    """Which actions of another colour act at each action's slot, boolean shape (A, A).
+
+    A slot holds one thing at a time: a pick there empties it of the colour it lifts, a
+    place fills an empty one. So with ``b`` (another colour) at the slot of ``a``, every pair
+    of neighbours in an episode's actions restricted to ``a``, ``b`` and their twins, one of
+    ``a``'s pair and one of ``b``'s, agrees: what the first leaves is what the second finds.
+    A candidate that breaks this once does not act at ``a``'s slot, whatever the pixels say
+    (a footprint on a robot arm overlaps other places'). One that never breaks it qualifies
+    at odds of :data:`TWIN_ODDS`, the chance of agreeing estimated from all of ``a``'s
+    candidates together, as for :func:`sequence_twins`. For the others (too few
+    neighbours to tell, or no candidate ever breaking it: nothing to tell them apart), the
+    footprints decide: an action of another colour overlapping ``a``'s footprint by
+    ``site_overlap`` or more acts at its slot. A slot has one pick and one place of each
+    colour, so at most one of each is kept (:func:`one_per_colour`), and only where the
+    other side does not give its own mate of ``a``'s colour and kind to another action
+    (:func:`exclusive_mates`): a block on top of ``a``'s overlaps it, but it is not at its
+    slot.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N-1,)
+    episodes : list of (first, last)
+    ov : ndarray, shape (A, A)
+    colour, kinds, twin : ndarray, shape (A,)
+    site_overlap : float
+
+    Examples
+    --------
+    A red pick and place (0, 1) and a yellow pick and place (2, 3) at one slot, and a yellow
+    pair (4, 5) elsewhere whose footprints overlap the slot's; the sequence says which:
+
+    >>> from vggc_cp.trace import PLACE
+    >>> kinds = np.array([PICK, PLACE] * 3)
+    >>> colour, twin = np.array([0, 0, 1, 1, 1, 1]), np.array([1, 0, 3, 2, 5, 4])
+    >>> on = np.isin(np.arange(6), [0, 1, 4, 5])
+    >>> ov = np.eye(6) + 0.5 * (on[:, None] & on[None, :])
+    >>> actions = np.array([0, 3, 2, 1, 5, 4, 0, 3, 2, 1] * 4)
+    >>> m = sequence_mates(actions, [(0, 40)], ov, colour, kinds, twin, 0.2)
+    >>> np.flatnonzero(m[0]).tolist()
+    [2, 3]
+    """
+    n = len(colour)
+    other = (colour[:, None] != colour[None, :]) & (colour[:, None] >= 0) & (colour >= 0)
+    out = other & (ov >= site_overlap)
+    actions = np.asarray(actions)
+    episode_of = action_episodes(len(actions), episodes)
+    # what each action finds at its slot and what it leaves (-1: empty)
+    finds = np.where(kinds == PICK, colour, EMPTY)
+    leaves = np.where(kinds == PICK, EMPTY, colour)
+    taken = np.zeros(n, dtype=bool)
+    taken[actions[actions >= 0]] = True
+    for a in np.flatnonzero(taken & (colour >= 0)):
+        own = np.zeros(n, dtype=bool)
+        own[[a, twin[a]] if twin[a] >= 0 else [a]] = True
+        cand = np.flatnonzero(taken & other[a])
+        counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, agreed
+        for i, b in enumerate(cand):
+            group = own.copy()
+            group[[b, twin[b]] if twin[b] >= 0 else [b]] = True
+            at = np.flatnonzero((actions >= 0) & group[np.maximum(actions, 0)])
+            seq = actions[at]
+            cross = (episode_of[at[1:]] == episode_of[at[:-1]]) & (own[seq[1:]] != own[seq[:-1]])
+            agree = leaves[seq[:-1]] == finds[seq[1:]]
+            counts[i] = ((cross & ~agree).sum(), (cross & agree).sum())
+        total = counts.sum()
+        if total == 0 or counts[:, 0].sum() == 0:
+            continue                       # no candidate ever breaks it: the pixels decide
+        p_agree = counts[:, 1].sum() / total
+        out[a, cand[counts[:, 0] > 0]] = False          # ruled out by the sequence
+        if p_agree <= 0:
+            continue
+        sure = (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_agree)
+                                      >= math.log(TWIN_ODDS))
+        out[a, cand[sure]] = True
+    seen = out & (ov >= site_overlap)                  # the pixels put them at the slot too
+    return exclusive_mates(one_per_colour(out, seen, ov, colour, kinds), colour, kinds)
+
+
+def one_per_colour(mates: np.ndarray, seen: np.ndarray, ov: np.ndarray, colour: np.ndarray,
+                   kinds: np.ndarray) -> np.ndarray:
+    """At most one mate of each colour and kind per action, boolean shape (A, A).
+
+    A slot has one pick and one place of each colour: of several candidates of one colour
+    and kind (a block on the block at ``a``'s slot overlaps it too), the one the footprints
+    put at the slot as well (``seen``: overlapping ``a``'s by the site bar) before one only
+    the sequence names (agreements of a pick with a later place are cheap: one leaves the
+    slot empty, the other finds its own slot empty), then the one whose footprint overlaps
+    ``a``'s most, is the mate.
+
+    >>> kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    >>> ov = np.array([[1, .8, .5], [.8, 1, .6], [.5, .6, 1]])
+    >>> m = np.array([[0, 1, 1], [1, 0, 0], [1, 0, 0]], dtype=bool)
+    >>> one_per_colour(m, np.zeros((3, 3), bool), ov, colour, kinds)[0].tolist()
+    [False, True, False]
+    """
+    out = np.zeros_like(mates)
+    for a in range(len(mates)):
+        cand = np.flatnonzero(mates[a])
+        for key in {(int(colour[b]), int(kinds[b])) for b in cand}:
+            group = [b for b in cand if (colour[b], kinds[b]) == key]
+            out[a, max(group, key=lambda b: (bool(seen[a, b]), float(ov[a, b])))] = True
+    return out
+
+
+def exclusive_mates(mates: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """Mates that the other side does not give to another action, boolean shape (A, A).
+
+    ``b`` is at ``a``'s slot only if ``a`` is at ``b``'s: where ``b``'s mate of ``a``'s
+    colour and kind is another action (the slot below a block overlaps the block above, and
+    the block above's own mate was never taken), ``b`` is not ``a``'s mate.
+
+    >>> kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 1])
+    >>> m = np.array([[0, 1, 0], [1, 0, 0], [1, 0, 0]], dtype=bool)   # 2 claims 0, 0 has 1
+    >>> exclusive_mates(m, colour, kinds)[2].tolist()
+    [False, False, False]
+    """
+    out = mates.copy()
+    for a, b in zip(*np.nonzero(mates)):
+        others = np.flatnonzero(mates[b] & (colour == colour[a]) & (kinds == kinds[a]))
+        if len(others) and a not in others:
+            out[a, b] = False
+    return out
+
+
+def exclusive_twins(twin: np.ndarray) -> np.ndarray:
+    """Twins that are not another action's twin in return, int shape (A,) (-1 when none).
+
+    A slot has one pick and one place of a colour: where ``a``'s twin ``b`` and another
+    action ``c`` are each other's twins, ``b`` is ``c``'s and ``a`` has none in the trace
+    (its own was never taken; the nearest of the other kind is the slot below or above).
+
+    >>> exclusive_twins(np.array([2, 2, 1])).tolist()     # 1 and 2 pair; 0 has no twin
+    [-1, 2, 1]
+    """
+    out = twin.copy()
+    for a, b in enumerate(twin):
+        if b >= 0 and twin[b] != a and twin[b] >= 0 and twin[twin[b]] == b:
+            out[a] = -1
+    return out
+
+
+def action_mates(trace: Trace, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
+                 site_overlap: float) -> np.ndarray:
+    """:func:`sequence_mates` of ``trace`` (its actions and episodes, never its states)."""
+    return sequence_mates(trace.actions, trace.episodes(), ov, colour, trace.action_kinds(),
+                          twin, site_overlap)
+
+
+def acting_at(a: int, ov: np.ndarray, colour: np.ndarray, twin: np.ndarray,
+              site_overlap: float, mates: np.ndarray | None = None) -> np.ndarray:
+    """Actions that change what site ``a`` holds (module docstring), sorted int array.
+
+    ``mates`` (:func:`sequence_mates`) names the actions of another colour at the slot;
+    without it, those overlapping ``a``'s footprint by ``site_overlap`` or more.
+    """
+    if mates is None:
+        other = np.flatnonzero((colour >= 0) & (colour != colour[a]) & (ov[a] >= site_overlap))
+    else:
+        other = np.flatnonzero(mates[a])
+    acts = {a, *other.tolist()}
+    acts |= {int(twin[b]) for b in list(acts) if twin[b] >= 0}
+    return np.array(sorted(acts), dtype=np.int64)
