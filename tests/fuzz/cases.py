@@ -299,6 +299,21 @@ CASES: list[Case] = [
          ("same file",)),
     Case("calibration", "not-a-robustness-table", lambda w, t: ["calibration", w["solution"]],
          ("tables",), ("no column",)),
+    Case("settle", "out-dir-missing", lambda w, t: ["settle", t / "nope"], ("out_dir",),
+         ("robustness.csv", "no such file")),
+    Case("settle", "out-dir-is-a-file", lambda w, t: ["settle", w["solution"]], ("out_dir",),
+         ("robustness.csv", "no such file")),
+    Case("settle", "only-not-column-value",
+         lambda w, t: ["settle", _settle_study(t), "--only", "look"], ("--only",),
+         ("--only", "COLUMN=VALUE")),
+    Case("settle", "only-unknown-column",
+         lambda w, t: ["settle", _settle_study(t), "--only", "colour=red"], ("--only",),
+         ("--only", "no column")),
+    *files("settle", "--output", "out",
+           lambda w, t, p: ["settle", _settle_study(t), "-o", p], skip=("is-the-trace",)),
+    Case("settle", "output-is-a-csv",
+         lambda w, t: ["settle", _settle_study(t), "-o", t / "out" / "s.csv"], ("--output",),
+         ("-o names the markdown report",)),
     *files("robustness", "--out", "dir", lambda w, t, p: ["robustness", "--out", p]),
     *[Case("robustness", f"out-{sub.replace('/', '-')}-{what}",
            lambda w, t, sub=sub, what=what: ["robustness", "--out", _study(t, sub, what)],
@@ -429,6 +444,16 @@ CASES += [
                                                        "--quiet"],
          ("--backend",), ("ray",)),
 ]
+
+
+def _settle_study(t: Path) -> Path:
+    """A robustness folder whose table has one passing, quiet row (no case to settle)."""
+    root = t / "settle-study"
+    root.mkdir(exist_ok=True)
+    (root / "robustness.csv").write_text(
+        "benchmark,look,seed,split,transitions,true_states,nodes,exec,opt_path,any_path,"
+        "passed,suspect\nfruit-2x3,clean,0,tuning,50,6,6,1.0,1.0,1.0,True,False\n")
+    return root
 
 
 def _study(t: Path, sub: str, what: str) -> Path:

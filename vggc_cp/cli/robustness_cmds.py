@@ -1,4 +1,6 @@
-"""``vggc-cp robustness``: the default ``solve`` on every benchmark, seed and look."""
+"""``vggc-cp robustness``: the default ``solve`` on every benchmark, seed and look;
+``vggc-cp calibration``: how its warning matched the pass rule; ``vggc-cp settle``: whether
+suggested episodes settle its misses and warned runs."""
 
 from __future__ import annotations
 
@@ -62,6 +64,36 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", default=None, help="also write the tables to this .md")
     p.add_argument("--png", default=None, help="also draw the calibration plot to this .png")
     p.set_defaults(func=cmd_calibration)
+
+    p = sub.add_parser(
+        "settle", help="on a robustness study's misses and warned runs: do the episodes "
+                       "`suggest` proposes settle the graph, against as many random "
+                       "transitions?",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        description="For every run of OUT_DIR/robustness.csv that missed or was warned: per "
+                    "round, append the episodes `vggc-cp suggest` proposes for the previous "
+                    "round's graph (as `generate --episodes --append`) and learn again with "
+                    "the default solve; against it, generate the same task, seed and look "
+                    "with as many transitions (the random walk continued) and learn that. "
+                    "Prints per case and round |D|, nodes, Exec, warning, pass and whether "
+                    "the graph is settled (passes, no warning), then how many cases each "
+                    "kind of data settled. Reads OUT_DIR, writes nothing there.")
+    p.add_argument("out_dir", metavar="OUT_DIR",
+                   help="folder written by `vggc-cp robustness --out OUT_DIR`")
+    p.add_argument("--rounds", type=int, default=2, help="rounds of new data per case")
+    p.add_argument("--max-episodes", type=int, default=20, metavar="N",
+                   help="most episodes suggested per round")
+    p.add_argument("--only", default=None, metavar="COL=VALUE,...",
+                   help="only the cases whose robustness.csv row has these values (e.g. "
+                        "look=robot,benchmark=fruit-4x6; a column given twice: either "
+                        "value)")
+    p.add_argument("--limit", type=int, default=None, metavar="N",
+                   help="only the first N cases")
+    p.add_argument("-o", "--output", default=None,
+                   help="also write the tables to this .md and the records to the .csv "
+                        "beside it")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_settle)
 
 
 def _split(text: str) -> list[str]:
@@ -141,4 +173,51 @@ def cmd_calibration(args) -> int:
     for path in (args.output, args.png):
         if path:
             print(f"wrote {path}")
+    return 0
+
+
+def cmd_settle(args) -> int:
+    from vggc_cp.errors import VggcError
+    from vggc_cp.experiments.settle import (
+        csv_path,
+        read_cases,
+        run_settle,
+        settle_markdown,
+        write_settle,
+    )
+    from vggc_cp.safeio import check_output
+
+    if args.rounds < 1:
+        raise VggcError(f"--rounds must be at least 1, got {args.rounds}")
+    if args.max_episodes < 1:
+        raise VggcError(f"--max-episodes must be at least 1, got {args.max_episodes}")
+    if args.output:
+        if args.output.lower().endswith(".csv"):
+            raise VggcError(f"{args.output}: -o names the markdown report; the .csv is "
+                            f"written beside it")
+        check_output(args.output, "--output")
+        check_output(csv_path(args.output), "--output (its .csv)")
+    cases = read_cases(args.out_dir, args.only, args.limit)
+    bar = None
+    if not args.quiet and cases:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(cases) * args.rounds * 2, desc="settle", unit="arm", leave=False)
+
+    def step(what: str) -> None:
+        bar.set_postfix_str(what, refresh=False)
+        bar.update(1)
+
+    try:
+        run = run_settle(cases, args.rounds, args.max_episodes,
+                         progress=step if bar is not None else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    print(settle_markdown(run.records, args.out_dir), end="")
+    print(f"\n{run.cases} case(s), {run.rounds} round(s), {run.seconds:.1f} s")
+    if args.output:
+        md, table = write_settle(run.records, args.output, args.out_dir)
+        print(f"wrote {md}")
+        print(f"wrote {table}")
     return 0

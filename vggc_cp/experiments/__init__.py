@@ -4,4 +4,7 @@ the command line imports them).
 
 * :mod:`vggc_cp.experiments.robustness` -- the default ``vggc-cp solve`` on every benchmark,
   seed and look, with a pass rule and the calibration of its warning.
+* :mod:`vggc_cp.experiments.settle` -- on a robustness study's misses and warned runs, whether
+  the episodes ``vggc-cp suggest`` proposes settle the graph, against as many random
+  transitions.
 """
