@@ -35,7 +35,7 @@ from pathlib import Path
 
 from vggc_cp.atomic import write_text
 from vggc_cp.errors import VggcError
-from vggc_cp.experiments.robustness import RobustnessConfig, failures
+from vggc_cp.experiments.robustness import RobustnessConfig, failures, passes
 
 #: What a case was at round 0.
 MISS, FALSE_ALARM = "miss", "false alarm"
@@ -159,7 +159,7 @@ def _passed(row: dict) -> bool:
         return bool(text)
     if isinstance(text, str) and text in ("True", "False"):
         return text == "True"
-    return not failures(row)
+    return passes(row)
 
 
 def parse_only(text: str | None) -> dict[str, set[str]]:

@@ -371,6 +371,48 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     return tuple(found[:rule.limit])
 
 
+class _Flips:
+    """The evidence of flipping one decision of the chosen partition ``labels`` on ``path``
+    (the figures of the module docstring), for doubts named from outside the window."""
+
+    def __init__(self, problem: Problem, path: ThresholdPath, labels: np.ndarray):
+        self.problem, self.path, self.labels = problem, path, labels
+        self.t_star = float(path.thresholds[path.selected])
+        self.log_r = math.log(_grid_ratio(path.thresholds))
+        self.noise = max(noise_scale(problem), 1e-3 * self.t_star)
+        self.dl0 = description_length(problem, labels)
+        self.sides = _Sides(problem)
+
+    def steps(self, x: float) -> float:
+        return (math.log(x / self.t_star) / self.log_r if x > 0 and self.t_star > 0
+                else 0.0)
+
+    def doubt(self, kind: str, nodes: tuple[int, ...], a: np.ndarray, b: np.ndarray,
+              flipped: np.ndarray, typical: int, closeness=None, **extra) -> Doubt:
+        """The doubt whose sides are the observations ``a`` and ``b`` and whose flip gives
+        the partition ``flipped``; ``closeness(steps, evidence)`` ranks it (default: its
+        ``dl_nats``). ``extra`` joins the evidence before ``closeness``."""
+        p, sides, n_trans = self.problem, self.sides, len(self.problem.act)
+        d = sides.link(a, b)
+        steps = self.steps(d)
+        acts_a, acts_b = _actions_from(p, a), _actions_from(p, b)
+        ev = _evidence(d, self.t_star, max(sides.spread(a), sides.spread(b)), self.noise,
+                       steps, (description_length(p, flipped) - self.dl0) / n_trans,
+                       _count_together(self.path, a, b), acts_a - acts_b, acts_b - acts_a,
+                       p.action_names, n_trans)
+        ev.update(extra)
+        ev["closeness"] = round(ev["dl_nats"] if closeness is None else closeness(steps, ev),
+                                4)
+        return Doubt(kind, nodes, (sides.typical(a, typical), sides.typical(b, typical)), ev,
+                     ev["closeness"])
+
+    def joined(self, a: int, b: np.ndarray) -> np.ndarray:
+        """The partition with the observations ``b`` put in node ``a``."""
+        out = self.labels.copy()
+        out[b] = a
+        return out
+
+
 def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                     disputed, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
     """Merge doubts that the held-out prediction names (:class:`~vggc_cp.solvers.confidence.
@@ -397,17 +439,14 @@ def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     tuple of Doubt
     """
     rule = rule or DoubtRule()
-    k = path.selected
     labels = np.asarray(labels, dtype=np.int64)
-    if k is None or len(problem.act) == 0 or rule.limit == 0:
+    if path.selected is None or len(problem.act) == 0 or rule.limit == 0:
         return ()
-    t_star = float(path.thresholds[k])
-    log_r = math.log(_grid_ratio(path.thresholds))
-    noise = noise_scale(problem)
-    n_trans = len(problem.act)
-    dl0 = description_length(problem, labels)
-    sides = _Sides(problem)
-    names = problem.action_names
+    flips = _Flips(problem, path, labels)
+
+    def closeness(steps: float, ev: dict) -> float:
+        return max(0.0, steps) / rule.window + ev["dl_nats"] / rule.max_nats
+
     found, seen = [], set()
     for x, y, count in disputed:
         a, b = min(int(x), int(y)), max(int(x), int(y))
@@ -416,22 +455,8 @@ def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                 problem.roles[ma[0]] != problem.roles[mb[0]]:
             continue
         seen.add((a, b))
-        dist_ab = sides.link(ma, mb)
-        merged = labels.copy()
-        merged[mb] = a
-        steps = math.log(dist_ab / t_star) / log_r if dist_ab > 0 and t_star > 0 else 0.0
-        ev = _evidence(dist_ab, t_star, max(sides.spread(ma), sides.spread(mb)),
-                       max(noise, 1e-3 * t_star), steps,
-                       (description_length(problem, merged) - dl0) / n_trans,
-                       _count_together(path, ma, mb),
-                       _actions_from(problem, ma) - _actions_from(problem, mb),
-                       _actions_from(problem, mb) - _actions_from(problem, ma), names, n_trans)
-        ev["contradicted"] = int(count)
-        ev["closeness"] = round(max(0.0, steps) / rule.window + ev["dl_nats"] / rule.max_nats,
-                                4)
-        found.append(Doubt(MERGE, (a, b), (sides.typical(ma, rule.typical),
-                                           sides.typical(mb, rule.typical)), ev,
-                           ev["closeness"]))
+        found.append(flips.doubt(MERGE, (a, b), ma, mb, flips.joined(a, mb), rule.typical,
+                                 closeness, contradicted=int(count)))
         if len(found) == rule.limit:
             break
     return tuple(found)
@@ -461,21 +486,10 @@ def runner_up_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     tuple of Doubt
     """
     rule = rule or DoubtRule()
-    k = path.selected
     labels, other = np.asarray(labels, dtype=np.int64), np.asarray(other, dtype=np.int64)
-    if k is None or len(problem.act) == 0 or rule.limit == 0:
+    if path.selected is None or len(problem.act) == 0 or rule.limit == 0:
         return ()
-    t_star = float(path.thresholds[k])
-    log_r = math.log(_grid_ratio(path.thresholds))
-    noise = max(noise_scale(problem), 1e-3 * t_star)
-    n_trans = len(problem.act)
-    dl0 = description_length(problem, labels)
-    sides = _Sides(problem)
-    names = problem.action_names
-
-    def steps_of(x: float) -> float:
-        return math.log(x / t_star) / log_r if x > 0 and t_star > 0 else 0.0
-
+    flips = _Flips(problem, path, labels)
     found = []
     for u in np.unique(labels):
         m = np.flatnonzero(labels == u)
@@ -484,16 +498,8 @@ def runner_up_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             continue
         big = groups[np.argmax(sizes)]
         p_side, q_side = m[other[m] == big], m[other[m] != big]
-        split = labels.copy()
-        split[q_side] = int(labels.max()) + 1
-        d = sides.link(p_side, q_side)
-        ap, aq = _actions_from(problem, p_side), _actions_from(problem, q_side)
-        ev = _evidence(d, t_star, max(sides.spread(p_side), sides.spread(q_side)), noise,
-                       steps_of(d), (description_length(problem, split) - dl0) / n_trans,
-                       _count_together(path, p_side, q_side), ap - aq, aq - ap, names, n_trans)
-        found.append(Doubt(SPLIT, (int(u),), (sides.typical(p_side, rule.typical),
-                                              sides.typical(q_side, rule.typical)), ev,
-                           ev["dl_nats"]))
+        found.append(flips.doubt(SPLIT, (int(u),), p_side, q_side,
+                                 flips.joined(int(labels.max()) + 1, q_side), rule.typical))
     for v in np.unique(other):
         inside, sizes = np.unique(labels[other == v], return_counts=True)
         if len(inside) < 2:
@@ -502,18 +508,8 @@ def runner_up_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         ma, mb = np.flatnonzero(labels == a), np.flatnonzero(labels == b)
         if problem.roles[ma[0]] != problem.roles[mb[0]]:
             continue
-        merged = labels.copy()
-        merged[mb] = a
-        d = sides.link(ma, mb)
-        ev = _evidence(d, t_star, max(sides.spread(ma), sides.spread(mb)), noise, steps_of(d),
-                       (description_length(problem, merged) - dl0) / n_trans,
-                       _count_together(path, ma, mb),
-                       _actions_from(problem, ma) - _actions_from(problem, mb),
-                       _actions_from(problem, mb) - _actions_from(problem, ma), names, n_trans)
-        found.append(Doubt(MERGE, (a, b), (sides.typical(ma, rule.typical),
-                                           sides.typical(mb, rule.typical)), ev, ev["dl_nats"]))
+        found.append(flips.doubt(MERGE, (a, b), ma, mb, flips.joined(a, mb), rule.typical))
     for doubt in found:
-        doubt.evidence["closeness"] = round(doubt.closeness, 4)
         doubt.evidence["runner_up"] = True
     found.sort(key=lambda x: (x.closeness, x.kind, x.nodes))
     return tuple(found[:rule.limit])
