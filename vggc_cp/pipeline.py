@@ -32,7 +32,7 @@ import numpy as np
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError, lookup
 from vggc_cp.graph import TaskGraph
-from vggc_cp.solvers.base import Problem, SolveResult
+from vggc_cp.solvers.base import Problem, Readings, SolveResult
 from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
@@ -55,7 +55,12 @@ from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
 from vggc_cp.vision.evidence import evidence_names, footprint_evidence, get_evidence
-from vggc_cp.vision.footprints import FootprintConfig, action_footprints, footprint_codes
+from vggc_cp.vision.footprints import (
+    FootprintConfig,
+    action_footprints,
+    footprint_codes,
+    site_readings,
+)
 
 #: The first evidence ``auto`` tries (the others only when its graph is suspect).
 FOOTPRINTS = "footprints"
@@ -405,17 +410,20 @@ def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
                      progress: bool = False, executor=None) -> Problem | CodedProblem:
     """The problem of ``trace`` under ``evidence``: a :class:`CodedProblem` (descriptor
     codes, no N x N matrix) for the footprints unless ``options.candidates`` is ``dense``,
-    else a :class:`Problem` of the distance matrices. ``executor``
+    else a :class:`Problem` of the distance matrices. The footprints also give every action
+    its colour, so that a place node's hand holds one colour
+    (:attr:`~vggc_cp.solvers.base.Problem.action_colour`). ``executor``
     (:func:`vggc_cp.parallel.open_executor`, e.g. a dask cluster) converts the frames in
     blocks (footprints) or computes the distance row blocks (attention); same numbers."""
-    if (evidence == FOOTPRINTS and options.candidates == "codes"
-            and get_evidence(evidence).distances is footprint_evidence):  # the built-in one
-        fp = action_footprints(trace, options.footprint, executor)
+    if evidence == FOOTPRINTS and get_evidence(evidence).distances is footprint_evidence:
+        fp = action_footprints(trace, options.footprint, executor)   # the built-in one
         codes, tables = footprint_codes(fp, trace.roles())
         res = fp.resolution
         notes = (f"working resolution {res.describe()}",) if res and res.bound > 1 else ()
-        coded = CodedProblem.from_trace(trace, codes, tables, notes)
-        if all(len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
+        coded = CodedProblem.from_trace(trace, codes, tables, notes, fp.colour,
+                                        Readings.from_rows(site_readings(fp)))
+        if options.candidates == "codes" and all(
+                len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
             return coded
         # descriptors that do not repeat (continuous presence): the dense matrices, the
         # same numbers (table[code, code] is the distance bit for bit)

@@ -290,3 +290,26 @@ def test_threshold_path_equals_separate_runs():
         single = get_solver("merge", threshold=t).solve(problem, 0, 0)
         assert np.array_equal(res.labels, single.labels)
         assert res.stats == single.stats and res.J == single.J and res.seconds > 0
+
+
+def test_a_hand_holds_one_colour():
+    # A -pick_red-> H1 -place_red-> X and B -pick_green-> H2 -place_green-> Y: the two holding
+    # states look exactly alike (the held object out of view), the scenes around them do not
+    names = ("pick_red", "pick_green", "place_red", "place_green")
+    trace = make_trace([["A", "pick_red", "H1", "place_red", "X"],
+                        ["B", "pick_green", "H2", "place_green", "Y"]], names)
+    apart = np.full((4, 4), 0.9) - 0.9 * np.eye(4)
+    alike = np.zeros((2, 2))
+    blind = Problem.from_trace(trace.without_states(), apart, alike)
+    labels, stats = congruence_merge(blind, threshold=0.1)
+    assert labels[1] == labels[4] and stats.vetoed_hand == 0   # no colours: one holding node
+    coloured = Problem.from_trace(trace.without_states(), apart, alike,
+                                  action_colour=np.array([0, 1, 0, 1]))
+    labels, stats = congruence_merge(coloured, threshold=0.1)
+    assert labels[1] != labels[4] and stats.vetoed_hand == 1
+    assert check(coloured.graph(labels)).ok and len(set(labels)) == 6
+    # one colour for both classes (colours that cannot be told apart): no constraint
+    one = Problem.from_trace(trace.without_states(), apart, alike,
+                             action_colour=np.array([0, 0, 0, 0]))
+    labels, stats = congruence_merge(one, threshold=0.1)
+    assert labels[1] == labels[4] and stats.vetoed_hand == 0

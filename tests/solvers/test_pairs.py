@@ -167,3 +167,24 @@ def test_pairs_of_clusters_give_the_dense_path(monkeypatch, seed, levels, n_code
             assert not any(compressed)
         t = float(ts[6])
         assert np.array_equal(congruence_merge(coded.dense(), t)[0], coded_merge(coded, t)[0])
+
+
+def test_the_hand_constraint_is_the_same_on_codes_and_kept_by_restriction():
+    rng = np.random.default_rng(5)
+    trace = make_trace([fruit_episode(rng, 8) for _ in range(6)], NAMES)
+    base = coded_problem(trace, 3, 8, 5)
+    colour = np.array([0, 1, 0, 0, 1, 0])          # region 2's fruit is another colour
+    coded = CodedProblem(base.roles, base.src, base.act, base.dst, base.action_names,
+                         base.codes_pick, base.codes_place, base.table_pick, base.table_place,
+                         action_colour=colour)
+    assert np.array_equal(coded.dense().action_colour, colour)
+    assert np.array_equal(coded.restricted(np.ones(coded.n_obs, bool))[0].action_colour, colour)
+    t = 0.95                                        # everything within reach of the distances
+    a, sa = congruence_merge(coded.dense(), t)
+    b, sb = coded_merge(coded, t)
+    assert np.array_equal(a, b) and sa.vetoed_hand >= 1 and sb.vetoed_hand >= 1
+    from vggc_cp.solvers.base import hand_colours
+    hand = hand_colours(coded)
+    for node in np.unique(a[coded.place_obs]):
+        held = set(hand[(a == node) & (hand >= 0)].tolist())
+        assert len(held) <= 1

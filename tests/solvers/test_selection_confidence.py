@@ -20,7 +20,7 @@ from vggc_cp.solvers.confidence import (
     same_partition,
     subproblem,
 )
-from vggc_cp.solvers.mdl import description_length, select_mdl
+from vggc_cp.solvers.mdl import description_length, reading_length, select_mdl
 from vggc_cp.trace import compute_roles
 
 
@@ -72,6 +72,33 @@ def test_description_length_prefers_the_true_graph_to_merged_and_unmerged():
     with pytest.raises(ValueError):
         select_mdl(path)
     assert description_length(problem, None) == float("inf")
+
+
+def test_what_the_actions_state_makes_a_merge_of_two_states_cost_and_a_split_never_pay():
+    """Readings stated at one site (a symbol per true state, 30 % of the observations not
+    stated): the true graph codes them for the cost of saying what each node holds; a graph
+    that merges states pays for every mixed reading on top of the action code, and a graph
+    that splits states gains nothing (nothing is left to explain) but pays per node."""
+    from dataclasses import replace
+
+    from vggc_cp.solvers.base import Readings
+
+    problem, truth, _ = walk_problem("fruit-2x3", 300)
+    rng = np.random.default_rng(3)
+    rows = np.where(rng.random(problem.n_obs) < 0.3, 0, 1 + truth)[:, None]
+    seen = replace(problem, readings=Readings.from_rows(rows))
+    half = truth.copy()
+    half[problem.pick_obs] = truth[problem.pick_obs] // 2 * 2
+    split = np.arange(problem.n_obs)
+    cost = {k: reading_length(seen.readings, lab) for k, lab in
+            (("truth", truth), ("half", half), ("split", split))}
+    assert cost["truth"] == pytest.approx(len(np.unique(truth)) * np.log(len(np.unique(truth))))
+    assert cost["half"] > cost["truth"] and cost["split"] > cost["truth"]
+    gap = description_length(seen, half) - description_length(seen, truth)
+    assert gap > description_length(problem, half) - description_length(problem, truth) + 50
+    # nothing stated: nothing coded
+    blank = Readings.from_rows(np.zeros((problem.n_obs, 2), dtype=int))
+    assert reading_length(blank, half) == 0.0
 
 
 def test_description_length_by_hand():

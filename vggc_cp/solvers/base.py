@@ -42,6 +42,70 @@ def set_role_index(problem) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True, eq=False)
+class Readings:
+    """What the evidence reads at every site of every observation, as symbols.
+
+    The observations' readings are coded: ``symbols[codes[o]]`` is the row of observation
+    ``o``, one small non-negative integer per site (e.g. 0 empty, ``1 + c`` an object of
+    colour ``c``). The description length codes them given the nodes
+    (:func:`vggc_cp.solvers.mdl.reading_length`).
+
+    Attributes
+    ----------
+    codes : ndarray of int64, shape (N,)
+    symbols : ndarray of int64, shape (G, S)
+    """
+
+    codes: np.ndarray
+    symbols: np.ndarray
+
+    @classmethod
+    def from_rows(cls, rows: np.ndarray) -> Readings:
+        """From one row of symbols per observation, shape (N, S).
+
+        >>> r = Readings.from_rows(np.array([[0, 2], [1, 2], [0, 2]]))
+        >>> r.codes.tolist(), r.symbols.tolist()
+        ([0, 1, 0], [[0, 2], [1, 2]])
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        symbols, codes = np.unique(rows, axis=0, return_inverse=True)
+        return cls(np.asarray(codes, dtype=np.int64).ravel(), symbols)
+
+    def restricted(self, idx: np.ndarray) -> Readings:
+        """The readings of the observations ``idx`` (their codes; the same symbols)."""
+        return Readings(self.codes[idx], self.symbols)
+
+
+def hand_colours(problem) -> np.ndarray:
+    """Colour of what the hand holds in every observation, int64 shape (N,), from the
+    problem's ``action_colour``: a pick lifts an object of its colour and the next place puts
+    it down, so a place-role observation holds the colour of the pick into it or of the place
+    out of it. -1 for a pick-role observation, one no transition touches, or a problem
+    without colours.
+
+    Two place observations whose hands hold different colours are different states whatever
+    the images say (the held object may be out of view, or look alike under an arm).
+
+    >>> import numpy as np
+    >>> p = Problem(np.array([0, 1, 0, 1]), np.array([0, 1, 2]), np.array([0, 1, 2]),
+    ...             np.array([1, 2, 3]), ("pick_a", "place_a", "pick_b"),
+    ...             np.zeros((2, 2)), np.zeros((2, 2)), action_colour=np.array([0, 0, 1]))
+    >>> hand_colours(p).tolist()
+    [-1, 0, -1, 1]
+    """
+    hand = np.full(len(problem.roles), -1, dtype=np.int64)
+    colour = problem.action_colour
+    if colour is None or len(problem.act) == 0:
+        return hand
+    colour = np.asarray(colour, dtype=np.int64)
+    into = problem.roles[problem.dst] == PLACE            # a pick: the hand now holds it
+    hand[problem.dst[into]] = colour[problem.act[into]]
+    out = problem.roles[problem.src] == PLACE             # a place: the hand held it
+    hand[problem.src[out]] = colour[problem.act[out]]
+    return hand
+
+
+@dataclass(frozen=True, eq=False)
 class Problem:
     """What a solver may see: roles, transitions, action names and within-role distances.
 
@@ -56,6 +120,15 @@ class Problem:
     dist_pick : ndarray of float64, shape (n_pick, n_pick)
         Visual distance between pick observations, in the order of ``pick_obs``.
     dist_place : ndarray of float64, shape (n_place, n_place)
+    action_colour : ndarray of int64, shape (A,), or None
+        Colour of the objects every action moves, where the evidence tells colours apart
+        (the footprints' :attr:`~vggc_cp.vision.footprints.Footprints.colour`): the hand
+        holds one object, so a place node's actions all move one colour
+        (:func:`hand_colours`; the congruence merge keeps to it). None: no such constraint.
+    readings : Readings or None
+        What the evidence reads at every site (:class:`Readings`); the description length
+        then codes them too (:func:`vggc_cp.solvers.mdl.description_length`). None: only the
+        actions are coded.
     """
 
     roles: np.ndarray
@@ -67,6 +140,8 @@ class Problem:
     dist_place: np.ndarray
     #: what the evidence says about how it ran (e.g. the footprints' working resolution)
     notes: tuple[str, ...] = ()
+    action_colour: np.ndarray | None = None
+    readings: Readings | None = None
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -79,11 +154,14 @@ class Problem:
                 raise ValueError(f"{name} has shape {np.shape(d)}, expected ({n}, {n})")
 
     @classmethod
-    def from_trace(cls, trace: Trace, dist_pick: np.ndarray, dist_place: np.ndarray) -> Problem:
+    def from_trace(cls, trace: Trace, dist_pick: np.ndarray, dist_place: np.ndarray,
+                   action_colour: np.ndarray | None = None, readings: Readings | None = None
+                   ) -> Problem:
         """Build a problem from a trace (its ``states`` are not copied) and distances."""
         src, act, dst = trace.transitions()
         return cls(trace.roles(), src, act, dst, trace.action_names,
-                   np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64))
+                   np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64),
+                   action_colour=action_colour, readings=readings)
 
     @property
     def n_obs(self) -> int:

@@ -311,7 +311,8 @@ def subproblem(problem: Problem, keep: np.ndarray) -> tuple[Problem, np.ndarray]
     lp, lq = problem.local[pick], problem.local[place]
     sub = Problem(roles, new[problem.src[tk]], problem.act[tk], new[problem.dst[tk]],
                   problem.action_names, problem.dist_pick[np.ix_(lp, lp)],
-                  problem.dist_place[np.ix_(lq, lq)])
+                  problem.dist_place[np.ix_(lq, lq)], action_colour=problem.action_colour,
+                  readings=None if problem.readings is None else problem.readings.restricted(idx))
     return sub, idx
 
 

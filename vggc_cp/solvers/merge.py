@@ -35,7 +35,14 @@ from itertools import chain
 
 import numpy as np
 
-from vggc_cp.solvers.base import FEASIBLE, Problem, Solver, SolveResult, register_solver
+from vggc_cp.solvers.base import (
+    FEASIBLE,
+    Problem,
+    Solver,
+    SolveResult,
+    hand_colours,
+    register_solver,
+)
 from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     PATH,
     RULES,
@@ -51,7 +58,9 @@ class MergeStats:
 
     ``attempts`` and the veto counters count every candidate pair between two clusters that
     was examined; ``vetoes_replayed`` says how many of the vetoes were not recomputed because
-    nothing their closure read had changed since the same attempt was vetoed.
+    nothing their closure read had changed since the same attempt was vetoed;
+    ``vetoed_hand`` counts closures that would have put two place observations whose hands
+    hold different colours in one node (:func:`~vggc_cp.solvers.base.hand_colours`).
     """
 
     attempts: int
@@ -60,6 +69,7 @@ class MergeStats:
     vetoed_exactly_one: int
     vetoed_work: int
     vetoes_replayed: int = 0
+    vetoed_hand: int = 0
 
 
 class _Clusters:
@@ -94,6 +104,8 @@ class _Clusters:
         for k in (0, 1):
             self.sig[k][:] = [self._compress(lst) for lst in self.sig[k]]
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
+        # colour the hand holds in each root's observations (-1: none known)
+        self.hand: list[int] = hand_colours(problem).tolist()
         self.sums = self._distance_sums(problem)
 
     def _distance_sums(self, problem: Problem):
@@ -143,6 +155,8 @@ class _Clusters:
                 self.parent[r] = head
                 self.size[head] += self.size[r]
                 self.members[head].extend(self.members.pop(r))
+                if self.hand[head] < 0:
+                    self.hand[head] = self.hand[r]
         for head, absorbed in groups.items():
             for k in (0, 1):
                 sig, first = self.sig[k], self.first[k]
@@ -185,6 +199,9 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     when given, receives the average linkage that a ``distance`` veto exceeded (``inf`` for
     two roles): the only place where ``threshold`` enters, so the same attempt under a
     larger threshold goes the same way unless that value is within it.
+
+    A closure that would put place observations whose hands hold different colours in one
+    cluster is refused (``hand``): the hand holds one object, whatever the images say.
     """
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
@@ -192,6 +209,7 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     find = cl.find
     size = cl.size
     roles = cl.roles
+    hand = cl.hand
     read = read if read is not None else set()
     add_root = read.add
 
@@ -219,6 +237,10 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
             return None, "distance"
         ra = groups.get(ha) or [ha]
         rb = groups.get(hb) or [hb]
+        held_a = next((hand[r] for r in ra if hand[r] >= 0), -1)
+        held_b = next((hand[r] for r in rb if hand[r] >= 0), -1)
+        if held_a >= 0 and held_b >= 0 and held_a != held_b:
+            return None, "hand"
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
         average = cl.link_sum(ra, rb) / (na * nb)
@@ -318,7 +340,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     cl = _Clusters(problem)
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0}
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "hand": 0}
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -366,7 +388,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
-                              vetoes["work"], replayed)
+                              vetoes["work"], replayed, vetoes["hand"])
 
 
 def congruence_merge(problem: Problem, threshold: float, max_work: int = 2_000
@@ -540,8 +562,8 @@ class PartitionClosure:
             The node groups that become one node (each sorted, ``[a, b, ...]``'s group
             first), or None when the merge is forbidden.
         reason : str
-            ``""``, or why it is forbidden: ``exactly_one``, ``distance`` (two roles) or
-            ``work``.
+            ``""``, or why it is forbidden: ``exactly_one``, ``distance`` (two roles),
+            ``hand`` (the hands hold different colours) or ``work``.
         """
         res, why = _try_merge(self._cl, self.first[int(a)], self.first[int(b)], float("inf"),
                               self.max_work)

@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vggc_cp.graph import TaskGraph
-from vggc_cp.solvers.base import FEASIBLE, Problem, SolveResult, set_role_index
+from vggc_cp.solvers.base import FEASIBLE, Problem, Readings, SolveResult, set_role_index
 from vggc_cp.solvers.merge import (
     MergeStats,
     ThresholdPath,
@@ -90,6 +90,10 @@ class CodedProblem:
         ``place_obs``).
     table_pick, table_place : ndarray of float64, shapes (G_pick, G_pick), (G_place, G_place)
         Distance between codes; zero diagonal.
+    action_colour : ndarray of int64, shape (A,), or None
+        As :attr:`Problem.action_colour`.
+    readings : Readings or None
+        As :attr:`Problem.readings`.
     """
 
     roles: np.ndarray
@@ -103,6 +107,8 @@ class CodedProblem:
     table_place: np.ndarray
     #: what the evidence says about how it ran (e.g. the footprints' working resolution)
     notes: tuple[str, ...] = ()
+    action_colour: np.ndarray | None = None
+    readings: Readings | None = None
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -122,14 +128,16 @@ class CodedProblem:
 
     @classmethod
     def from_trace(cls, trace, codes: tuple[np.ndarray, np.ndarray],
-                   tables: tuple[np.ndarray, np.ndarray], notes: tuple[str, ...] = ()
+                   tables: tuple[np.ndarray, np.ndarray], notes: tuple[str, ...] = (),
+                   action_colour: np.ndarray | None = None, readings: Readings | None = None
                    ) -> CodedProblem:
         """From a trace (its ``states`` are not copied), per-role codes and tables."""
         src, act, dst = trace.transitions()
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
-                   np.asarray(tables[1], dtype=np.float64), tuple(notes))
+                   np.asarray(tables[1], dtype=np.float64), tuple(notes), action_colour,
+                   readings)
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -172,7 +180,7 @@ class CodedProblem:
         return Problem(self.roles, self.src, self.act, self.dst, self.action_names,
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
                        self.table_place[np.ix_(self.codes_place, self.codes_place)],
-                       self.notes)
+                       self.notes, self.action_colour, self.readings)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
@@ -187,7 +195,9 @@ class CodedProblem:
         sub = CodedProblem(roles, new[self.src[tk]], self.act[tk], new[self.dst[tk]],
                            self.action_names, self.codes_pick[self.local[pick]],
                            self.codes_place[self.local[place]], self.table_pick,
-                           self.table_place)
+                           self.table_place, action_colour=self.action_colour,
+                           readings=None if self.readings is None
+                           else self.readings.restricted(idx))
         return sub, idx
 
 
@@ -620,7 +630,7 @@ class _Pass:
         kinds = [o[1] for o in self.outcomes]
         stats = MergeStats(len(kinds), kinds.count("accepted"), kinds.count("distance"),
                            kinds.count("exactly_one"), kinds.count("work"),
-                           kinds.count("replayed"))
+                           kinds.count("replayed"), kinds.count("hand"))
         return labels, stats
 
     def _scan(self, d: np.ndarray, i: np.ndarray, j: np.ndarray, start: int, stop: int,

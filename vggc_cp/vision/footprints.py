@@ -182,6 +182,9 @@ class Footprints:
     resolution : WorkingResolution or None
         The working resolution of ``maps`` and ``sites`` and what chose it
         (:mod:`vggc_cp.vision.working`).
+    stated : ndarray of bool, shape (N, A), or None
+        Where the trace's actions state what a site holds
+        (:func:`vggc_cp.vision.occupancy.settle`).
     """
 
     maps: np.ndarray
@@ -193,6 +196,7 @@ class Footprints:
     nuisance: np.ndarray
     counts: np.ndarray
     resolution: WorkingResolution | None = None
+    stated: np.ndarray | None = None
 
     @property
     def taken(self) -> np.ndarray:
@@ -432,12 +436,12 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
-    presence, posterior = settle(trace, presence, posterior, ov, colour, counts,
-                                 params.site_overlap, x, params.support, params.saturation,
-                                 twin, mates, params.bandwidth)
+    presence, posterior, stated = settle(trace, presence, posterior, ov, colour, counts,
+                                         params.site_overlap, x, params.support,
+                                         params.saturation, twin, mates, params.bandwidth)
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
-                      resolution)
+                      resolution, stated)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
@@ -471,6 +475,31 @@ def footprint_nuisance(presence: np.ndarray, posterior: np.ndarray, counts: np.n
     out = np.zeros(len(counts))
     out[taken] = np.median(per_action, axis=0)[taken]
     return out
+
+
+def site_readings(fp: Footprints) -> np.ndarray:
+    """What the actions state every taken site holds in every observation, as symbols,
+    shape (N, S), int64.
+
+    0 where the actions do not state it (the site is read from the images there, and an arm,
+    a shaking camera or a covered slot may mislead the reading), 1 where the site is empty,
+    ``2 + c`` where it holds an object of colour ``c``. Sites stated alike in every
+    observation (the pick and place of one slot, the classes of one region) are kept once, so
+    a place counts once however many actions act there
+    (:func:`vggc_cp.solvers.mdl.reading_length`). All zeros without ``fp.stated``.
+
+    >>> fp = Footprints(*[None] * 2, np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), None,
+    ...                 np.ones((2, 3, 1)), np.zeros(3, np.int64), None, np.array([3, 2, 1]),
+    ...                 stated=np.array([[True, True, True], [True, True, False]]))
+    >>> site_readings(fp).tolist()                    # sites 0 and 1 state alike: one column
+    [[1, 2], [0, 1]]
+    """
+    taken = fp.taken
+    if fp.stated is None:
+        return np.zeros((len(fp.presence), 1), dtype=np.int64)
+    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
+    rows = np.where(fp.stated[:, taken], 1 + held, 0)
+    return np.unique(rows.astype(np.int64), axis=1)
 
 
 def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken: np.ndarray,

@@ -240,7 +240,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
-           bandwidth: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+           bandwidth: float = 0.02) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -291,8 +291,12 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     -------
     presence, posterior : ndarray
         Settled copies.
+    stated : ndarray of bool, shape (N, A)
+        Where the actions state what the site holds (:func:`site_labels`): there the
+        settled presence and colour are facts, not readings.
     """
     presence, posterior = presence.copy(), posterior.copy()
+    stated = np.zeros(presence.shape, dtype=bool)
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
@@ -309,6 +313,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         acting = acting_at(int(a), ov, colour, twin, site_overlap, mates)
         labels = site_labels(actions, episodes, acting, kinds, colour)
         known = labels != UNLABELLED
+        stated[:, a] = known
         raw = presence[:, a].copy()
         presence[known, a] = (labels[known] >= 0).astype(np.float64)
         full = np.flatnonzero(labels >= 0)
@@ -347,7 +352,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
-    return presence, posterior
+    return presence, posterior, stated
 
 
 def majority_guess(own: float, labels: np.ndarray) -> float | None:
