@@ -21,6 +21,24 @@ def shipped():
     return load_trace(DATA)
 
 
+def test_the_footprint_problem_carries_the_colours_and_what_the_actions_state(shipped):
+    from vggc_cp.pipeline import evidence_problem
+    from vggc_cp.solvers.mdl import description_length, reading_length
+
+    for candidates in ("codes", "dense"):
+        problem = evidence_problem(shipped.without_states(), "footprints",
+                                   LearnConfig(candidates=candidates))
+        assert problem.action_colour is not None and len(problem.action_colour) == \
+            shipped.n_actions
+        assert problem.readings is not None and len(problem.readings.codes) == shipped.n_obs
+        _, truth = np.unique(shipped.states, return_inverse=True)
+        merged = problem.labels_from_colours(np.zeros(problem.n_pick, int),
+                                             np.zeros(problem.n_place, int))
+        assert reading_length(problem.readings, merged) > reading_length(problem.readings,
+                                                                         truth)
+        assert description_length(problem, truth) > reading_length(problem.readings, truth)
+
+
 def test_the_shipped_trace_gives_its_true_graph_without_a_warning(shipped):
     learned = learn_graph(shipped.without_states(), LearnConfig(evidence="footprints"))
     same = learned.labels[:, None] == learned.labels[None, :]

@@ -16,6 +16,7 @@ from vggc_cp.vision.footprints import (
     footprint_distances,
     overlaps,
     site_maps,
+    site_readings,
 )
 from vggc_cp.vision.working import normalise_frames
 
@@ -81,6 +82,25 @@ def test_shuffled_images_spoil_what_the_actions_leave_open(shipped):
         shuffled = action_footprints(shuffled_within_roles(shipped, seed).without_states())
         wrong = np.abs(shuffled.presence[:, taken] - truth[:, site[taken]]) >= 0.5
         assert wrong.mean() > 0.1
+
+
+def test_what_the_actions_state_is_right_and_a_slot_counts_once(shipped):
+    """The stated readings (the description length codes them) agree with the true states
+    wherever they are stated; the pick and place of one region state alike, so the three
+    regions give three columns; pick-role observations right after an action are stated
+    at its region."""
+    fp = action_footprints(shipped.without_states())
+    site = np.array([int(n.rsplit("_", 1)[1]) for n in shipped.action_names])
+    truth = np.array([[c != "-" for c in s.split("|")[0]] for s in shipped.states])
+    for a in fp.taken:
+        on = fp.stated[:, a]
+        assert on.mean() > 0.3
+        symbol = np.where(fp.presence[on, a] >= 0.5, 2, 1)        # one colour: 2 = occupied
+        np.testing.assert_array_equal(symbol, np.where(truth[on, site[a]], 2, 1))
+    rows = site_readings(fp)
+    assert rows.shape == (shipped.n_obs, 3) and set(np.unique(rows)) <= {0, 1, 2}
+    acted = np.flatnonzero(shipped.actions >= 0) + 1
+    assert (rows[acted] > 0).any(axis=1).all()
 
 
 def test_bad_parameters_and_an_empty_trace_are_refused(shipped):

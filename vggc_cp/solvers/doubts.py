@@ -11,7 +11,9 @@ observations are one state. Two kinds of decision can be close calls:
   (:class:`~vggc_cp.solvers.merge.PartitionClosure`: determinism and co-determinism,
   transitively). When Exactly-One forbids the closure, the pair is a candidate only when
   ``d(A, B) <= t*``: the images put the two nodes together and only the constraints keep
-  them apart, so some other decision conflicts with it (``forbidden: "exactly_one"``);
+  them apart, so some other decision conflicts with it (``forbidden: "exactly_one"``; or
+  ``"hand"``: the closure would join place observations whose hands hold different colours,
+  which only a wrong colour of some action could allow);
 * a **split doubt** -- a node ``N`` that might be two states: one of the ``window`` next
   smaller thresholds splits it; its two sides ``P`` (the larger) and ``Q`` are the two
   clusters of the last merge of average-linkage clustering on its observations' distances
@@ -46,7 +48,7 @@ Evidence each way (a :class:`Doubt`'s ``evidence``; the two sides are ``A``/``B`
     nodes / in one node.
 ``threshold_needed``, ``forced``, ``forbidden``
     Merge doubts: ``x`` above, the number of other node pairs the closure joins, and
-    ``"exactly_one"`` (or ``null``) as above.
+    ``"exactly_one"``, ``"hand"`` (or ``null``) as above.
 ``only_a``, ``only_b``
     Action names taken in the trace from one side and never from the other: what the
     robot could try from the other side to settle the doubt (``vggc-cp suggest``).
@@ -563,7 +565,8 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
         obs = " | ".join(",".join(str(o) for o in side) for side in d.observations)
         ratio = ev.get("distance", 0.0) / ev["threshold"] if ev.get("threshold") else 0.0
         steps = ev.get("steps")
-        note = ("Exactly-One forbids" if ev.get("forbidden") else
+        note = ("the hands hold different colours" if ev.get("forbidden") == "hand" else
+                "Exactly-One forbids" if ev.get("forbidden") else
                 f"{ev['contradicted']} held-out transition(s) dispute it"
                 if ev.get("contradicted") else
                 "the runner-up graph decides it the other way" if ev.get("runner_up") else "")

@@ -184,7 +184,11 @@ class Footprints:
         (:mod:`vggc_cp.vision.working`).
     stated : ndarray of bool, shape (N, A), or None
         Where the trace's actions state what a site holds
-        (:func:`vggc_cp.vision.occupancy.settle`).
+        (:func:`vggc_cp.vision.occupancy.settle`) and the site's own reading (its presence
+        and colour before the actions settle them) agrees: the facts
+        :func:`site_readings` offers the description length. A stated fact rests on which
+        actions act at one slot (:mod:`vggc_cp.vision.slots`); where the images contradict
+        it, one of the two is wrong.
     """
 
     maps: np.ndarray
@@ -436,9 +440,14 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
+    seen_p, seen_c = presence, posterior.argmax(axis=-1)
     presence, posterior, stated = settle(trace, presence, posterior, ov, colour, counts,
                                          params.site_overlap, x, params.support,
                                          params.saturation, twin, mates, params.bandwidth)
+    # a stated fact rests on which actions act at one slot; where the site's own reading
+    # contradicts it, one of the two is wrong, and it is not offered as a fact
+    full = presence >= 0.5
+    stated &= ((seen_p >= 0.5) == full) & (~full | (seen_c == posterior.argmax(axis=-1)))
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
                       resolution, stated)
@@ -482,7 +491,8 @@ def site_readings(fp: Footprints) -> np.ndarray:
     shape (N, S), int64.
 
     0 where the actions do not state it (the site is read from the images there, and an arm,
-    a shaking camera or a covered slot may mislead the reading), 1 where the site is empty,
+    a shaking camera or a covered slot may mislead the reading) or where the site's own
+    reading contradicts what they state (``fp.stated``), 1 where the site is empty,
     ``2 + c`` where it holds an object of colour ``c``. Sites stated alike in every
     observation (the pick and place of one slot, the classes of one region) are kept once, so
     a place counts once however many actions act there
