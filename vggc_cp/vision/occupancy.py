@@ -29,7 +29,14 @@ on what the other slot holds, and it takes the nearest-look presence (:func:`ref
 Every other site (side-by-side regions, one object per place, objects of other colours at one
 place, which the site already covers) keeps the hand-made presence: one empty look describes
 it, and on such sites the hand-made presence was the better one on the tuning traces. Colour
-is left to the hand-made posterior. Nothing reads action names or ground-truth states.
+is left to the hand-made posterior.
+
+**Covered slots.** While a slot above holds something, the slot below it is read from pixels
+the object on top covers, and its colour reads the top object's. Which slot is above which is
+what the actions state (:func:`slots_above`: the one above holds something only when the one
+below does); an unlabelled run of the slot below takes the colour its uncovered frames read
+(:func:`uncovered_colour`): nothing acts at the slot during the run, so it holds one object
+throughout. Nothing reads action names or ground-truth states.
 """
 
 from __future__ import annotations
@@ -261,7 +268,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       ``x``) the run's median presence, so a frame in which the site is hidden is outvoted
       by the frames in which it is seen; or, where the footprint presence does no better on
       the labelled frames than saying what most of them hold, that (:func:`majority_guess`).
-      A run read per pose also takes the colour its window shows (:func:`window_colour`).
+      A run read per pose also takes the colour its window shows (:func:`window_colour`);
+      a run of a slot that another slot covers in some of its frames takes the colour of its
+      uncovered frames (:func:`uncovered_colour`).
 
     The actions at a site are found with the twins and slot mates the trace's sequence
     allows (:func:`action_twins`, :func:`action_mates`).
@@ -295,6 +304,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         Where the actions state what the site holds (:func:`site_labels`): there the
         settled presence and colour are facts, not readings.
     """
+    seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
     stated = np.zeros(presence.shape, dtype=bool)
     kinds = trace.action_kinds()
@@ -309,6 +319,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     start[1:] = actions < 0
     examples: list[list[np.ndarray]] = [[] for _ in range(n_col)]
     looks: dict = {}
+    runs: dict = {}                                  # site -> (labels, run, loose, acting)
     for a in np.flatnonzero((counts > 0) & (colour >= 0)):
         acting = acting_at(int(a), ov, colour, twin, site_overlap, mates)
         labels = site_labels(actions, episodes, acting, kinds, colour)
@@ -326,6 +337,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         cut[1:] |= (actions >= 0) & is_acting[np.maximum(actions, 0)]
         run = np.cumsum(cut) - 1
         loose = np.flatnonzero(~known)
+        runs[int(a)] = (labels, run, loose, acting)
         if not len(loose):
             continue
         read = {}
@@ -352,7 +364,59 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
+    if n_col > 1:
+        uncovered_colour(presence, posterior, seen, runs, ov, site_overlap)
     return presence, posterior, stated
+
+
+def slots_above(runs: dict, ov: np.ndarray, site_overlap: float) -> dict[int, list[int]]:
+    """For every site, the sites of other slots stacked on it, as the actions state them.
+
+    Site ``b`` is above site ``a`` when their footprints overlap by ``site_overlap`` or more,
+    ``b`` is no action at ``a``'s slot, and wherever the actions state both, ``b`` holds
+    something only when ``a`` does, while ``a`` is stated to hold something with ``b``
+    empty at least once (a block on a block: the one below holds whenever the one above
+    does).
+
+    Parameters
+    ----------
+    runs : dict
+        Site -> (labels, run, loose, acting) of :func:`settle`.
+    """
+    out: dict[int, list[int]] = {}
+    for a, (la, _, _, acting) in runs.items():
+        for b, (lb, _, _, _) in runs.items():
+            if b == a or b in acting or ov[a, b] < site_overlap:
+                continue
+            both = (la != UNLABELLED) & (lb != UNLABELLED)
+            full_b = both & (lb >= 0)
+            if full_b.any() and (la[full_b] >= 0).all() and \
+                    ((la >= 0) & (lb == EMPTY) & both).any():
+                out.setdefault(a, []).append(b)
+    return out
+
+
+def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,
+                     runs: dict, ov: np.ndarray, site_overlap: float) -> None:
+    """The colour of a covered slot's unlabelled runs from its uncovered frames, in place.
+
+    Between two actions at a slot what it holds does not change, but while another slot
+    above it holds something its colour is read from pixels the object on top covers
+    (:func:`slots_above`). A run of a site that is uncovered in some of its frames (every
+    site above it empty there, presence below 1/2) takes the mean colour those frames read
+    (``seen``, the posterior before the run means); a run covered throughout keeps its mean.
+    """
+    above = slots_above(runs, ov, site_overlap)
+    for a, tops in above.items():
+        _, run, loose, _ = runs[a]
+        if not len(loose):
+            continue
+        covered = (presence[:, tops] >= 0.5).any(axis=1)
+        for r in np.unique(run[loose]):
+            members = loose[run[loose] == r]
+            clear = members[~covered[members]]
+            if 0 < len(clear) < len(members):
+                posterior[members, a] = seen[clear, a].mean(axis=0)
 
 
 def majority_guess(own: float, labels: np.ndarray) -> float | None:
