@@ -43,12 +43,12 @@ def set_role_index(problem) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True, eq=False)
 class Readings:
-    """What the evidence reads at every site of every observation, as symbols.
+    """What the evidence says every site of every observation holds, as symbols.
 
-    The observations' readings are coded: ``symbols[codes[o]]`` is the row of observation
-    ``o``, one small non-negative integer per site (e.g. 0 empty, ``1 + c`` an object of
-    colour ``c``). The description length codes them given the nodes
-    (:func:`vggc_cp.solvers.mdl.reading_length`).
+    The observations' rows are coded: ``symbols[codes[o]]`` is the row of observation ``o``,
+    one small non-negative integer per site (the footprints: 0 where nothing is stated, 1
+    empty, ``2 + c`` an object of colour ``c``). The description length codes the non-zero
+    symbols given the nodes (:func:`vggc_cp.solvers.mdl.reading_length`).
 
     Attributes
     ----------

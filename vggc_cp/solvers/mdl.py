@@ -13,23 +13,26 @@ raises the first term (the merged node's actions are less predictable); keeping 
 duplicates apart raises the second (every copy repeats its edges). The true graph balances
 them once the trace visits its states a few times each. Lower is better.
 
-**What the images read.** Where the evidence reads every site of every observation as a
-symbol (:class:`~vggc_cp.solvers.base.Readings`: the footprints read each site empty or an
-object of a colour), the model codes those too: every node has, per site, a distribution over
-the symbols its observations read there::
+**What the actions state.** Where the evidence says what sites hold as symbols
+(:class:`~vggc_cp.solvers.base.Readings`: the footprints give each site of each observation
+empty or an object of a colour wherever an episode's actions state it and the site's own
+reading does not contradict it, and 0, not coded, elsewhere), the model codes those too:
+every node has, per site, a distribution over the symbols its observations hold there::
 
     DL_read(G) = - sum_{(u, s, x)} n(u, s, x) log(n(u, s, x) / n(u))
                  + sum_{(u, s)} log K_s  +  1/2 log N * k
 
-with ``n(u, s, x)`` the observations of node ``u`` that read ``x`` at site ``s``, ``K_s`` the
-symbols site ``s`` reads anywhere (stating what a node reads there costs ``log K_s``, as an
+with ``n(u, s, x)`` the observations of node ``u`` that hold ``x`` at site ``s``, ``K_s`` the
+symbols site ``s`` takes anywhere (stating what a node holds there costs ``log K_s``, as an
 edge costs in the action code), ``N`` the observations and ``k`` the free parameters,
-``sum_{(u, s)} (#symbols read - 1)``. Two states that afford alike actions
-but look different cost their mixed sites' entropy when merged; without this term, a coarse
-graph that predicts the actions as well as the true one is the shorter code, however
-different the scenes it merges (a task of identical objects, random-396: 16 nodes for 126
-states, every site read right). Sites that read alike on every observation (the actions of
-one slot) are one site (:func:`vggc_cp.vision.footprints.site_readings`).
+``sum_{(u, s)} (#symbols - 1)``. Two states that afford alike actions but hold different
+things cost their mixed sites' entropy when merged, and a split gains nothing (stated facts
+agree within a state); without this term, a coarse graph that predicts the actions as well
+as the true one is the shorter code, however different the scenes it merges (a task of
+identical objects, random-396: 16 nodes for 126 states). Only stated facts are coded: the
+readings of sites no action touches were tried (every site's symbol) and made splits pay
+wherever an arm or a covered slot misleads them. Sites alike on every observation (the
+actions of one slot) are one site (:func:`vggc_cp.vision.footprints.site_readings`).
 
 References
 ----------
