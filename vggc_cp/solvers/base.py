@@ -54,10 +54,18 @@ class Readings:
     ----------
     codes : ndarray of int64, shape (N,)
     symbols : ndarray of int64, shape (G, S)
+    kinds : ndarray of float64, shape (S,)
+        How many non-zero symbols each site takes anywhere (at least 1): what stating a
+        node's symbol there chooses from (derived from ``symbols``, once).
     """
 
     codes: np.ndarray
     symbols: np.ndarray
+    kinds: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        kinds = [max(len(np.unique(col[col > 0])), 1) for col in np.asarray(self.symbols).T]
+        object.__setattr__(self, "kinds", np.array(kinds, dtype=np.float64))
 
     @classmethod
     def from_rows(cls, rows: np.ndarray) -> Readings:

@@ -130,7 +130,5 @@ def reading_length(readings: Readings, labels: np.ndarray) -> float:
     total = np.bincount(cinv.ravel(), weights=c)
     data = -float(np.sum(c * np.log(c / total[cinv.ravel()]))) + 0.0
     # what each node holds at each site: one of the symbols stated there anywhere
-    kinds = np.array([max(len(np.unique(col[col > 0])), 1) for col in symbols.T],
-                     dtype=np.float64)
-    model = float(np.log(kinds)[cells // n_nodes].sum())
+    model = float(np.log(readings.kinds)[cells // n_nodes].sum())
     return data + model + 0.5 * float(np.log(n)) * (len(keys) - len(cells))
