@@ -153,7 +153,15 @@ def test_bench_solve_times_the_default_the_footprints_alone_and_the_previous_def
     from vggc_cp.trace import load_trace
 
     trace = load_trace(Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz")
-    t = bench_solve(trace.without_states())
+    t = bench_solve(trace.without_states(), repeats=2)
+    assert t.repeats == 2
     assert t.default_nodes == t.footprints_nodes == 6 and t.default_evidence == "footprints"
     assert t.default_seconds > 0 and t.footprints_seconds > 0 and t.previous_seconds > 0
     assert t.footprints_ratio == t.default_seconds / t.footprints_seconds
+
+
+def test_bench_solve_needs_one_run_at_least(toy_trace):
+    from vggc_cp.experiments.perf import bench_solve
+
+    with pytest.raises(ValueError, match="repeats must be at least 1"):
+        bench_solve(toy_trace, repeats=0)

@@ -210,6 +210,7 @@ CASES: list[Case] = [
               "robustness", "--out", t / "out" / "r", "-Q", "100000000000"]),
           ("bench distance", "--pairs", "-1", lambda w, t: ["bench", "distance", "--pairs=-1"]),
           ("bench solve", "--limit", "nan", lambda w, t: ["bench", "solve", "--limit=nan"]),
+          ("bench solve", "--repeats", "0", lambda w, t: ["bench", "solve", "--repeats=0"]),
           ("bench sweep", "--transitions", "1e9", lambda w, t: [
               "bench", "sweep", "--transitions", "1000000000"]),
           ("benchmark", "--novel", "1e8", lambda w, t: [
