@@ -32,12 +32,13 @@ import numpy as np
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError, lookup
 from vggc_cp.graph import TaskGraph
-from vggc_cp.solvers.base import Problem, Readings, SolveResult
+from vggc_cp.solvers.base import Problem, Readings, SiteReads, SolveResult
 from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
     assess,
     corroborate,
+    doubt_readings,
     plateau_length,
     resample,
 )
@@ -46,6 +47,7 @@ from vggc_cp.solvers.doubts import (
     DoubtRule,
     disputed_doubts,
     find_doubts,
+    read_doubts,
     runner_up_doubts,
 )
 from vggc_cp.solvers.mdl import description_length
@@ -60,6 +62,7 @@ from vggc_cp.vision.footprints import (
     action_footprints,
     footprint_codes,
     site_readings,
+    site_reads,
 )
 
 #: The first evidence ``auto`` tries (the others only when its graph is suspect).
@@ -420,8 +423,10 @@ def evidence_problem(trace: Trace, evidence: str, options: LearnConfig,
         codes, tables = footprint_codes(fp, trace.roles())
         res = fp.resolution
         notes = (f"working resolution {res.describe()}",) if res and res.bound > 1 else ()
+        reads = site_reads(fp)
         coded = CodedProblem.from_trace(trace, codes, tables, notes, fp.colour,
-                                        Readings.from_rows(site_readings(fp)))
+                                        Readings.from_rows(site_readings(fp), None if reads is None
+                                                           else SiteReads(*reads)))
         if options.candidates == "codes" and all(
                 len(t) <= CODES_SHARE * max(len(c), 1) for c, t in zip(codes, tables)):
             return coded
@@ -542,6 +547,12 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     doubts = learned_doubts(chosen)
     chosen = replace(chosen, confidence=corroborate(chosen.confidence, doubts,
                                                     DoubtRule().max_nats))
+    read = learned_doubts(chosen, read=True)
+    if read:
+        # nodes only an untrustworthy reading of the images sets apart: flagged, listed first
+        chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read))
+        pairs = {d.nodes for d in read}
+        doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
     if chosen.confidence.suspect and not doubts:
         # warned (e.g. a graph of another size nearly as probable) with no close call near
         # t*: the decisions on the way to that graph, so the warning says what is doubtful
@@ -561,7 +572,7 @@ DOUBTS_MAX_OBS = 8000
 
 
 def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: bool = False,
-                   differences: bool = False) -> tuple[Doubt, ...]:
+                   differences: bool = False, read: bool = False) -> tuple[Doubt, ...]:
     """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
     of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
     (none beyond: the matrices would cost what the codes save).
@@ -573,12 +584,16 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     With ``disputed``, the node pairs that contradicted held-out transitions name
     (:func:`~vggc_cp.solvers.doubts.disputed_doubts`); with ``toward_runner_up`` and
     ``differences``, the nodes the runner-up graph splits or joins
-    (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`)."""
+    (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
+    untrustworthy reading of the images sets apart
+    (:func:`~vggc_cp.solvers.doubts.read_doubts`)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem):
         if problem.n_obs > DOUBTS_MAX_OBS:
             return ()
         problem = problem.dense()
+    if read:
+        return read_doubts(problem, chosen.path, chosen.best.labels)
     if disputed:
         held = chosen.confidence.heldout
         return (() if held is None else

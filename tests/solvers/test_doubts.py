@@ -19,7 +19,9 @@ from vggc_cp.solvers.doubts import (
     disputed_doubts,
     find_doubts,
     format_doubts,
+    observation_episodes,
     parse_doubts,
+    read_doubts,
     runner_up_doubts,
 )
 from vggc_cp.solvers.merge import PartitionClosure, threshold_path
@@ -216,3 +218,52 @@ def test_rule_validates():
         DoubtRule(window=0)
     with pytest.raises(ValueError, match="max_nats"):
         DoubtRule(max_nats=0.0)
+
+
+def _read_apart(kappa: float, stated_both: bool = False):
+    """Two episodes, each '1' -pick_1-> 'H', that the images keep apart (distance 1). Site 0
+    (pick_1's) is stated alike in both; site 1 (place_2's) is only read: occupied in the
+    first episode, empty in the second, with agreement ``kappa`` beyond chance (or stated
+    so in both, ``stated_both``). Returns the problem, its merge path and the labels."""
+    from vggc_cp.solvers.base import Readings, SiteReads
+
+    trace = make_trace([["1", "pick_1", "H"], ["1", "pick_1", "H"]], NAMES)
+    src, act, dst = trace.transitions()
+    held = np.array([[1, 1], [0, 1], [1, 0], [0, 0]])
+    stated = np.array([[True, stated_both]] * 4)
+    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 4]))
+    readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
+    problem = Problem(trace.roles(), src, act, dst, NAMES, 1.0 - np.eye(2), 1.0 - np.eye(2),
+                      readings=readings)
+    path = threshold_path(problem, (0.1, 0.2), "mdl")
+    labels = path.best.labels
+    assert path.best.n_nodes == 4
+    return problem, path, labels
+
+
+def test_nodes_only_an_untrusted_reading_sets_apart_are_a_doubt():
+    """Joining the two '1' nodes forces the two 'H' nodes together; nothing stated stops it,
+    and only place_2's site, read at kappa 0.2, tells them apart: one merge doubt per pair,
+    naming the site. Read at kappa 0.9, or stated apart, it settles them: no doubt."""
+    problem, path, labels = _read_apart(0.2)
+    doubts = read_doubts(problem, path, labels)
+    assert len(doubts) == 2
+    for d in doubts:
+        assert d.kind == MERGE
+        assert labels[d.observations[0][0]] == d.nodes[0] != d.nodes[1]
+        assert d.evidence["read_sites"] == ["place_2"] and d.evidence["read_kappa"] == 0.2
+        assert d.evidence["forced"] == 1 and d.closeness < 0
+    for kappa, stated in ((0.9, False), (0.2, True)):
+        problem, path, labels = _read_apart(kappa, stated)
+        assert read_doubts(problem, path, labels) == ()
+
+
+def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
+    trace = make_trace([["1", "pick_1", "H"], ["2"], ["3", "pick_3", "H", "place_1", "1"]],
+                       NAMES)
+    src, act, dst = trace.transitions()
+    roles = trace.roles()
+    n_pick, n_place = int((roles == 0).sum()), int((roles == 1).sum())
+    problem = Problem(roles, src, act, dst, NAMES, np.ones((n_pick, n_pick)),
+                      np.ones((n_place, n_place)))
+    assert observation_episodes(problem).tolist() == [0, 0, 1, 2, 2, 2]

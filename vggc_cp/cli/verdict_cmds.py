@@ -75,6 +75,9 @@ def cmd_doubts(args) -> int:
                          f"{ev.get('thresholds_together')} thresholds")
         if ev.get("forbidden"):
             parts.append("Exactly-One forbids the join")
+        if isinstance(ev.get("read_kappa"), (int, float)):
+            parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
+                         f"apart (kappa {ev['read_kappa']:.2f})")
         rows.append((list(d.observations[0]), list(d.observations[1]), "; ".join(parts)))
     pair_sheet(trace, rows, args.output)
     print(f"wrote {args.output} ({len(doubts)} doubt(s))")

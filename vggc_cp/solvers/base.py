@@ -42,6 +42,34 @@ def set_role_index(problem) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True, eq=False)
+class SiteReads:
+    """What every site holds in every observation, stated by the actions or read from the
+    images, and how far each site's reading can be trusted.
+
+    Attributes
+    ----------
+    held : ndarray of int64, shape (N, S)
+        0 empty, ``1 + c`` an object of colour ``c``.
+    stated : ndarray of bool, shape (N, S)
+        Where the actions state it (a fact); elsewhere the images read it.
+    kappa : ndarray of float64, shape (S,)
+        The reading's agreement with the stated observations beyond chance (1 always right,
+        0 no better than saying what most of them hold; NaN: nothing read).
+    action : ndarray of int64, shape (S,)
+        The action whose footprint is the site (it names the site).
+    """
+
+    held: np.ndarray
+    stated: np.ndarray
+    kappa: np.ndarray
+    action: np.ndarray
+
+    def restricted(self, idx: np.ndarray) -> SiteReads:
+        """The rows of the observations ``idx``."""
+        return SiteReads(self.held[idx], self.stated[idx], self.kappa, self.action)
+
+
+@dataclass(frozen=True, eq=False)
 class Readings:
     """What the evidence says every site of every observation holds, as symbols.
 
@@ -57,18 +85,22 @@ class Readings:
     kinds : ndarray of float64, shape (S,)
         How many non-zero symbols each site takes anywhere (at least 1): what stating a
         node's symbol there chooses from (derived from ``symbols``, once).
+    sites : SiteReads or None
+        Every site's value, read where not stated, and its reading's trust: not coded, but
+        what tells doubtful nodes apart (:func:`vggc_cp.solvers.doubts.read_doubts`).
     """
 
     codes: np.ndarray
     symbols: np.ndarray
     kinds: np.ndarray = field(init=False)
+    sites: SiteReads | None = None
 
     def __post_init__(self):
         kinds = [max(len(np.unique(col[col > 0])), 1) for col in np.asarray(self.symbols).T]
         object.__setattr__(self, "kinds", np.array(kinds, dtype=np.float64))
 
     @classmethod
-    def from_rows(cls, rows: np.ndarray) -> Readings:
+    def from_rows(cls, rows: np.ndarray, sites: SiteReads | None = None) -> Readings:
         """From one row of symbols per observation, shape (N, S).
 
         >>> r = Readings.from_rows(np.array([[0, 2], [1, 2], [0, 2]]))
@@ -77,11 +109,12 @@ class Readings:
         """
         rows = np.asarray(rows, dtype=np.int64)
         symbols, codes = np.unique(rows, axis=0, return_inverse=True)
-        return cls(np.asarray(codes, dtype=np.int64).ravel(), symbols)
+        return cls(np.asarray(codes, dtype=np.int64).ravel(), symbols, sites)
 
     def restricted(self, idx: np.ndarray) -> Readings:
         """The readings of the observations ``idx`` (their codes; the same symbols)."""
-        return Readings(self.codes[idx], self.symbols)
+        return Readings(self.codes[idx], self.symbols,
+                        None if self.sites is None else self.sites.restricted(idx))
 
 
 def hand_colours(problem) -> np.ndarray:

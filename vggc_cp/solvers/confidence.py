@@ -615,3 +615,26 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
                   f"`vggc-cp suggest SOLUTION TRACE -o next.json` the episodes to record next")
         return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
     return conf
+
+
+def doubt_readings(conf: Confidence, doubts) -> Confidence:
+    """``conf`` flagged when a doubt rests on an untrustworthy reading
+    (:func:`vggc_cp.solvers.doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
+    that nothing the actions state sets apart, told apart only by what the images read at
+    sites whose reading agrees with the stated frames less than substantially beyond
+    chance. Re-runs and the description length cannot see it: both take the reading as
+    given. The reason names the nodes, the sites and what to record.
+    """
+    read = [d for d in doubts if "read_kappa" in d.evidence]
+    if not read:
+        return conf
+    d = read[0]
+    ev = d.evidence
+    more = f" (and {len(read) - 1} more such pair(s))" if len(read) > 1 else ""
+    reason = (f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
+              f"reading at {', '.join(ev.get('read_sites', [])) or 'some site'} tells them "
+              f"apart, and it agrees with the frames whose actions state it only "
+              f"{ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is substantial); record "
+              f"episodes that act there from both nodes (`vggc-cp suggest SOLUTION TRACE -o "
+              f"next.json`)")
+    return replace(conf, suspect=True, reasons=(*conf.reasons, reason))

@@ -189,6 +189,10 @@ class Footprints:
         :func:`site_readings` offers the description length. A stated fact rests on which
         actions act at one slot (:mod:`vggc_cp.vision.slots`); where the images contradict
         it, one of the two is wrong.
+    kappa : ndarray of float64, shape (A,), or None
+        How far the reading of every site's unstated observations can be trusted: its
+        agreement with the stated ones beyond chance
+        (:func:`vggc_cp.vision.occupancy.reading_kappa`); NaN where nothing is read.
     """
 
     maps: np.ndarray
@@ -201,6 +205,7 @@ class Footprints:
     counts: np.ndarray
     resolution: WorkingResolution | None = None
     stated: np.ndarray | None = None
+    kappa: np.ndarray | None = None
 
     @property
     def taken(self) -> np.ndarray:
@@ -441,7 +446,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
-    presence, posterior, stated = settle(trace, presence, posterior, ov, colour, counts,
+    presence, posterior, stated, kappa = settle(trace, presence, posterior, ov, colour, counts,
                                          params.site_overlap, x, params.support,
                                          params.saturation, twin, mates, params.bandwidth)
     # a stated fact rests on which actions act at one slot; where the site's own reading
@@ -450,7 +455,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     stated &= ((seen_p >= 0.5) == full) & (~full | (seen_c == posterior.argmax(axis=-1)))
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
-                      resolution, stated)
+                      resolution, stated, kappa)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
@@ -510,6 +515,33 @@ def site_readings(fp: Footprints) -> np.ndarray:
     held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
     rows = np.where(fp.stated[:, taken], 1 + held, 0)
     return np.unique(rows.astype(np.int64), axis=1)
+
+
+def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
+    """What every taken site holds in every observation, stated or read, and how far each
+    site's reading can be trusted: ``(held, stated, kappa, action)`` of shapes (N, S),
+    (N, S), (S,), (S,) (the fields of :class:`~vggc_cp.solvers.base.SiteReads`); None
+    without ``fp.stated``.
+
+    ``held`` is 0 where the site is empty and ``1 + c`` where it holds colour ``c``;
+    ``stated`` where the actions state it (``fp.stated``); ``kappa`` is ``fp.kappa``;
+    ``action`` the taken action of each site (``fp.taken``).
+
+    >>> fp = Footprints(*[None] * 2, np.array([[1.0, 0.2], [0.0, 0.9]]), None,
+    ...                 np.ones((2, 2, 1)), np.zeros(2, np.int64), None, np.array([3, 2]),
+    ...                 stated=np.array([[True, False], [True, False]]),
+    ...                 kappa=np.array([np.nan, 0.3]))
+    >>> held, stated, kappa, action = site_reads(fp)
+    >>> held.tolist(), stated.tolist(), kappa.tolist()
+    ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3])
+    """
+    if fp.stated is None:
+        return None
+    taken = fp.taken
+    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
+    kappa = (np.full(len(taken), np.nan) if fp.kappa is None
+             else np.asarray(fp.kappa, dtype=np.float64)[taken])
+    return held.astype(np.int64), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64)
 
 
 def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken: np.ndarray,

@@ -247,7 +247,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
-           bandwidth: float = 0.02) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           bandwidth: float = 0.02
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -303,10 +304,15 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     stated : ndarray of bool, shape (N, A)
         Where the actions state what the site holds (:func:`site_labels`): there the
         settled presence and colour are facts, not readings.
+    kappa : ndarray of float64, shape (A,)
+        How far the reading that set each site's unstated runs can be trusted
+        (:func:`reading_kappa`): its agreement with the stated frames beyond chance; NaN for
+        a site stated everywhere (nothing read) or never acted at.
     """
     seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
     stated = np.zeros(presence.shape, dtype=bool)
+    kappa = np.full(presence.shape[1], np.nan)
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
@@ -342,11 +348,14 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             continue
         read = {}
         own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
+        used = own                                   # agreement of the reading the runs take
         # a footprint presence that agrees with every label cannot be bettered: not read again
         if x is not None and own < 1.0:
             window = site_window(x, labels, pose, EMPTY, support)
-            if window is not None and held_out_agreement(x, labels, pose, episode, EMPTY,
-                                                         support, saturation) > own:
+            held = (held_out_agreement(x, labels, pose, episode, EMPTY, support, saturation)
+                    if window is not None else 0.0)
+            if window is not None and held > own:
+                used = held
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
                 read = run_presence(reading, strength, run, loose)
                 if n_col > 1:
@@ -356,6 +365,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                         examples[c].append(chroma[shows & (labels == c)])
                     looks[int(a)] = (chroma, strength, shows, run, loose)
         guess = majority_guess(own, labels)
+        kappa[a] = reading_kappa(used if read or guess is None else None, labels)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
@@ -366,7 +376,35 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         window_colour(posterior, looks, examples, bandwidth)
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap)
-    return presence, posterior, stated
+    return presence, posterior, stated, kappa
+
+
+def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
+    """Agreement of a site's reading with its stated frames beyond chance (Cohen's kappa
+    against saying what most stated frames hold).
+
+    ``(p - m) / (1 - m)``, with ``p`` the share of stated frames the reading agrees with
+    (:func:`agreement`, held out for a pose reading) and ``m`` the share of the most common
+    presence among them: 1 for a reading that is always right, 0 for one no better than the
+    majority, negative below it. 0 when the site's unread runs take the majority
+    (``agreement_`` None: no reading) or when every stated frame holds one presence (a
+    reading never seen to tell the two apart); NaN when nothing is stated. A node that only
+    such readings set apart from another (Landis and Koch 1977 call kappa below 0.6
+    moderate agreement at best) is a doubt, :func:`vggc_cp.solvers.doubts.read_doubts`.
+
+    >>> round(reading_kappa(0.8, np.array([0, 0, 0, -1, -2])), 3)   # majority 3/4
+    0.2
+    >>> reading_kappa(None, np.array([0, -1]))
+    0.0
+    """
+    known = labels != UNLABELLED
+    if not known.any():
+        return float("nan")
+    full = float(np.mean(labels[known] >= 0))
+    majority = max(full, 1.0 - full)
+    if agreement_ is None or majority >= 1.0:
+        return 0.0
+    return float((agreement_ - majority) / (1.0 - majority))
 
 
 def slots_above(runs: dict, ov: np.ndarray, site_overlap: float) -> dict[int, list[int]]:
