@@ -591,6 +591,8 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     if isinstance(problem, CodedProblem):
         if problem.n_obs > DOUBTS_MAX_OBS:
             return ()
+        if read:                        # densified by read_doubts only if a pair is found
+            return read_doubts(problem, chosen.path, chosen.best.labels)
         problem = problem.dense()
     if read:
         return read_doubts(problem, chosen.path, chosen.best.labels)

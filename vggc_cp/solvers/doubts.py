@@ -518,9 +518,10 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
 
     Parameters
     ----------
-    problem : Problem
+    problem : Problem or CodedProblem
         Its :attr:`~vggc_cp.solvers.base.Problem.readings` must hold
-        :class:`~vggc_cp.solvers.base.SiteReads` (the footprints); else no doubt.
+        :class:`~vggc_cp.solvers.base.SiteReads` (the footprints); else no doubt. A
+        problem of descriptor codes is made dense only when a candidate pair is found.
     path : ThresholdPath
     labels : ndarray of int, shape (N,)
         The chosen partition.
@@ -569,6 +570,8 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     if not candidates:
         return ()
     candidates.sort(key=lambda c: (c[0], c[1], c[2]))
+    if hasattr(problem, "dense"):       # a problem of descriptor codes: its matrices now
+        problem = problem.dense()
     closure = PartitionClosure(problem, labels)
     flips = _Flips(problem, path, labels)
     found = []
