@@ -81,3 +81,34 @@ def test_plans_to_doubtful_nodes_of_a_right_graph_execute():
         assert all(valid[:-1]), p
         if p.doubt in (2, 3):  # a split doubt of a true node: every action is legal
             assert all(valid), p
+
+
+def test_a_doubt_only_a_reading_settles_is_probed_at_the_read_sites_first():
+    """A read doubt (``read_sites`` in its evidence) on a pick state split in two: from each
+    node, the first probes are the pick actions at those sites (a place cannot be taken with
+    an empty hand), and where the site holds what they need they are legal."""
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    roles = trace.roles()
+    keys, counts = np.unique(trace.states[roles == 0], return_counts=True)
+    state = keys[np.argmax(counts)]
+    obs = np.flatnonzero(trace.states == state)
+    a, b = int(labels[obs[0]]), int(labels.max()) + 1
+    labels[obs[len(obs) // 2:]] = b
+    picks = sorted(n for n in trace.action_names if n.startswith("pick"))
+    sites = [picks[0], picks[-1], "place" + picks[0][4:]]
+    doubt = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(obs[-2:])),
+                  {"read_sites": sites, "read_kappa": 0.2})
+    proposals = suggest_episodes(trace.without_states(), labels, [doubt], max_episodes=40)
+    for node in (a, b):
+        mine = [p for p in proposals if p.probe_node == node]
+        assert mine[0].actions[-1] in sites[:2] and "reading" in mine[0].why
+    read = [p for p in proposals if "reading" in p.why]
+    assert {p.actions[-1] for p in read} == set(sites[:2])
+    for p in read:
+        # the plan is legal; the probe is legal exactly where the state holds its object
+        assert all(_legal(bench, trace.states[p.start_observation], p.actions[:-1]))
+    legal = [_legal(bench, state, (name,))[-1] for name in sites[:2]]
+    assert any(legal) and any(
+        all(_legal(bench, trace.states[p.start_observation], p.actions)) for p in read)

@@ -10,6 +10,10 @@ proposes episodes a robot can run:
 * **plan** -- that plan's actions;
 * **probe** -- one action whose outcome tells the two readings apart:
 
+  - merge doubt that only a reading of the images settles (``read_sites`` in its evidence,
+    :func:`~vggc_cp.solvers.doubts.read_doubts`): from each node, an action at one of those
+    sites that its role can take; legal or not, it states what the site holds there, which
+    no reading can be wrong about. Then, as for every merge doubt:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
@@ -37,6 +41,7 @@ import numpy as np
 
 from vggc_cp.graph import TaskGraph, bfs_distances, shortest_plan
 from vggc_cp.solvers.doubts import MERGE
+from vggc_cp.trace import action_kind
 
 
 @dataclass(frozen=True)
@@ -162,6 +167,14 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
     (the node probed, or the half of a split node entered)."""
     if doubt.kind == MERGE:
         a, b = doubt.nodes
+        for x in (a, b):
+            # only the images' reading at some sites sets the two apart (read_doubts): act
+            # there from each, so that the actions state what those sites hold
+            for name in _read_probes(graph, doubt, x)[:per_doubt]:
+                yield x, (None, x, (), x, name,
+                          f"merge doubt {a}+{b}: only the images' reading of {name}'s site "
+                          f"tells them apart; {name} from node {x} states what it holds "
+                          f"there (legal: it holds what {name} needs; illegal: it does not)")
         acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
         only_a = sorted(set(acts_a) - set(acts_b))
         only_b = sorted(set(acts_b) - set(acts_a))
@@ -219,6 +232,19 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
+
+
+def _read_probes(graph: TaskGraph, doubt, node: int) -> list[str]:
+    """The actions at a read doubt's sites (its evidence's ``read_sites``) that ``node``'s
+    role can take (a pick from a node whose hand is empty, a place from one that holds
+    something), those the node was never seen to take first; none for another doubt."""
+    names = (doubt.evidence or {}).get("read_sites")
+    if not isinstance(names, list):
+        return []
+    role, taken = graph.node_role.get(node), _actions_of(graph, node)
+    fits = [n for n in names if isinstance(n, str) and n in graph.action_names
+            and action_kind(n) == role]
+    return sorted(fits, key=lambda n: (n in taken, n))
 
 
 def _entry(trace, labels, side, start_set):
