@@ -26,18 +26,23 @@ def _legal(bench, state, actions):
     return valid
 
 
+def _split_busiest_pick_state(trace):
+    """The true labels with the later renders of the most visited pick state made a node of
+    their own (an over-split); returns the labels, the state, its observations and the two
+    nodes."""
+    labels = _true_labels(trace)
+    keys, counts = np.unique(trace.states[trace.roles() == 0], return_counts=True)
+    state = keys[np.argmax(counts)]
+    obs = np.flatnonzero(trace.states == state)
+    a, b = int(labels[obs[0]]), int(labels.max()) + 1
+    labels[obs[len(obs) // 2:]] = b
+    return labels, state, obs, a, b
+
+
 def test_merge_doubt_of_one_state_split_in_two_is_probed_with_legal_actions():
     trace = load_trace(SHIPPED)
     bench = get_benchmark(trace.meta["benchmark"])
-    labels = _true_labels(trace)
-    # over-split: the later renders of the most visited pick state become a node of their own
-    roles = trace.roles()
-    keys, counts = np.unique(trace.states[roles == 0], return_counts=True)
-    state = keys[np.argmax(counts)]
-    obs = np.flatnonzero(trace.states == state)
-    a = int(labels[obs[0]])
-    b = int(labels.max()) + 1
-    labels[obs[len(obs) // 2:]] = b
+    labels, _state, obs, a, b = _split_busiest_pick_state(trace)
     doubt = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(obs[-2:])), {})
     proposals = suggest_episodes(trace.without_states(), labels, [doubt])
     assert proposals, "a merge doubt between two nodes of one state gets probes"
@@ -89,13 +94,7 @@ def test_a_doubt_only_a_reading_settles_is_probed_at_the_read_sites_first():
     an empty hand), and where the site holds what they need they are legal."""
     trace = load_trace(SHIPPED)
     bench = get_benchmark(trace.meta["benchmark"])
-    labels = _true_labels(trace)
-    roles = trace.roles()
-    keys, counts = np.unique(trace.states[roles == 0], return_counts=True)
-    state = keys[np.argmax(counts)]
-    obs = np.flatnonzero(trace.states == state)
-    a, b = int(labels[obs[0]]), int(labels.max()) + 1
-    labels[obs[len(obs) // 2:]] = b
+    labels, state, obs, a, b = _split_busiest_pick_state(trace)
     picks = sorted(n for n in trace.action_names if n.startswith("pick"))
     sites = [picks[0], picks[-1], "place" + picks[0][4:]]
     doubt = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(obs[-2:])),

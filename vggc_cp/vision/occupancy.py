@@ -365,7 +365,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                         examples[c].append(chroma[shows & (labels == c)])
                     looks[int(a)] = (chroma, strength, shows, run, loose)
         guess = majority_guess(own, labels)
-        kappa[a] = reading_kappa(used if read or guess is None else None, labels)
+        # the reading the runs took: the pose's, else the footprint presence, else the guess
+        kappa[a] = reading_kappa(used if read else own if guess is None else None, labels)
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
