@@ -41,14 +41,41 @@ def _merge_doubt(trace, labels):
                                              "thresholds_together": 4}).as_dict()
 
 
+def _read_doubt(trace, labels, sites=("pick_red_0", "place_red_0")):
+    rec = _merge_doubt(trace, labels)
+    rec["evidence"].update(read_sites=list(sites), read_kappa=0.2)
+    return rec
+
+
 @pytest.mark.slow  # matplotlib's first figure
 def test_doubts_draws_one_row_per_doubt(trace, tmp_path, capsys):
     _, labels = _solution(trace, tmp_path)
-    sol, _ = _solution(trace, tmp_path, [_merge_doubt(trace, labels)] * 2, "d.json")
+    sol, _ = _solution(trace, tmp_path, [_merge_doubt(trace, labels), _read_doubt(trace, labels)],
+                       "d.json")
     out = tmp_path / "doubts.png"
     assert main(["doubts", str(sol), str(SHIPPED), "-o", str(out)]) == 0
     assert "2 doubt(s)" in capsys.readouterr().out
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_read_doubt_is_outlined_where_its_sites_lie(trace, tmp_path):
+    """The sheet outlines a read doubt's sites: the footprint sites of the actions it names,
+    summed (an action the trace does not have counts nothing); a doubt without read sites,
+    and a sheet without read doubts, get no outline."""
+    from vggc_cp.cli.verdict_cmds import _read_outlines
+    from vggc_cp.solvers.doubts import parse_doubts
+    from vggc_cp.vision.footprints import action_footprints
+
+    _, labels = _solution(trace, tmp_path)
+    plain = _merge_doubt(trace, labels)
+    assert _read_outlines(trace, parse_doubts([plain])) is None
+    name = next(n for n in trace.action_names if n.startswith("pick"))
+    doubts = parse_doubts([plain, _read_doubt(trace, labels, (name, "pick_nothing_9"))])
+    none, outline = _read_outlines(trace, doubts)
+    assert none is None
+    site = action_footprints(trace.without_states()).sites[trace.action_names.index(name)]
+    np.testing.assert_allclose(outline, site)
+    assert outline.max() > 0
 
 
 def test_no_doubts_writes_nothing(trace, tmp_path, capsys):

@@ -74,14 +74,33 @@ def cmd_doubts(args) -> int:
             parts.append(f"apart at {ev['thresholds_apart']}, together at "
                          f"{ev.get('thresholds_together')} thresholds")
         if ev.get("forbidden"):
-            parts.append("Exactly-One forbids the join")
+            parts.append("the hands' colours forbid the join" if ev["forbidden"] == "hand"
+                         else "Exactly-One forbids the join")
         if isinstance(ev.get("read_kappa"), (int, float)):
             parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
                          f"apart (kappa {ev['read_kappa']:.2f})")
         rows.append((list(d.observations[0]), list(d.observations[1]), "; ".join(parts)))
-    pair_sheet(trace, rows, args.output)
+    pair_sheet(trace, rows, args.output, _read_outlines(trace, doubts))
     print(f"wrote {args.output} ({len(doubts)} doubt(s))")
     return 0
+
+
+def _read_outlines(trace, doubts) -> list | None:
+    """For every doubt, the footprint sites of its ``read_sites`` summed (what only a
+    reading of the images sets apart: outlined on the sheet), else None; None for all when
+    no doubt has them (the footprints are computed only then)."""
+    if not any(isinstance(d.evidence.get("read_sites"), list) for d in doubts):
+        return None
+    from vggc_cp.vision.footprints import action_footprints
+
+    sites = action_footprints(trace.without_states()).sites
+    index = {name: a for a, name in enumerate(trace.action_names)}
+    out = []
+    for d in doubts:
+        names = d.evidence.get("read_sites")
+        taken = [index[n] for n in names if n in index] if isinstance(names, list) else []
+        out.append(sites[taken].sum(axis=0) if taken else None)
+    return out
 
 
 def cmd_suggest(args) -> int:

@@ -71,10 +71,14 @@ def contact_sheet(trace: Trace, path: str | Path, max_images: int = 48, columns:
 
 
 def pair_sheet(trace: Trace, rows: list[tuple[list[int], list[int], str]], path: str | Path,
-               ) -> int:
+               outlines: list | None = None) -> int:
     """One row per ``(left observations, right observations, title)``: the left ones, a gap,
     the right ones, each tile titled with its observation index, the row with ``title``
     (a sheet a person judges at a glance: are the two sides one situation?).
+
+    ``outlines`` (one per row, or None) is a map of shape (h, w) at any resolution, or None:
+    its half-maximum contour is drawn over every tile of the row, stretched to the image
+    (where a doubt's evidence lies, e.g. the sites only a reading sets apart).
 
     Returns
     -------
@@ -95,12 +99,17 @@ def pair_sheet(trace: Trace, rows: list[tuple[list[int], list[int], str]], path:
     for r, (a, b, title) in enumerate(rows):
         for ax in axes[r]:
             ax.axis("off")
-        for c, o in enumerate(a):
-            axes[r][c].imshow(trace.observations[o], interpolation="nearest")
+        outline = None if outlines is None else outlines[r]
+        tiles = [(c, o) for c, o in enumerate(a)] + [(left + 1 + c, o) for c, o in enumerate(b)]
+        for c, o in tiles:
+            img = trace.observations[o]
+            axes[r][c].imshow(img, interpolation="nearest")
             axes[r][c].set_title(f"{o}", fontsize=7)
-        for c, o in enumerate(b):
-            axes[r][left + 1 + c].imshow(trace.observations[o], interpolation="nearest")
-            axes[r][left + 1 + c].set_title(f"{o}", fontsize=7)
+            if outline is not None and np.max(outline) > 0:
+                h, w = img.shape[:2]
+                axes[r][c].contour(outline, levels=[0.5 * float(np.max(outline))],
+                                   colors="yellow", linewidths=0.8,
+                                   extent=(-0.5, w - 0.5, h - 0.5, -0.5), origin="upper")
         axes[r][0].text(0.0, 1.25, title, transform=axes[r][0].transAxes, fontsize=7,
                         ha="left", va="bottom")
     fig.subplots_adjust(left=0.02, right=0.98, bottom=0.02, top=1 - 0.45 / (2.1 * len(rows)),
