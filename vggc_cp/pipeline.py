@@ -38,6 +38,7 @@ from vggc_cp.solvers.confidence import (
     WarningRule,
     assess,
     corroborate,
+    doubt_forbidden,
     doubt_readings,
     plateau_length,
     resample,
@@ -547,6 +548,9 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     doubts = learned_doubts(chosen)
     chosen = replace(chosen, confidence=corroborate(chosen.confidence, doubts,
                                                     DoubtRule().max_nats))
+    chosen = replace(chosen, confidence=doubt_forbidden(chosen.confidence, doubts,
+                                                        chosen.best.labels,
+                                                        DoubtRule().max_nats))
     read = learned_doubts(chosen, read=True)
     if read:
         # nodes only an untrustworthy reading of the images sets apart: flagged, listed first

@@ -287,3 +287,38 @@ def test_contradicted_transitions_name_the_chosen_nodes_they_dispute():
     lab = np.array([7, 7, 8, 8, 8])                   # fold node 8: chosen 1 (2 of 3) and 2
     wrong = [(8, 5), (7, 6), (8, 2), (9, 5)]          # (fold node predicted, observed o')
     assert disputed_pairs(labels, kept, lab, wrong) == [(1, 2), (0, 3)]
+
+
+def test_a_node_of_one_render_kept_apart_only_by_the_hands_colour_is_warned():
+    """Node 1 has one render; the images put it within the threshold of node 0, the actions
+    favour the join by 15 nats, and only the hand's colour (read from the images) forbids it:
+    warned, naming node 1. Each condition alone missing: quiet."""
+    from vggc_cp.solvers.confidence import Confidence, doubt_forbidden
+    from vggc_cp.solvers.doubts import Doubt
+
+    quiet = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    labels = np.array([0, 0, 2, 0, 1, 2])
+    base = {"forbidden": "hand", "steps": -0.5, "dl_nats": -15.0}
+    warned = doubt_forbidden(quiet, [Doubt("merge", (0, 1), ((0, 1), (4,)), base)], labels)
+    assert warned.suspect and "node 1 (1 observation(s))" in warned.reasons[0]
+    for change in ({"forbidden": None}, {"steps": 0.4}, {"dl_nats": -2.0}):
+        d = Doubt("merge", (0, 1), ((0, 1), (4,)), {**base, **change})
+        assert not doubt_forbidden(quiet, [d], labels).suspect, change
+    big = np.array([0, 0, 2, 0, 1, 1, 1])                            # three renders of 1
+    assert not doubt_forbidden(quiet, [Doubt("merge", (0, 1), ((0,), (4,)), base)], big).suspect
+
+
+def test_a_join_exactly_one_forbids_but_images_and_actions_favour_is_warned():
+    """Whatever the nodes' sizes: another decision conflicts with the images and the
+    actions there. Images against it (steps > 0) or actions not strongly for it: quiet."""
+    from vggc_cp.solvers.confidence import Confidence, doubt_forbidden
+    from vggc_cp.solvers.doubts import Doubt
+
+    quiet = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    labels = np.array([0, 0, 0, 1, 1, 1])
+    base = {"forbidden": "exactly_one", "steps": -0.7, "dl_nats": -10.6}
+    warned = doubt_forbidden(quiet, [Doubt("merge", (0, 1), ((0,), (3,)), base)], labels)
+    assert warned.suspect and "Exactly-One forbids" in warned.reasons[0]
+    for change in ({"steps": 0.1}, {"dl_nats": -2.9}, {"forbidden": None}):
+        d = Doubt("merge", (0, 1), ((0,), (3,)), {**base, **change})
+        assert not doubt_forbidden(quiet, [d], labels).suspect, change
