@@ -18,6 +18,10 @@
   (:mod:`vggc_cp.solvers.confidence`); above 30 % the graph is flagged *suspect* with reasons.
 * **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
   (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
+  Two more flag the graph: nodes that only an untrustworthy reading of the images sets apart
+  (:func:`~vggc_cp.solvers.doubts.read_doubts`, listed first), and a join the images and the
+  actions both favour that a constraint forbids
+  (:func:`~vggc_cp.solvers.confidence.doubt_forbidden`).
 
 Everything here reads observations and actions only, never ground-truth ``states``.
 """
@@ -592,14 +596,12 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     untrustworthy reading of the images sets apart
     (:func:`~vggc_cp.solvers.doubts.read_doubts`)."""
     problem = chosen.problem
-    if isinstance(problem, CodedProblem):
-        if problem.n_obs > DOUBTS_MAX_OBS:
-            return ()
-        if read:                        # densified by read_doubts only if a pair is found
-            return read_doubts(problem, chosen.path, chosen.best.labels)
-        problem = problem.dense()
-    if read:
+    if isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS:
+        return ()
+    if read:                    # a problem of codes: densified only if a pair is found
         return read_doubts(problem, chosen.path, chosen.best.labels)
+    if isinstance(problem, CodedProblem):
+        problem = problem.dense()
     if disputed:
         held = chosen.confidence.heldout
         return (() if held is None else
