@@ -19,9 +19,9 @@
 * **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
   (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
   Two more flag the graph: nodes that only an untrustworthy reading of the images sets apart
-  (:func:`~vggc_cp.solvers.doubts.read_doubts`, listed first), and a join the images and the
+  (:func:`~vggc_cp.solvers.read_doubts.read_doubts`, listed first), and a join the images and the
   actions both favour that a constraint forbids
-  (:func:`~vggc_cp.solvers.confidence.doubt_forbidden`).
+  (:func:`~vggc_cp.solvers.doubt_checks.doubt_forbidden`).
 
 Everything here reads observations and actions only, never ground-truth ``states``.
 """
@@ -42,22 +42,21 @@ from vggc_cp.solvers.confidence import (
     WarningRule,
     assess,
     corroborate,
-    doubt_forbidden,
-    doubt_readings,
     plateau_length,
     resample,
 )
+from vggc_cp.solvers.doubt_checks import doubt_forbidden, doubt_readings
 from vggc_cp.solvers.doubts import (
     Doubt,
     DoubtRule,
     disputed_doubts,
     find_doubts,
-    read_doubts,
     runner_up_doubts,
 )
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
+from vggc_cp.solvers.read_doubts import read_doubts
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
@@ -594,7 +593,7 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     ``differences``, the nodes the runner-up graph splits or joins
     (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
     untrustworthy reading of the images sets apart
-    (:func:`~vggc_cp.solvers.doubts.read_doubts`)."""
+    (:func:`~vggc_cp.solvers.read_doubts.read_doubts`)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS:
         return ()

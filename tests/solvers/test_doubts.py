@@ -19,12 +19,11 @@ from vggc_cp.solvers.doubts import (
     disputed_doubts,
     find_doubts,
     format_doubts,
-    observation_episodes,
     parse_doubts,
-    read_doubts,
     runner_up_doubts,
 )
 from vggc_cp.solvers.merge import PartitionClosure, threshold_path
+from vggc_cp.solvers.read_doubts import observation_episodes, read_doubts
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 #: thresholds: two where the looks of '1' stay apart, three where they are one node

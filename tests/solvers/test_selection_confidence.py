@@ -293,7 +293,8 @@ def test_a_node_of_one_render_kept_apart_only_by_the_hands_colour_is_warned():
     """Node 1 has one render; the images put it within the threshold of node 0, the actions
     favour the join by 15 nats, and only the hand's colour (read from the images) forbids it:
     warned, naming node 1. Each condition alone missing: quiet."""
-    from vggc_cp.solvers.confidence import Confidence, doubt_forbidden
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_forbidden
     from vggc_cp.solvers.doubts import Doubt
 
     quiet = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
@@ -311,7 +312,8 @@ def test_a_node_of_one_render_kept_apart_only_by_the_hands_colour_is_warned():
 def test_a_join_exactly_one_forbids_but_images_and_actions_favour_is_warned():
     """Whatever the nodes' sizes: another decision conflicts with the images and the
     actions there. Images against it (steps > 0) or actions not strongly for it: quiet."""
-    from vggc_cp.solvers.confidence import Confidence, doubt_forbidden
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_forbidden
     from vggc_cp.solvers.doubts import Doubt
 
     quiet = Confidence("mdl", 1.0, 5, None, 4.0, False, ())

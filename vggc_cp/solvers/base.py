@@ -87,7 +87,7 @@ class Readings:
         node's symbol there chooses from (derived from ``symbols``, once).
     sites : SiteReads or None
         Every site's value, read where not stated, and its reading's trust: not coded, but
-        what tells doubtful nodes apart (:func:`vggc_cp.solvers.doubts.read_doubts`).
+        what tells doubtful nodes apart (:func:`vggc_cp.solvers.read_doubts.read_doubts`).
     """
 
     codes: np.ndarray

@@ -33,13 +33,9 @@ some re-run changed and its flip shortens the description length by more than 3 
 of 20 to 1): the images on less of the recording and the actions on all of it both question
 that decision.
 
-**Joins a constraint forbids** (:func:`doubt_forbidden`): flagged when the images (within the
-chosen threshold) and the actions (by more than 3 nats) both favour joining two nodes that
-Exactly-One forbids (then another decision conflicts with them), or that the hands' colours
-forbid where one node is one render or two (a misread action colour makes such a node).
-
-**Nodes only an untrustworthy reading sets apart** (:func:`doubt_readings`, from
-:func:`~vggc_cp.solvers.doubts.read_doubts`).
+Two more checks flag the graph from its doubts (:mod:`vggc_cp.solvers.doubt_checks`): a join
+the images and the actions both favour that a constraint forbids, and nodes that only an
+untrustworthy reading of the images sets apart.
 
 **The former fixed checks** (:data:`FIXED_CHECKS`, :attr:`WarningRule.fixed_checks`, on by
 default): on the tuning split the chance of change alone was right on all 93 runs, but on the
@@ -624,85 +620,3 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
         return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
     return conf
 
-
-def doubt_readings(conf: Confidence, doubts) -> Confidence:
-    """``conf`` flagged when a doubt rests on an untrustworthy reading
-    (:func:`vggc_cp.solvers.doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
-    that nothing the actions state sets apart, told apart only by what the images read at
-    sites whose reading agrees with the stated frames less than substantially beyond
-    chance. Re-runs and the description length cannot see it: both take the reading as
-    given. The reason names the nodes, the sites and what to record.
-    """
-    read = [d for d in doubts if "read_kappa" in d.evidence]
-    if not read:
-        return conf
-    d = read[0]
-    ev = d.evidence
-    more = f" (and {len(read) - 1} more such pair(s))" if len(read) > 1 else ""
-    reason = (f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
-              f"reading at {', '.join(ev.get('read_sites', [])) or 'some site'} tells them "
-              f"apart, and it agrees with the frames whose actions state it only "
-              f"{ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is substantial); record "
-              f"episodes that act there from both nodes (`vggc-cp suggest SOLUTION TRACE -o "
-              f"next.json`)")
-    return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
-
-
-#: A node of at most this many observations is one render or two: what keeps it apart from
-#: another node weighs more than the node's own evidence.
-FEW_RENDERS = 2
-
-
-def doubt_forbidden(conf: Confidence, doubts, labels: np.ndarray, max_nats: float = 3.0
-                    ) -> Confidence:
-    """``conf`` flagged when a constraint forbids a join that the images and the actions both
-    favour: a merge doubt whose ``steps`` is at most 0 (the images put the two nodes within
-    the chosen threshold) and whose flip shortens the description length by more than
-    ``max_nats`` (``dl_nats``; odds of 20 to 1 for 3), while
-
-    * Exactly-One forbids it (``forbidden == "exactly_one"``): the join would put two labels
-      between one ordered pair of nodes, so some *other* decision of the graph conflicts with
-      what the images and the actions say here; or
-    * the hands' colours forbid it (``"hand"``) and one of the two nodes has at most
-      :data:`FEW_RENDERS` observations: the hand's colour is itself read from the images
-      (the colour of the objects an action moves), and one misread action colour can make
-      such a node. (Two well-rendered nodes whose hands hold different colours are usually
-      two states that look alike: not flagged.)
-
-    The reason names the nodes and what to record.
-
-    >>> from vggc_cp.solvers.doubts import Doubt
-    >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
-    >>> d = Doubt("merge", (0, 1), ((0, 2), (3,)), {"forbidden": "hand", "steps": -0.5,
-    ...                                             "dl_nats": -15.0})
-    >>> doubt_forbidden(c, [d], np.array([0, 2, 0, 1])).suspect
-    True
-    >>> doubt_forbidden(c, [d], np.array([0, 0, 0, 1, 1, 1])).suspect   # three renders each
-    False
-    """
-    labels = np.asarray(labels)
-    for d in doubts:
-        ev = d.evidence
-        steps, nats, why = ev.get("steps"), ev.get("dl_nats"), ev.get("forbidden")
-        if d.kind != "merge" or why not in ("exactly_one", "hand") or \
-                not isinstance(steps, (int, float)) or steps > 0 or \
-                not isinstance(nats, (int, float)) or nats >= -max_nats:
-            continue
-        a, b = d.nodes
-        if why == "exactly_one":
-            reason = (f"nodes {a} and {b} look alike (within the threshold) and the actions "
-                      f"favour one node by {-nats:.1f} nats, but Exactly-One forbids the join: "
-                      f"another decision of the graph conflicts with them")
-        else:
-            sizes = [int(np.sum(labels == u)) for u in d.nodes]
-            if min(sizes) > FEW_RENDERS:
-                continue
-            small, other = (a, b) if sizes[0] <= sizes[1] else (b, a)
-            reason = (f"node {small} ({min(sizes)} observation(s)) is kept apart from node "
-                      f"{other} only by the colour its hand is read to hold: the images put "
-                      f"them within the threshold and the actions favour one node by "
-                      f"{-nats:.1f} nats; an action's colour may be misread")
-        reason += ("; `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and `vggc-cp "
-                   "suggest SOLUTION TRACE -o next.json` the episodes to record next")
-        return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
-    return conf

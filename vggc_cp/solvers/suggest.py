@@ -11,7 +11,7 @@ proposes episodes a robot can run:
 * **probe** -- one action whose outcome tells the two readings apart:
 
   - merge doubt that only a reading of the images settles (``read_sites`` in its evidence,
-    :func:`~vggc_cp.solvers.doubts.read_doubts`): from each node, an action at one of those
+    :func:`~vggc_cp.solvers.read_doubts.read_doubts`): from each node, an action at one of those
     sites that its role can take; legal or not, it states what the site holds there, which
     no reading can be wrong about. Then, as for every merge doubt:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace

@@ -512,8 +512,7 @@ def site_readings(fp: Footprints) -> np.ndarray:
     taken = fp.taken
     if fp.stated is None:
         return np.zeros((len(fp.presence), 1), dtype=np.int64)
-    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
-    rows = np.where(fp.stated[:, taken], 1 + held, 0)
+    rows = np.where(fp.stated[:, taken], 1 + _held(fp), 0)
     return np.unique(rows.astype(np.int64), axis=1)
 
 
@@ -538,10 +537,17 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     if fp.stated is None:
         return None
     taken = fp.taken
-    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
     kappa = (np.full(len(taken), np.nan) if fp.kappa is None
              else np.asarray(fp.kappa, dtype=np.float64)[taken])
-    return held.astype(np.int64), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64)
+    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64)
+
+
+def _held(fp: Footprints) -> np.ndarray:
+    """What every taken site holds in every observation as the settled presence and colour
+    say: 0 empty, ``1 + c`` colour ``c``; int64 shape (N, S)."""
+    taken = fp.taken
+    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
+    return held.astype(np.int64)
 
 
 def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken: np.ndarray,

@@ -391,7 +391,7 @@ def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
     (``agreement_`` None: no reading) or when every stated frame holds one presence (a
     reading never seen to tell the two apart); NaN when nothing is stated. A node that only
     such readings set apart from another (Landis and Koch 1977 call kappa below 0.6
-    moderate agreement at best) is a doubt, :func:`vggc_cp.solvers.doubts.read_doubts`.
+    moderate agreement at best) is a doubt, :func:`vggc_cp.solvers.read_doubts.read_doubts`.
 
     >>> round(reading_kappa(0.8, np.array([0, 0, 0, -1, -2])), 3)   # majority 3/4
     0.2
