@@ -221,6 +221,34 @@ def test_console_script_has_no_traceback(tmp_path):
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
 
 
+def test_a_reader_that_goes_away_stops_the_command_quietly(tmp_path, toy_trace):
+    """`vggc-cp inspect T | head -1` with the reader gone before the command writes: exit
+    141 (128 + SIGPIPE) and no traceback (before: "Exception ignored ... BrokenPipeError",
+    exit 120)."""
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    proc = subprocess.Popen([sys.executable, "-m", "vggc_cp", "inspect", str(path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # long before the interpreter has started
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    assert proc.wait(timeout=120) == 141, err
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
+class _ClosedPipe(io.StringIO):
+    def write(self, text):
+        raise BrokenPipeError(32, "Broken pipe")
+
+
+def test_a_pipe_that_closes_while_printing_is_exit_141(tmp_path, toy_trace, monkeypatch):
+    """The same inside a command's printing (a long listing fills the pipe first)."""
+    path = tmp_path / "t.npz"
+    save_trace(toy_trace, path)
+    monkeypatch.setattr(sys, "stdout", _ClosedPipe())
+    assert main(["inspect", str(path)]) == 141
+
+
 def test_written_files_get_the_usual_mode(tmp_path, toy_trace):
     import os
 

@@ -149,6 +149,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _pipe_closed() -> int:
+    """Exit code 141 (128 + SIGPIPE) after the standard output's reader went away; what
+    is still buffered for it goes nowhere, so the interpreter's last flush cannot fail too,
+    and temporary output files are removed."""
+    from vggc_cp.safeio import cleanup_temps
+
+    cleanup_temps()
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # a replaced stdout (a test's capture)
+        pass
+    return 141
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; bad input: one line, exit 2; SIGINT/SIGTERM/SIGHUP: exit 130/143/129
     within about a second, temporary files removed (:mod:`vggc_cp.interrupts`)."""
@@ -173,6 +189,10 @@ def main(argv: list[str] | None = None) -> int:
                 if received() is None:
                     raise  # argparse's --help / usage errors
                 code = exit_code(received())
+            except BrokenPipeError:
+                # the reader of our output went away (`vggc-cp inspect T | head`): stop as a
+                # SIGPIPE would, without a traceback and without half-written outputs
+                code = _pipe_closed()
             except Exception:
                 if received() is None:
                     raise
@@ -214,6 +234,10 @@ def run() -> None:
             except (OSError, ValueError):
                 pass
         os._exit(code)
+    try:
+        sys.stdout.flush()  # what is still buffered, while a closed pipe can be answered
+    except BrokenPipeError:
+        code = _pipe_closed()
     sys.exit(code)
 
 
