@@ -77,6 +77,22 @@ def test_report_shows_suggestions_doubts_and_warnings(solved_benchmark, tmp_path
     assert '<li class="warn">plateau of 1 threshold</li>' in text
 
 
+def test_report_shows_a_note_without_warning(solved_benchmark, tmp_path):
+    """A chance of change alone is a note: listed under the confidence, not a warning."""
+    solution, trace = solved_benchmark("fruit-2x3")
+    data = json.loads(solution.read_text())
+    note = "the graph changes in 7 of 12 re-runs: nodes 3, 4 rest on few episodes"
+    data["confidence"] = {**data["confidence"], "suspect": False, "reasons": [],
+                          "notes": [note]}
+    edited = tmp_path / "s.json"
+    edited.write_text(json.dumps(data))
+    out = tmp_path / "r.html"
+    assert main(["report", str(edited), str(trace), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "Notes (reported, not warnings)" in text and f"<li>{note}</li>" in text
+    assert f'<li class="warn">{note}</li>' not in text
+
+
 def test_report_refuses_a_non_html_output(solved_benchmark, tmp_path, capsys):
     solution, trace = solved_benchmark("fruit-2x3")
     assert main(["report", str(solution), str(trace), "-o", str(tmp_path / "r.png")]) == 2

@@ -138,7 +138,8 @@ class LearnConfig:
         ``folds`` re-runs are the held-out folds (0: no re-runs, no confidence; else at
         least 2).
     warning : WarningRule
-        When the graph is flagged: its chance of change above ``max_change``
+        When the graph is flagged: its chance of change above ``max_change`` with another
+        check (alone with ``change_alone``), or a fixed check
         (:mod:`vggc_cp.solvers.confidence`).
     fallback : str
         When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``
@@ -639,7 +640,7 @@ def _with_disagreement(chosen: Candidate, candidates: list[Candidate]) -> Candid
     conf = chosen.confidence
     reason = (f"the {other.evidence} evidence gives {other.best.n_nodes} nodes against "
               f"{chosen.best.n_nodes}: the evidences disagree")
-    merged = replace(conf, suspect=True, reasons=(*conf.reasons, reason))
+    merged = conf.flagged(reason)
     return replace(chosen, confidence=merged)
 
 

@@ -142,6 +142,10 @@ def report_html(pic: GraphPicture, extra: dict, *, solution_name: str, trace_nam
                                                          for r in reasons) + "</ul>")
             if suspect:
                 warnings += [str(r) for r in reasons]
+        notes = conf.get("notes") or []
+        if notes:
+            parts.append("<p>Notes (reported, not warnings):</p><ul>"
+                         + "".join(f"<li>{e(str(n))}</li>" for n in notes) + "</ul>")
     cands = extra.get("candidates")
     if isinstance(cands, list) and len(cands) > 1:
         sizes = {c.get("nodes") for c in cands if isinstance(c, dict)}

@@ -160,7 +160,9 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     """Known answers: distances 0 within a true state and 1 across. At a threshold below 1
     every re-run reproduces the true graph: chance of change 0, no warning. A graph that
     merged two true states (what a threshold above 1 would not give either) changes in
-    every re-run: chance 1, warned, naming the merged node."""
+    every re-run: chance 1, a note naming the merged node, and warned as soon as another
+    check questions it too (here the actions favouring the split by 4 nats; any check
+    flagging, or ``change_alone``)."""
     problem, truth, episode = walk_problem()
     right = resample(problem, 0.5, truth, episode, folds=5)
     assert (right.runs, right.changed, right.p_change, right.unstable) == (5, 0, 0.0, ())
@@ -174,10 +176,23 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     wrong = resample(problem, 0.5, merged, episode, folds=5)
     assert wrong.changed == wrong.runs and wrong.p_change == 1.0
     assert [u for u, _ in wrong.unstable] == [a]
-    warned = assess(0.2, 5, wrong, 10.0)
-    assert warned.suspect and warned.unstable == (a,)
-    assert f"nodes {a}" in warned.reasons[0] and "vggc-cp suggest" in warned.reasons[0]
+    noted = assess(0.2, 5, wrong, 10.0)
+    assert not noted.suspect and noted.reasons == () and noted.unstable == (a,)
+    assert f"nodes {a}" in noted.notes[0] and "vggc-cp suggest" in noted.notes[0]
+    assert "note, not a warning" in noted.summary()
+    from vggc_cp.solvers.confidence import corroborate
+    from vggc_cp.solvers.doubts import Doubt
+
+    split = Doubt("split", (int(a),), ((1,), (2,)), {"dl_nats": -4.0})
+    warned = corroborate(noted, [split])
+    assert warned.suspect and warned.notes == () and len(warned.reasons) == 2
+    assert f"nodes {a}" in warned.reasons[0] and f"node {a} might be two" in warned.reasons[1]
     assert warned.as_dict()["p_change"] == 1.0 and warned.as_dict()["unstable"] == [int(a)]
+    alone = assess(0.2, 5, wrong, 10.0, WarningRule(change_alone=True))
+    assert alone.suspect and alone.reasons == noted.notes and alone.notes == ()
+    # with a fixed check failing too (a plateau of 1) the chance of change is a reason again
+    both = assess(0.2, 1, wrong, 10.0)
+    assert both.suspect and both.reasons[0] == noted.notes[0] and both.notes == ()
 
 
 def test_evidence_that_cannot_tell_states_apart_is_warned():
@@ -243,7 +258,8 @@ def test_a_doubt_that_re_runs_change_and_the_actions_reject_flags_the_graph():
 
 
 @pytest.mark.parametrize("settings", [{"max_change": 1.0}, {"max_change": -0.1},
-                                      {"runs": -1}, {"seed": 1.5}, {"max_change": True}])
+                                      {"runs": -1}, {"seed": 1.5}, {"max_change": True},
+                                      {"change_alone": 1}])
 def test_a_wrong_warning_rule_names_its_field(settings):
     from vggc_cp.errors import VggcError
 

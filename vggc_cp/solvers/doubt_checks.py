@@ -11,8 +11,6 @@ of change of :mod:`vggc_cp.solvers.confidence` and its corroboration:
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
@@ -38,7 +36,7 @@ def doubt_readings(conf: Confidence, doubts) -> Confidence:
               f"{ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is substantial); record "
               f"episodes that act there from both nodes (`vggc-cp suggest SOLUTION TRACE -o "
               f"next.json`)")
-    return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
+    return conf.flagged(reason)
 
 
 #: A node of at most this many observations is one render or two: what keeps it apart from
@@ -97,5 +95,5 @@ def doubt_forbidden(conf: Confidence, doubts, labels: np.ndarray, max_nats: floa
                       f"{-nats:.1f} nats; an action's colour may be misread")
         reason += ("; `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and `vggc-cp "
                    "suggest SOLUTION TRACE -o next.json` the episodes to record next")
-        return replace(conf, suspect=True, reasons=(*conf.reasons, reason))
+        return conf.flagged(reason)
     return conf
