@@ -260,3 +260,21 @@ def test_nodes_an_arm_hidden_reading_splits_are_warned_and_a_right_graph_is_not(
     right = learn_graph(generate("fruit-2x3", 50, 33, look="robot").trace.without_states())
     assert right.graph.n_nodes == 6 and not right.confidence.suspect
     assert not any("read_kappa" in d.evidence for d in right.doubts)
+
+
+def test_a_noted_graph_lists_the_decisions_its_note_is_about():
+    """blocks-3 clean, seed 46, |D| = 200 (session 18's held-out set): the true 16 nodes, re-runs
+    on 4/5 of the recording change 7 of 13 times and no other check questions it. The chance
+    of change alone is a note, not a warning; the note points at `vggc-cp doubts`, so the
+    solution lists the decisions toward the runner-up graph (it listed none before)."""
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("blocks-3", 200, 46, look="clean").trace
+    learned = learn_graph(trace.without_states())
+    conf = learned.confidence
+    assert learned.graph.n_nodes == 16 and not conf.suspect and conf.reasons == ()
+    assert conf.p_change > 0.3 and len(conf.notes) == 1 and "re-runs" in conf.notes[0]
+    assert "note, not a warning" in conf.summary()
+    assert learned.doubts
+    fields = learned.solution_fields()
+    assert fields["confidence"]["notes"] == list(conf.notes) and fields["doubts"]

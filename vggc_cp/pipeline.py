@@ -561,11 +561,13 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read))
         pairs = {d.nodes for d in read}
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
-    if chosen.confidence.suspect and not doubts:
-        # warned (e.g. a graph of another size nearly as probable) with no close call near
-        # t*: the decisions on the way to that graph, so the warning says what is doubtful
+    # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
+    # on the way to the runner-up graph, so the verdict says what is doubtful
+    asked = chosen.confidence.suspect or bool(chosen.confidence.notes)
+    if asked and not doubts:
+        # e.g. a graph of another size nearly as probable
         doubts = learned_doubts(chosen, toward_runner_up=True)
-    if chosen.confidence.suspect and not doubts:
+    if asked and not doubts:
         # nor on the way to it: the nodes that held-out transitions dispute, else the nodes
         # the runner-up graph splits or joins
         doubts = (learned_doubts(chosen, disputed=True)
