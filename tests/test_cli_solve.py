@@ -278,3 +278,20 @@ def test_distance_options_are_refused_under_footprints(toy_path, tmp_path, capsy
     err = capsys.readouterr().err
     assert f"{extra[0]} applies to the attention distances" in err
     assert len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_a_note_names_the_commands_for_this_solution_and_is_no_warning(tmp_path, capsys):
+    """blocks-3 clean s46 (|D| = 200): the chance of change alone is a note, printed after
+    "no warning" with the doubts and suggest commands spelled for these files; nothing on
+    stderr."""
+    from vggc_cp.sim.explore import generate
+
+    trace = tmp_path / "t.npz"
+    save_trace(generate("blocks-3", 200, 46, look="clean").trace, trace)
+    out = tmp_path / "s.json"
+    assert main(["solve", str(trace), "-o", str(out), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    line = next(x for x in captured.out.splitlines() if x.startswith("confidence"))
+    assert "no warning (note, not a warning: the graph changes" in line
+    assert f"vggc-cp doubts {out} {trace}" in line and "SOLUTION TRACE" not in line
+    assert "warning" not in captured.err

@@ -397,11 +397,11 @@ def _solve_merge(args) -> int:
           f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
           f"J {best.J:.4f}, {best.status}")
     print(f"wrote          {args.output}")
-    print(f"confidence     {conf.summary()}")
+    files = f"{args.output} {args.trace}"  # the commands the reasons and notes suggest
+    print(f"confidence     {conf.summary().replace('SOLUTION TRACE', files)}")
     _print_doubts(learned.doubts)
     if conf.suspect:
-        reasons = "; ".join(conf.reasons).replace("SOLUTION TRACE",
-                                                   f"{args.output} {args.trace}")
+        reasons = "; ".join(conf.reasons).replace("SOLUTION TRACE", files)
         print(f"vggc-cp: warning: the learned graph is suspect ({reasons}); the doubts above "
               f"say which decisions", file=sys.stderr)
     return 0
