@@ -41,11 +41,10 @@ from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
     assess,
-    corroborate,
     plateau_length,
     resample,
 )
-from vggc_cp.solvers.doubt_checks import doubt_forbidden, doubt_readings
+from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_readings
 from vggc_cp.solvers.doubts import (
     Doubt,
     DoubtRule,

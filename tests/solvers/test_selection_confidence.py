@@ -180,7 +180,7 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     assert not noted.suspect and noted.reasons == () and noted.unstable == (a,)
     assert f"nodes {a}" in noted.notes[0] and "vggc-cp suggest" in noted.notes[0]
     assert "note, not a warning" in noted.summary()
-    from vggc_cp.solvers.confidence import corroborate
+    from vggc_cp.solvers.doubt_checks import corroborate
     from vggc_cp.solvers.doubts import Doubt
 
     split = Doubt("split", (int(a),), ((1,), (2,)), {"dl_nats": -4.0})
@@ -242,7 +242,8 @@ def test_partitions_compare_as_groupings_and_changed_nodes_are_named():
 
 
 def test_a_doubt_that_re_runs_change_and_the_actions_reject_flags_the_graph():
-    from vggc_cp.solvers.confidence import Confidence, corroborate
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import corroborate
     from vggc_cp.solvers.doubts import Doubt
 
     conf = Confidence("mdl", 0.1, 5, None, 10.0, False, (), 0.25, 20, 5, (3, 6))

@@ -33,15 +33,13 @@ situations the re-run never saw: a graph of one or two renders a node). With
 as the verdict cannot turn (``c > max_change * runs``, or ``n - c >= (1 - max_change) *
 runs``). Same trace and settings, same re-runs, same number.
 
-**Corroboration by the doubts** (:func:`corroborate`, after the pipeline finds the doubts):
-the graph is also flagged when a doubt (:mod:`vggc_cp.solvers.doubts`) concerns a node that
-some re-run changed and its flip shortens the description length by more than 3 nats (odds
-of 20 to 1): the images on less of the recording and the actions on all of it both question
-that decision.
-
-Two more checks flag the graph from its doubts (:mod:`vggc_cp.solvers.doubt_checks`): a join
-the images and the actions both favour that a constraint forbids, and nodes that only an
-untrustworthy reading of the images sets apart.
+**Checks from the doubts** (:mod:`vggc_cp.solvers.doubt_checks`, after the pipeline finds
+the doubts): the graph is also flagged when a doubt concerns a node that some re-run changed
+and its flip shortens the description length by more than 3 nats (odds of 20 to 1: the
+images on less of the recording and the actions on all of it both question that decision,
+:func:`~vggc_cp.solvers.doubt_checks.corroborate`), when a join the images and the actions
+both favour is one a constraint forbids, and when only an untrustworthy reading of the images
+sets two nodes apart.
 
 **The former fixed checks** (:data:`FIXED_CHECKS`, :attr:`WarningRule.fixed_checks`, on by
 default): on the tuning split the chance of change alone was right on all 93 runs, but on the
@@ -634,33 +632,3 @@ def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_nod
                       bool(reasons), tuple(reasons), p,
                       0 if resampled is None else resampled.runs,
                       0 if resampled is None else resampled.changed, unstable, notes)
-
-
-def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
-    """``conf`` flagged also when a decision that the re-runs changed is one the trace's
-    actions reject: a doubt (:mod:`vggc_cp.solvers.doubts`) on unstable nodes whose flip
-    shortens the description length by more than ``max_nats`` (a Bayes factor above
-    ``exp(max_nats)``, 20 for 3 nats: "strong" evidence, Kass and Raftery 1995).
-
-    The two readings are independent: the re-runs test the images and the constraints on
-    less of the recording, the description length the actions of all of it. Either alone
-    is common on right graphs of few episodes; both on one decision is not.
-    """
-    unstable = set(conf.unstable)
-    if not unstable:
-        return conf
-    for d in doubts:
-        nats = d.evidence.get("dl_nats")
-        if not isinstance(nats, (int, float)) or nats >= -max_nats:
-            continue
-        if not unstable.intersection(int(u) for u in d.nodes):
-            continue
-        what = ("nodes {} and {} might be one state".format(*d.nodes) if d.kind == "merge"
-                else f"node {d.nodes[0]} might be two states")
-        reason = (f"{what}: re-runs change {'them' if d.kind == 'merge' else 'it'} and the "
-                  f"actions favour that by {-nats:.1f} nats (odds {math.exp(min(-nats, 50)):.0f} "
-                  f"to 1); `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and "
-                  f"`vggc-cp suggest SOLUTION TRACE -o next.json` the episodes to record next")
-        return conf.flagged(reason)
-    return conf
-

@@ -1,6 +1,8 @@
 """Checks that flag a graph from its doubts (:mod:`vggc_cp.solvers.doubts`), beside the chance
-of change of :mod:`vggc_cp.solvers.confidence` and its corroboration:
+of change of :mod:`vggc_cp.solvers.confidence`:
 
+* :func:`corroborate` -- a doubt on nodes the re-runs changed whose flip the actions favour by
+  more than 3 nats (the chance of change corroborated);
 * :func:`doubt_forbidden` -- the images (within the chosen threshold) and the actions (by more
   than 3 nats) both favour joining two nodes that Exactly-One forbids (then another decision
   conflicts with them), or that the hands' colours forbid where one node is one render or two
@@ -10,6 +12,8 @@ of change of :mod:`vggc_cp.solvers.confidence` and its corroboration:
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -95,5 +99,34 @@ def doubt_forbidden(conf: Confidence, doubts, labels: np.ndarray, max_nats: floa
                       f"{-nats:.1f} nats; an action's colour may be misread")
         reason += ("; `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and `vggc-cp "
                    "suggest SOLUTION TRACE -o next.json` the episodes to record next")
+        return conf.flagged(reason)
+    return conf
+
+
+def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
+    """``conf`` flagged also when a decision that the re-runs changed is one the trace's
+    actions reject: a doubt (:mod:`vggc_cp.solvers.doubts`) on unstable nodes whose flip
+    shortens the description length by more than ``max_nats`` (a Bayes factor above
+    ``exp(max_nats)``, 20 for 3 nats: "strong" evidence, Kass and Raftery 1995).
+
+    The two readings are independent: the re-runs test the images and the constraints on
+    less of the recording, the description length the actions of all of it. Either alone
+    is common on right graphs of few episodes; both on one decision is not.
+    """
+    unstable = set(conf.unstable)
+    if not unstable:
+        return conf
+    for d in doubts:
+        nats = d.evidence.get("dl_nats")
+        if not isinstance(nats, (int, float)) or nats >= -max_nats:
+            continue
+        if not unstable.intersection(int(u) for u in d.nodes):
+            continue
+        what = ("nodes {} and {} might be one state".format(*d.nodes) if d.kind == "merge"
+                else f"node {d.nodes[0]} might be two states")
+        reason = (f"{what}: re-runs change {'them' if d.kind == 'merge' else 'it'} and the "
+                  f"actions favour that by {-nats:.1f} nats (odds {math.exp(min(-nats, 50)):.0f} "
+                  f"to 1); `vggc-cp doubts SOLUTION TRACE -o doubts.png` shows it and "
+                  f"`vggc-cp suggest SOLUTION TRACE -o next.json` the episodes to record next")
         return conf.flagged(reason)
     return conf
