@@ -86,6 +86,19 @@ def expect_refusal(capsys, argv, inputs, must=()):
     return lines[0]
 
 
+def _each_once(cases):
+    """Every ``(command, bad input)`` case, id ``command-input``; in the quick run only a case
+    that brings a command or a bad input not seen before it (each bad input once, each command
+    once), the rest marked slow: the full run takes every case."""
+    seen, out = set(), []
+    for case in cases:
+        new = not set(enumerate(case)) <= seen
+        out.append(pytest.param(*case, id="-".join(case),
+                                marks=() if new else pytest.mark.slow))
+        seen.update(enumerate(case))
+    return out
+
+
 # ------------------------------------------------------------------ bad traces
 
 TRACE_COMMANDS = {
@@ -108,7 +121,7 @@ TRACE_CASES = [(cmd, name) for i, name in enumerate(sorted(BAD_TRACES))
                if j < 3 or (i + j) % 3 == 0]
 
 
-@pytest.mark.parametrize("cmd,name", TRACE_CASES, ids=[f"{c}-{n}" for c, n in TRACE_CASES])
+@pytest.mark.parametrize("cmd,name", _each_once(TRACE_CASES))
 def test_bad_trace(world, capsys, tmp_path, cmd, name):
     data, must = BAD_TRACES[name]
     path = world["bad"] / f"{name}.npz"
@@ -168,7 +181,7 @@ SOL_CASES = [(cmd, name) for name in SOLUTION_CASES for cmd in SOLUTION_COMMANDS
              if not (name in NEEDS_TRACE and cmd.startswith("plan"))]
 
 
-@pytest.mark.parametrize("cmd,name", SOL_CASES, ids=[f"{c}-{n}" for c, n in SOL_CASES])
+@pytest.mark.parametrize("cmd,name", _each_once(SOL_CASES))
 def test_bad_solution(world, capsys, tmp_path, cmd, name):
     if name == "exactly-one":
         data, must = json.dumps(exactly_one_violation(world["valid_solution"])).encode(), ()
@@ -242,7 +255,7 @@ OUT_CASES = [(c, k) for c in OUTPUT_COMMANDS for k in OUTPUT_KINDS
              if k != "is-the-solution" or c == "train-localizer"]  # else not an input
 
 
-@pytest.mark.parametrize("cmd,kind", OUT_CASES, ids=[f"{c}-{k}" for c, k in OUT_CASES])
+@pytest.mark.parametrize("cmd,kind", _each_once(OUT_CASES))
 def test_bad_output(world, capsys, tmp_path, cmd, kind):
     target, why = _output_target(kind, world, tmp_path)
     argv = OUTPUT_COMMANDS[cmd](world, target)
@@ -300,7 +313,7 @@ IN_CASES = [(c, k) for c in ("inspect", "evaluate", "render", "solve", "baseline
             for k in INPUT_PATHS]
 
 
-@pytest.mark.parametrize("cmd,kind", IN_CASES, ids=[f"{c}-{k}" for c, k in IN_CASES])
+@pytest.mark.parametrize("cmd,kind", _each_once(IN_CASES))
 def test_bad_input_path(world, capsys, tmp_path, cmd, kind):
     path, why = INPUT_PATHS[kind](world, tmp_path)
     out = tmp_path / "out"
@@ -351,7 +364,7 @@ CKPT_NAMES = ["nan", "inf", "huge-width", "huge-input", "deep-meta", "meta-list"
 CKPT_CASES = [(c, n) for c in ("plan", "evaluate") for n in CKPT_NAMES]
 
 
-@pytest.mark.parametrize("cmd,name", CKPT_CASES, ids=[f"{c}-{n}" for c, n in CKPT_CASES])
+@pytest.mark.parametrize("cmd,name", _each_once(CKPT_CASES))
 def test_bad_checkpoint(world, capsys, tmp_path, cmd, name):
     path, must = _checkpoints(world, tmp_path)[name]
     argv = (["plan", world["solution"], "--model", path, "--start", world["image"], "--goal",
