@@ -22,7 +22,8 @@ import numpy as np
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.density import kernel_loglik, kernel_posterior
 from vggc_cp.vision.occupancy import site_labels
-from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
+from vggc_cp.vision.places import trace_slots
+from vggc_cp.vision.slots import EMPTY, acting_at
 from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
 
 #: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
@@ -254,8 +255,7 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     """
     colour = np.where(counts > 0, classes, -1)
     n_cls = int(classes.max()) + 1 if len(classes) else 0
-    twin = action_twins(trace, ov, colour)
-    mates = action_mates(trace, ov, colour, twin, site_overlap)
+    twin, mates = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
     found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
     for a in np.flatnonzero(counts > 0):

@@ -58,7 +58,10 @@ labelled frames show it reads better, a reading per pose of the hand that they t
 so a frame in which an arm, the object it holds or a distractor hides the site cannot mislead.
 Which pick and place share a slot is read from the sequence where it settles it (they
 alternate in every episode, :func:`vggc_cp.vision.slots.sequence_twins`), so footprints
-that lie on an arm do not pair the wrong actions.
+that lie on an arm do not pair the wrong actions; where the frames right after each action
+name the sequence's sure twins better than the footprints do (a hand that rests above the
+place it acted on), the slots are read from those frames instead
+(:mod:`vggc_cp.vision.places`).
 
 **Nuisance.** Across a transition of an action that acts elsewhere, a site should not change;
 what it does change there is noise, lighting and gripper residue. ``nu_a`` is the
@@ -95,8 +98,8 @@ from vggc_cp.vision.colours import (
     window_colours,
 )
 from vggc_cp.vision.occupancy import refine_presence, settle
+from vggc_cp.vision.places import trace_slots
 from vggc_cp.vision.registration import steady
-from vggc_cp.vision.slots import action_mates, action_twins
 from vggc_cp.vision.working import (
     FOOTPRINT_SIDE,
     WorkingResolution,
@@ -437,10 +440,10 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     examples = [np.concatenate([chroma[occupied_of[a], a] for a in np.flatnonzero(colour == c)])
                 for c in range(n_col)]
     posterior = colour_posteriors(chroma, examples, params.bandwidth)
-    # which place refills the slot a pick empties, from the sequence where it settles it
-    twin = action_twins(trace, ov, colour)
-    # which actions of other colours act at the same slot, from the sequence where it settles it
-    mates = action_mates(trace, ov, colour, twin, params.site_overlap)
+    # which place refills the slot a pick empties and which actions of other colours act at
+    # it: from the sequence where it settles it, and where the hand rests after each action
+    # where that names the sequence's sure twins better than the footprints
+    twin, mates = trace_slots(trace, x, ov, colour, params.site_overlap)
     # a site that shares its pixels with another slot of its colour has many empty looks
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
                                   params.site_overlap, twin, mates)

@@ -49,6 +49,7 @@ from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_agreement,
+    pose_groups,
     pose_readings,
     poses,
     run_presence,
@@ -316,7 +317,14 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
-    pose, episode = poses(trace.actions), trace.episode_index()
+    episode = trace.episode_index()
+    # the hand's pose: the action that led to a frame, or, pooling more frames, the slot and
+    # kind of that action (the hand rests alike after every pick at one slot); each site
+    # takes the one whose reading agrees best with labels it did not learn from
+    pose_sets = [poses(trace.actions)]
+    grouped = pose_groups(kinds, twin, mates)
+    if len(np.unique(grouped)) < len(grouped):
+        pose_sets.append(poses(trace.actions, grouped))
     episodes = trace.episodes()
     actions = trace.actions
     n_col = posterior.shape[2]
@@ -351,11 +359,16 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         used = own                                   # agreement of the reading the runs take
         # a footprint presence that agrees with every label cannot be bettered: not read again
         if x is not None and own < 1.0:
-            window = site_window(x, labels, pose, EMPTY, support)
-            held = (held_out_agreement(x, labels, pose, episode, EMPTY, support, saturation)
-                    if window is not None else 0.0)
-            if window is not None and held > own:
-                used = held
+            best = None
+            for pose in pose_sets:
+                window = site_window(x, labels, pose, EMPTY, support)
+                if window is None:
+                    continue
+                held = held_out_agreement(x, labels, pose, episode, EMPTY, support, saturation)
+                if held > (own if best is None else best[0]):
+                    best = (held, pose, window)
+            if best is not None:
+                used, pose, window = best
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
                 read = run_presence(reading, strength, run, loose)
                 if n_col > 1:

@@ -10,7 +10,10 @@ arm rather than what the site holds. The labelled frames teach the reading inste
 **Pose.** What the hand does in a frame is set by the action that led to it (a robot that
 rests above the place it last acted on, or one that goes home after each action, looks the
 same after the same action). The *pose* of an observation is that action (``-1`` for the
-first of an episode).
+first of an episode), or, pooling more frames per pose, the slot and kind of that action
+(:func:`pose_groups`: the hand rests alike after every pick at one slot, whatever it lifted);
+:func:`vggc_cp.vision.occupancy.settle` lets each site take the one whose reading agrees
+best with labels it did not learn from.
 
 **Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
 differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
@@ -60,16 +63,49 @@ MIN_LOOKS = 2
 READ_ODDS = 20.0
 
 
-def poses(actions: np.ndarray) -> np.ndarray:
-    """Pose of every observation, int64 of shape (N,): the action that led to it, -1 for the
-    first observation of an episode.
+def poses(actions: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
+    """Pose of every observation, int64 of shape (N,): the action that led to it (or its
+    ``group``, :func:`pose_groups`), -1 for the first observation of an episode.
 
     >>> poses(np.array([3, 1, -1, 2])).tolist()
     [-1, 3, 1, -1, 2]
+    >>> poses(np.array([3, 1, -1, 2]), np.array([0, 0, 1, 1])).tolist()
+    [-1, 1, 0, -1, 1]
     """
+    actions = np.asarray(actions)
     out = np.full(len(actions) + 1, -1, dtype=np.int64)
-    out[1:] = actions
+    out[1:] = actions if group is None else np.where(actions >= 0,
+                                                    group[np.maximum(actions, 0)], -1)
     return out
+
+
+def pose_groups(kinds: np.ndarray, twin: np.ndarray, mates: np.ndarray) -> np.ndarray:
+    """Actions after which the hand looks alike, int64 of shape (A,): one group per slot
+    (an action, its twin and its mates, transitively) and kind. After a pick the hand holds
+    what it lifted, after a place it is empty, so the two kinds are never one pose.
+
+    >>> from vggc_cp.trace import PICK, PLACE
+    >>> kinds = np.array([PICK, PLACE, PICK, PLACE, PICK])
+    >>> mates = np.zeros((5, 5), bool); mates[0, 2] = mates[2, 0] = True
+    >>> pose_groups(kinds, np.array([1, 0, 3, 2, -1]), mates).tolist()
+    [0, 1, 0, 1, 2]
+    """
+    n = len(kinds)
+    root = np.arange(n)
+
+    def find(a: int) -> int:
+        while root[a] != a:
+            root[a] = root[root[a]]
+            a = root[a]
+        return int(a)
+
+    pairs = [(a, int(b)) for a, b in enumerate(twin) if b >= 0]
+    pairs += [(int(a), int(b)) for a, b in zip(*np.nonzero(mates))]
+    for a, b in pairs:
+        root[find(a)] = find(b)
+    keys = [(find(a), int(kinds[a])) for a in range(n)]
+    ids = {k: i for i, k in enumerate(dict.fromkeys(keys))}
+    return np.array([ids[k] for k in keys], dtype=np.int64)
 
 
 def _groups(labels: np.ndarray, pose: np.ndarray, empty: int):
