@@ -94,3 +94,21 @@ def test_a_robot_camera_multifruit_2x3_gets_every_slot_right():
         truth = np.array([[c != "-" for c in s.split("|")[0]] for s in trace.states])
         right = np.abs(fp.presence[:, fp.taken] - truth[:, place[fp.taken]]) < 0.5
         assert right.mean() > 0.94
+
+
+@pytest.mark.slow
+def test_a_fixed_gripper_keeps_one_pose_per_action():
+    """random-490 on a clean render (held-out seed 0 of session 19): the gripper never moves,
+    so the slots come from the footprints and a pose is never pooled over a slot; pooled, the
+    reading of region 4 took a window that agreed with the labelled episodes but read a blue
+    object on the empty region in every unlabelled run of one component of states (396 wrong
+    readings, 37 nodes for 32, no warning). Every reading is right."""
+    from vggc_cp.sim.explore import generate
+    from vggc_cp.vision.footprints import action_footprints
+
+    trace = generate("random-490", seed=0, look="clean").trace
+    fp = action_footprints(trace.without_states())
+    region = np.array([int(n.rsplit("_", 1)[1]) for n in trace.action_names])
+    truth = np.array([[c != "-" for c in s.split("|")[0].split(".")] for s in trace.states])
+    right = np.abs(fp.presence[:, fp.taken] - truth[:, region[fp.taken]]) < 0.5
+    assert right.all()

@@ -255,7 +255,7 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     """
     colour = np.where(counts > 0, classes, -1)
     n_cls = int(classes.max()) + 1 if len(classes) else 0
-    twin, mates = trace_slots(trace, x, ov, colour, site_overlap)
+    twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
     found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
     for a in np.flatnonzero(counts > 0):

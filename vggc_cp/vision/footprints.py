@@ -443,7 +443,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     # which place refills the slot a pick empties and which actions of other colours act at
     # it: from the sequence where it settles it, and where the hand rests after each action
     # where that names the sequence's sure twins better than the footprints
-    twin, mates = trace_slots(trace, x, ov, colour, params.site_overlap)
+    twin, mates, rests = trace_slots(trace, x, ov, colour, params.site_overlap)
     # a site that shares its pixels with another slot of its colour has many empty looks
     presence, _ = refine_presence(trace, x, sites, ov, colour, counts, presence,
                                   params.site_overlap, twin, mates)
@@ -451,7 +451,8 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
     presence, posterior, stated, kappa = settle(trace, presence, posterior, ov, colour, counts,
                                          params.site_overlap, x, params.support,
-                                         params.saturation, twin, mates, params.bandwidth)
+                                         params.saturation, twin, mates, params.bandwidth,
+                                         rests=rests)
     # a stated fact rests on which actions act at one slot; where the site's own reading
     # contradicts it, one of the two is wrong, and it is not offered as a fact
     full = presence >= 0.5

@@ -248,7 +248,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
-           bandwidth: float = 0.02
+           bandwidth: float = 0.02, rests: bool = False
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
@@ -297,6 +297,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         :func:`action_mates` (computed when not given).
     bandwidth : float
         Width of the colour kernel (:func:`window_colour`).
+    rests : bool
+        The slots were read from where the hand rests after each action
+        (:func:`vggc_cp.vision.places.trace_slots`): a pose may then also pool every pick
+        (or place) at one slot (:func:`~vggc_cp.vision.untouched.pose_groups`).
 
     Returns
     -------
@@ -318,12 +322,12 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
     episode = trace.episode_index()
-    # the hand's pose: the action that led to a frame, or, pooling more frames, the slot and
-    # kind of that action (the hand rests alike after every pick at one slot); each site
-    # takes the one whose reading agrees best with labels it did not learn from
+    # the hand's pose: the action that led to a frame, or, where the hand rests at the place
+    # it acted on (``rests``), pooling more frames, the slot and kind of that action; each
+    # site takes the one whose reading agrees best with labels it did not learn from
     pose_sets = [poses(trace.actions)]
     grouped = pose_groups(kinds, twin, mates)
-    if len(np.unique(grouped)) < len(grouped):
+    if rests and len(np.unique(grouped)) < len(grouped):
         pose_sets.append(poses(trace.actions, grouped))
     episodes = trace.episodes()
     actions = trace.actions

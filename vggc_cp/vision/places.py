@@ -266,13 +266,14 @@ def after_look_slots(trace: Trace, x: np.ndarray, ov: np.ndarray, colour: np.nda
 
 
 def trace_slots(trace: Trace, x: np.ndarray, ov: np.ndarray, colour: np.ndarray,
-                site_overlap: float) -> tuple[np.ndarray, np.ndarray]:
-    """Twins and mates of every action: from where the hand rests where that cue names more
-    of the sequence's sure twins (:func:`after_look_slots`), else from the sequence and the
-    footprints (:func:`~vggc_cp.vision.slots.action_twins`,
-    :func:`~vggc_cp.vision.slots.action_mates`)."""
+                site_overlap: float) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Twins and mates of every action, and whether they were read from where the hand rests:
+    from the after-looks where that cue names more of the sequence's sure twins
+    (:func:`after_look_slots`), else from the sequence and the footprints
+    (:func:`~vggc_cp.vision.slots.action_twins`, :func:`~vggc_cp.vision.slots.action_mates`).
+    """
     found = after_look_slots(trace, x, ov, colour)
     if found is not None:
-        return found
+        return (*found, True)
     twin = action_twins(trace, ov, colour)
-    return twin, action_mates(trace, ov, colour, twin, site_overlap)
+    return twin, action_mates(trace, ov, colour, twin, site_overlap), False

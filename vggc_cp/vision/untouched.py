@@ -10,10 +10,11 @@ arm rather than what the site holds. The labelled frames teach the reading inste
 **Pose.** What the hand does in a frame is set by the action that led to it (a robot that
 rests above the place it last acted on, or one that goes home after each action, looks the
 same after the same action). The *pose* of an observation is that action (``-1`` for the
-first of an episode), or, pooling more frames per pose, the slot and kind of that action
-(:func:`pose_groups`: the hand rests alike after every pick at one slot, whatever it lifted);
-:func:`vggc_cp.vision.occupancy.settle` lets each site take the one whose reading agrees
-best with labels it did not learn from.
+first of an episode), or, where the hand rests above the place it acted on (the slots were
+read from there, :mod:`vggc_cp.vision.places`) and pooling more frames per pose, the slot and
+kind of that action (:func:`pose_groups`: the hand rests alike after every pick at one slot,
+whatever it lifted); :func:`vggc_cp.vision.occupancy.settle` lets each site take the one
+whose reading agrees best with labels it did not learn from.
 
 **Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
 differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
