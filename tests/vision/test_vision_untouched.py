@@ -139,3 +139,20 @@ def test_a_robot_camera_fruit_4x6_is_read_and_learned_right():
     metrics, _ = evaluate_trace(trace, learned.graph, learned.labels, n_queries=300, seed=0)
     assert metrics.nodes == metrics.true_states == 35
     assert metrics.exec >= 0.9 and metrics.any_path == 1.0
+
+
+def test_an_episode_start_takes_the_pose_it_looks_like():
+    """The arm of a first frame rests where the last episode left it: the frame takes the
+    pose whose frames look like it, and frames with a pose keep theirs."""
+    x, _, pose, _, _ = _scene()
+    placed = un.placed_starts(x, pose)
+    assert (placed[pose >= 0] == pose[pose >= 0]).all()
+    first = np.flatnonzero(pose < 0)
+    assert len(first) and (placed[first] >= 0).all()
+    # the arm drawn in a first frame is the pose's whose area it covers
+    x2 = x.copy()
+    for i in first:
+        x2[i] = 0.3
+        ys, xs = ARM[1]
+        x2[i, ys, xs] = 0.95
+    assert (un.placed_starts(x2, pose)[first] == 1).all()

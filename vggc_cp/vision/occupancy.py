@@ -49,6 +49,7 @@ from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_agreement,
+    placed_starts,
     pose_groups,
     pose_readings,
     poses,
@@ -300,7 +301,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     rests : bool
         The slots were read from where the hand rests after each action
         (:func:`vggc_cp.vision.places.trace_slots`): a pose may then also pool every pick
-        (or place) at one slot (:func:`~vggc_cp.vision.untouched.pose_groups`).
+        (or place) at one slot (:func:`~vggc_cp.vision.untouched.pose_groups`), and an
+        episode's first frame takes the pose it looks like
+        (:func:`~vggc_cp.vision.untouched.placed_starts`).
 
     Returns
     -------
@@ -329,6 +332,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     grouped = pose_groups(kinds, twin, mates)
     if rests and len(np.unique(grouped)) < len(grouped):
         pose_sets.append(poses(trace.actions, grouped))
+    if rests and x is not None:
+        pose_sets = [placed_starts(x, p) for p in pose_sets]
     episodes = trace.episodes()
     actions = trace.actions
     n_col = posterior.shape[2]

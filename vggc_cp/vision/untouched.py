@@ -14,7 +14,9 @@ first of an episode), or, where the hand rests above the place it acted on (the 
 read from there, :mod:`vggc_cp.vision.places`) and pooling more frames per pose, the slot and
 kind of that action (:func:`pose_groups`: the hand rests alike after every pick at one slot,
 whatever it lifted); :func:`vggc_cp.vision.occupancy.settle` lets each site take the one
-whose reading agrees best with labels it did not learn from.
+whose reading agrees best with labels it did not learn from. There, too, an episode's first
+frame takes the pose whose mean frame it looks most like (:func:`placed_starts`): the hand
+starts an episode resting at some place, and the frame shows which.
 
 **Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
 differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
@@ -77,6 +79,27 @@ def poses(actions: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
     out = np.full(len(actions) + 1, -1, dtype=np.int64)
     out[1:] = actions if group is None else np.where(actions >= 0,
                                                     group[np.maximum(actions, 0)], -1)
+    return out
+
+
+def placed_starts(x: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """``pose`` with every episode's first frame (pose -1) given the pose whose mean frame it
+    looks most like (mean absolute difference): where the hand rests where it last acted, an
+    episode starts with the hand at some place, and its first frame shows which.
+
+    >>> x = np.zeros((4, 1, 1, 3), np.float32); x[1] = x[3] = 1.0
+    >>> placed_starts(x, np.array([-1, 5, 6, -1])).tolist()
+    [6, 5, 6, 5]
+    """
+    out = pose.copy()
+    first = np.flatnonzero(pose < 0)
+    kinds = [b for b in np.unique(pose) if b >= 0]
+    if not len(first) or not kinds:
+        return out
+    flat = x.reshape(len(x), -1)
+    means = np.stack([flat[pose == b].mean(axis=0, dtype=np.float64) for b in kinds])
+    for i in first:
+        out[i] = kinds[int(np.argmin(np.abs(means - flat[i]).mean(axis=1)))]
     return out
 
 
