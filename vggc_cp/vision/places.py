@@ -34,12 +34,17 @@ Nothing here reads action names or ground-truth states.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from vggc_cp.trace import PICK, PLACE, Trace
-from vggc_cp.vision.slots import EMPTY, TWIN_ODDS, action_episodes, action_mates, action_twins
+from vggc_cp.vision.slots import (
+    EMPTY,
+    action_episodes,
+    action_mates,
+    action_twins,
+    alternations,
+    qualifies,
+)
 
 
 def after_distances(x: np.ndarray, act: np.ndarray, dst: np.ndarray, n_actions: int
@@ -93,21 +98,9 @@ def sure_twins(actions: np.ndarray, episodes: list[tuple[int, int]], colour: np.
     pairs = []
     for a in np.flatnonzero(taken & (kinds == PICK) & (colour >= 0)):
         cand = np.flatnonzero(taken & (colour == colour[a]) & (kinds != PICK))
-        counts = np.zeros((len(cand), 2), dtype=np.int64)          # broken, alternated
-        for i, b in enumerate(cand):
-            at = np.flatnonzero((actions == a) | (actions == b))
-            neighbours = episode_of[at[1:]] == episode_of[at[:-1]]
-            same = kinds[actions[at[1:]]] == kinds[actions[at[:-1]]]
-            counts[i] = ((neighbours & same).sum(), (neighbours & ~same).sum())
-        if counts.sum() == 0 or counts[:, 0].sum() == 0:
-            continue
-        q = counts[:, 1].sum() / counts.sum()
-        if q <= 0:
-            continue
-        ok = [int(b) for b, (broken, k) in zip(cand, counts)
-              if broken == 0 and k * math.log(1.0 / q) >= math.log(TWIN_ODDS)]
+        ok = cand[qualifies(alternations(actions, episode_of, kinds, int(a), cand))]
         if len(ok) == 1:
-            pairs.append((int(a), ok[0]))
+            pairs.append((int(a), int(ok[0])))
     return pairs
 
 

@@ -109,24 +109,53 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     episode_of = action_episodes(len(actions), episodes)
     for a in np.flatnonzero(colour >= 0):
         cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
-        counts = np.zeros((len(cand), 2), dtype=np.int64)       # broken, alternated
-        for i, b in enumerate(cand):
-            at = np.flatnonzero((actions == a) | (actions == b))
-            neighbours = episode_of[at[1:]] == episode_of[at[:-1]]   # within one episode
-            same = kinds[actions[at[1:]]] == kinds[actions[at[:-1]]]
-            counts[i] = ((neighbours & same).sum(), (neighbours & ~same).sum())
-        total = counts.sum()
-        if total == 0 or counts[:, 0].sum() == 0:
-            continue                       # no candidate ever breaks it: the pixels decide
-        # how often an unrelated pair alternates, from the candidates together
-        p_alt = counts[:, 1].sum() / total
-        if p_alt <= 0:
-            continue                       # nothing ever alternates with it
-        allowed = [(float(ov[a, b]), int(k), int(b)) for b, (broken, k) in zip(cand, counts)
-                   if broken == 0 and k * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS)]
+        counts = alternations(actions, episode_of, kinds, int(a), cand)
+        allowed = [(float(ov[a, b]), int(counts[i, 1]), int(b))
+                   for i, b in enumerate(cand) if qualifies(counts)[i]]
         if allowed:
             out[a] = max(allowed)[2]
     return out
+
+
+def alternations(actions: np.ndarray, episode_of: np.ndarray, kinds: np.ndarray, a: int,
+                 cand: np.ndarray) -> np.ndarray:
+    """For every candidate ``b``: how often, in the actions restricted to ``a`` and ``b``,
+    two neighbours of one episode are of one kind (broken) and of two (alternated); int64
+    shape (len(cand), 2).
+
+    >>> from vggc_cp.trace import PLACE
+    >>> kinds = np.array([PICK, PLACE, PLACE])
+    >>> counts = alternations(np.array([0, 1, 0, 2, 2]), np.zeros(5, int), kinds, 0,
+    ...                       np.array([1, 2]))
+    >>> counts.tolist()
+    [[0, 2], [2, 1]]
+    """
+    counts = np.zeros((len(cand), 2), dtype=np.int64)
+    for i, b in enumerate(cand):
+        at = np.flatnonzero((actions == a) | (actions == b))
+        neighbours = episode_of[at[1:]] == episode_of[at[:-1]]       # within one episode
+        same = kinds[actions[at[1:]]] == kinds[actions[at[:-1]]]
+        counts[i] = ((neighbours & same).sum(), (neighbours & ~same).sum())
+    return counts
+
+
+def qualifies(counts: np.ndarray) -> np.ndarray:
+    """Which candidates the sequence takes for the twin (:func:`sequence_twins`), bool shape
+    (len(counts),): never broken, and alternated ``k`` times with ``k ln(1/q) >= ln 20``,
+    ``q`` the share of alternations over all candidates together. None qualifies where no
+    candidate ever breaks it (nothing to tell them apart) or nothing alternates.
+
+    >>> qualifies(np.array([[0, 12], [7, 1]])).tolist()
+    [True, False]
+    """
+    total = counts.sum()
+    if total == 0 or counts[:, 0].sum() == 0:
+        return np.zeros(len(counts), dtype=bool)
+    # how often an unrelated pair alternates, from the candidates together
+    p_alt = counts[:, 1].sum() / total
+    if p_alt <= 0:
+        return np.zeros(len(counts), dtype=bool)
+    return (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS))
 
 
 def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
