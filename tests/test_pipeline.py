@@ -243,20 +243,21 @@ def test_the_runner_ups_differences_are_listed_each_side_one_state():
 
 def test_nodes_an_arm_hidden_reading_splits_are_warned_and_a_right_graph_is_not():
     """A robot camera (an arm resting above the place it last acted on, shake, drift) on
-    fruit-2x3, 50 transitions. Seed 35: the footprints read one region under the arm at
-    kappa 0.19 beyond chance and split its states (9 nodes for 6); the re-runs and the
+    fruit-2x3, 50 transitions. Seed 37: the footprints read one region under the arm at
+    kappa 0.39 beyond chance and split its states (9 nodes for 6); the re-runs and the
     description length take the reading as given and saw nothing, the read doubts do: the
-    graph is flagged and the doubts name that region's site. Seed 33: the true graph, quiet."""
+    graph is flagged and the doubts name that region's site. Seed 33: the true graph, quiet.
+    (Seed 35, this test's split until session 19, is now read right: 6 nodes.)"""
     from vggc_cp.sim.explore import generate
 
-    split = generate("fruit-2x3", 50, 35, look="robot").trace
+    split = generate("fruit-2x3", 50, 37, look="robot").trace
     learned = learn_graph(split.without_states())
     assert learned.graph.n_nodes == 9                   # the 6 true states, 3 split
     assert learned.confidence.suspect
     read = [d for d in learned.doubts if "read_kappa" in d.evidence]
     assert read and read == list(learned.doubts[:len(read)])
     assert all(d.evidence["read_kappa"] < 0.6 for d in read)
-    assert any("beyond chance" in r and "red_0" in r for r in learned.confidence.reasons)
+    assert any("beyond chance" in r and "red_2" in r for r in learned.confidence.reasons)
     right = learn_graph(generate("fruit-2x3", 50, 33, look="robot").trace.without_states())
     assert right.graph.n_nodes == 6 and not right.confidence.suspect
     assert not any("read_kappa" in d.evidence for d in right.doubts)
