@@ -329,11 +329,12 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     # it acted on (``rests``), pooling more frames, the slot and kind of that action; each
     # site takes the one whose reading agrees best with labels it did not learn from
     pose_sets = [poses(trace.actions)]
-    grouped = pose_groups(kinds, twin, mates)
-    if rests and len(np.unique(grouped)) < len(grouped):
-        pose_sets.append(poses(trace.actions, grouped))
-    if rests and x is not None:
-        pose_sets = [placed_starts(x, p) for p in pose_sets]
+    if rests:
+        grouped = pose_groups(kinds, twin, mates)
+        if len(np.unique(grouped)) < len(grouped):
+            pose_sets.append(poses(trace.actions, grouped))
+        if x is not None:
+            pose_sets = [placed_starts(x, p) for p in pose_sets]
     episodes = trace.episodes()
     actions = trace.actions
     n_col = posterior.shape[2]

@@ -114,20 +114,14 @@ def pose_groups(kinds: np.ndarray, twin: np.ndarray, mates: np.ndarray) -> np.nd
     >>> pose_groups(kinds, np.array([1, 0, 3, 2, -1]), mates).tolist()
     [0, 1, 0, 1, 2]
     """
+    from scipy.sparse.csgraph import connected_components
+
     n = len(kinds)
-    root = np.arange(n)
-
-    def find(a: int) -> int:
-        while root[a] != a:
-            root[a] = root[root[a]]
-            a = root[a]
-        return int(a)
-
-    pairs = [(a, int(b)) for a, b in enumerate(twin) if b >= 0]
-    pairs += [(int(a), int(b)) for a, b in zip(*np.nonzero(mates))]
-    for a, b in pairs:
-        root[find(a)] = find(b)
-    keys = [(find(a), int(kinds[a])) for a in range(n)]
+    link = np.asarray(mates, dtype=bool).copy()
+    paired = np.flatnonzero(np.asarray(twin) >= 0)
+    link[paired, np.asarray(twin)[paired]] = True
+    _, slot = connected_components(link, directed=False)
+    keys = [(int(slot[a]), int(kinds[a])) for a in range(n)]
     ids = {k: i for i, k in enumerate(dict.fromkeys(keys))}
     return np.array([ids[k] for k in keys], dtype=np.int64)
 
