@@ -101,3 +101,48 @@ def test_a_mistyped_option_gets_usage_and_the_nearest_name(capsys, argv, usage, 
 def test_an_unknown_option_far_from_every_name_gets_no_guess(capsys):
     err = _refused(capsys, ["solve", "t.npz", "-o", "s.json", "--zzzz"])
     assert "unrecognized arguments: --zzzz" in err and "did you mean" not in err
+
+
+def _signature(parser: argparse.ArgumentParser) -> list:
+    """What parsing with ``parser`` depends on: its actions and its ``set_defaults``."""
+    return [(a.option_strings, a.dest, a.nargs, a.const, a.default, a.type, a.required,
+             sorted(a.choices) if isinstance(a.choices, dict) else a.choices)
+            for a in parser._actions] + [parser._defaults]
+
+
+@pytest.mark.parametrize("name", [name for name, _ in PARSERS[1:]])
+def test_the_parser_of_one_command_line_is_the_whole_trees_part(name):
+    """``build_parser(argv)`` (what :func:`main` parses with) builds only the sub-command that
+    ``argv`` names, and it helps and parses as in the whole tree, sub-commands below included."""
+    words = name.split()[1:]
+    whole, part = dict(PARSERS), dict(iter_parsers(build_parser(words)))
+    below = [n for n in whole if n == name or n.startswith(name + " ")]
+    for n in below:
+        assert part[n].format_help() == whole[n].format_help(), n
+        assert part[n].format_usage() == whole[n].format_usage(), n
+        assert _signature(part[n]) == _signature(whole[n]), n
+    if words != ["bench"]:
+        assert len(part) < len(whole)
+
+
+@pytest.mark.parametrize("argv", [[], ["--help"], ["slove"], ["bench"], ["bench", "sweeep"]])
+def test_a_command_line_naming_no_sub_command_gets_the_whole_tree(argv):
+    assert [n for n, _ in iter_parsers(build_parser(argv))] == [n for n, _ in PARSERS]
+
+
+def test_each_command_line_gets_a_fresh_parser():
+    """Nothing one parse hands out (a list default) or registers is kept for the next."""
+    from vggc_cp.importers import IMPORTERS, Argument, Importer, register_importer
+
+    first = build_parser(["notebook", "n.ipynb"]).parse_args(["notebook", "n.ipynb"])
+    first.param.append("x=1")
+    again = build_parser(["notebook", "n.ipynb"]).parse_args(["notebook", "n.ipynb"])
+    assert again.param == []
+    register_importer(Importer("npy-help-test", "h", "d.", (Argument("array", "a"),),
+                               lambda config, array: None))
+    try:
+        args = build_parser(["import", "npy-help-test"]).parse_args(
+            ["import", "npy-help-test", "x.npy", "-o", "t.npz"])
+        assert args.importer == "npy-help-test" and args.array == "x.npy"
+    finally:
+        IMPORTERS.pop("npy-help-test")

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import functools
 import importlib
 import os
 import re
 import signal
 import sys
+from collections.abc import Sequence
 
 from vggc_cp.errors import VggcError
 
@@ -125,7 +127,46 @@ def iter_parsers(parser: argparse.ArgumentParser, prefix: str = "vggc-cp"):
                     yield from iter_parsers(child, f"{prefix} {name}")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of ``vggc-cp``, built afresh on every call.
+
+    Without ``argv``, every sub-command. With the command line ``argv``, only the module that
+    registers the sub-command (or ``bench`` target) it names contributes, which parses, helps
+    and refuses ``argv`` exactly as the whole tree would: the whole tree costs about 25 ms
+    (gettext and the terminal's size for each of its 37 parsers and 300 options) and
+    :func:`main` builds one per call, which tests do hundreds of times. A command line that
+    names no known sub-command (an option, a typo, ``bench`` alone) gets the whole tree, for
+    the usage and the nearest choice.
+
+    Fresh rather than kept: a registry entry added since the last call (an importer's new
+    layout) is there, and nothing one parse leaves on a parser (the defaults it handed out,
+    ``Parser._given``) reaches the next.
+    """
+    if argv is not None:
+        owner = _owners().get(_named(argv))
+        if owner is not None:
+            parser, owners = _build(owner)
+            if _named(argv) in owners:  # else the module no longer registers it
+                return parser
+    return _build()[0]
+
+
+def _named(argv: Sequence[str]) -> tuple[str, ...]:
+    """What ``argv`` names: ``(command,)``, ``("bench", target)``, or ``()``."""
+    words = list(argv[:2])
+    return tuple(words) if words[:1] == ["bench"] and len(words) == 2 else tuple(words[:1])
+
+
+@functools.cache
+def _owners() -> dict[tuple[str, ...], tuple[str, bool]]:
+    """Which module registers each sub-command, and whether as a ``bench`` target (learned
+    from one whole tree per process; :func:`build_parser` checks each use)."""
+    return _build()[1]
+
+
+def _build(only: tuple[str, bool] | None = None):
+    """The parser with every module's sub-commands, or only those ``only`` names (a module,
+    and whether its ``bench`` targets); and the ``_named`` key -> ``only`` of each one built."""
     parser = Parser(
         prog="vggc-cp",
         description="Learn discrete pick/place task graphs from RGB traces (VGGC + CP-SAT).",
@@ -139,14 +180,24 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks that print ratios against a baseline")
     bench_sub = bench.add_subparsers(dest="target", metavar="TARGET")
     bench_sub.required = True
+    owners: dict[tuple[str, ...], tuple[str, bool]] = {}
     for name in COMMAND_MODULES:
         module = importlib.import_module(name)
-        module.register(sub)
-        if hasattr(module, "register_bench"):
-            module.register_bench(bench_sub)
+        if only in (None, (name, False)):
+            owners.update(_registered(module.register, sub, (), (name, False)))
+        if hasattr(module, "register_bench") and only in (None, (name, True)):
+            owners.update(_registered(module.register_bench, bench_sub, ("bench",),
+                                      (name, True)))
     for _name, each in iter_parsers(parser):
         each.formatter_class = HelpFormatter  # every --help shows the defaults
-    return parser
+    return parser, owners
+
+
+def _registered(register, action, prefix: tuple[str, ...], owner: tuple[str, bool]) -> dict:
+    """Call ``register(action)``; the ``_named`` key of each sub-command it added -> ``owner``."""
+    before = set(action.choices)
+    register(action)
+    return {(*prefix, new): owner for new in action.choices if new not in before}
 
 
 def _pipe_closed() -> int:
@@ -173,8 +224,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with guard():
             try:
-                parser = build_parser()
-                args = parser.parse_args(argv)
+                if argv is None:
+                    argv = sys.argv[1:]
+                args = build_parser(argv).parse_args(argv)
                 from vggc_cp.safeio import preflight
 
                 preflight(args)  # inputs and outputs checked before any work
