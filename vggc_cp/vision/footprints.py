@@ -56,6 +56,10 @@ run of observations between actions at the site takes one presence (its median, 
 labelled frames show it reads better, a reading per pose of the hand that they teach,
 :mod:`vggc_cp.vision.untouched`) and its mean colour (:func:`vggc_cp.vision.occupancy.settle`),
 so a frame in which an arm, the object it holds or a distractor hides the site cannot mislead.
+Objects are conserved: the slots an episode never touches hold what the touched slots and the
+hand leave of the trace's object counts, assigned as their readings make most likely
+(:mod:`vggc_cp.vision.conservation`), so a place hidden in every frame of an episode is
+decided by the count.
 Which pick and place share a slot is read from the sequence where it settles it (they
 alternate in every episode, :func:`vggc_cp.vision.slots.sequence_twins`), so footprints
 that lie on an arm do not pair the wrong actions; where the frames right after each action

@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
+from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
 from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
 from vggc_cp.vision.untouched import (
@@ -275,6 +276,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       a run of a slot that another slot covers in some of its frames takes the colour of its
       uncovered frames (:func:`uncovered_colour`).
 
+    Last, objects are conserved: what the slots an episode never touches hold is assigned as
+    the trace's object counts require and the readings, each as far as its kappa trusts it,
+    make most likely (:func:`vggc_cp.vision.conservation.conserve`).
+
     The actions at a site are found with the twins and slot mates the trace's sequence
     allows (:func:`action_twins`, :func:`action_mates`).
 
@@ -321,6 +326,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, posterior = presence.copy(), posterior.copy()
     stated = np.zeros(presence.shape, dtype=bool)
     kappa = np.full(presence.shape[1], np.nan)
+    trust = np.zeros(presence.shape)
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
@@ -349,6 +355,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         labels = site_labels(actions, episodes, acting, kinds, colour)
         known = labels != UNLABELLED
         stated[:, a] = known
+        trust[known, a] = 1.0
         raw = presence[:, a].copy()
         presence[known, a] = (labels[known] >= 0).astype(np.float64)
         full = np.flatnonzero(labels >= 0)
@@ -390,16 +397,23 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         guess = majority_guess(own, labels)
         # the reading the runs took: the pose's, else the footprint presence, else the guess
         kappa[a] = reading_kappa(used if read else own if guess is None else None, labels)
+        own_kappa = max(reading_kappa(own, labels), 0.0) if guess is None else 0.0
+        read_kappa = max(reading_kappa(used, labels), 0.0) if read else 0.0
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
             fallback = np.median(presence[members, a]) if guess is None else guess
             presence[members, a] = read.get(int(ids[k]), fallback)
+            trust[members, a] = read_kappa if int(ids[k]) in read else own_kappa
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap)
+    # objects are conserved: the counts decide what the readings leave open
+    slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
+    presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
+                                      slots_above(runs, ov, site_overlap))
     return presence, posterior, stated, kappa
 
 

@@ -1,0 +1,330 @@
+"""Objects are conserved: what the untouched slots of an episode hold, as the counts require.
+
+A pick lifts an object and the next place puts it down; nothing else creates or removes one.
+So in every observation the number of objects of each colour on the slots, plus the one in the
+hand, is the same, ``K_c`` (objects at places no action of the trace touches never change
+and are left out of the count alike). ``K_c`` is the count under which the episodes'
+readings are most likely (:func:`best_counts`), searched from the count most observations
+show (:func:`object_counts`): a slot an arm hides in most frames can make the most frequent
+count wrong, and the episodes whose actions state where the objects are outweigh it.
+
+In an episode the actions state what every slot they touch holds (:func:`settle
+<vggc_cp.vision.occupancy.settle>`); every other slot holds one thing for the whole episode,
+and that is read from the images, well where a reading reaches it and not at all where an arm
+hides it in every frame. The untouched slots together hold ``K_c`` less what the touched slots
+and the hand hold, ``n_c`` objects of colour ``c``: the assignment of ``n_c`` slots to each
+colour (the rest empty) that the readings make most likely is what they hold
+(:func:`episode_assignment`, the Hungarian method on log-likelihoods).
+
+A reading counts as far as it can be trusted: with settled presence ``p`` of a reading whose
+agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen's kappa,
+:func:`vggc_cp.vision.occupancy.reading_kappa`; 0 for a run no reading reaches), the
+probability that the slot holds something is ``1/2 + kappa (p - 1/2)``, and of colour ``c``
+that times the run's colour posterior. A slot nothing can read is decided by the counts and
+the other slots alone; where they cannot decide either (two unread slots, one object), the
+reading's low kappa is what the read doubts report (:mod:`vggc_cp.solvers.read_doubts`).
+
+The counts decide only where they do: an episode whose best assignment changes a reading
+but ties with another assignment (two slots read full with equal certainty and one object
+to place: the counts would toss a coin) keeps its readings (:func:`runner_up`). So do an
+episode whose assignment puts an object on a slot above an empty one (a block on a block,
+where the actions state which slot is above which) and one whose counts the stated slots
+already contradict (fewer objects left than they need, or more than the untouched slots can
+hold). Nothing reads action names or ground-truth states.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from vggc_cp.trace import PICK, Trace
+from vggc_cp.vision.slots import acting_at
+
+#: Floor of a probability in the log-likelihoods (a reading never rules a value out).
+FLOOR = 1e-3
+#: Log-likelihoods closer than this are a tie: the counts do not decide between them.
+TIE = 1e-6
+
+
+def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np.ndarray,
+                mates: np.ndarray | None, site_overlap: float) -> np.ndarray:
+    """Slot of every action, int64 shape (A,): actions that act at one slot (an action, its
+    twin and its mates, :func:`~vggc_cp.vision.slots.acting_at`, transitively) share one;
+    -1 for an action never taken or of no colour.
+
+    >>> ov = np.eye(4); colour = np.array([0, 0, 1, 1]); twin = np.array([1, 0, 3, 2])
+    >>> slot_groups(ov, colour, np.ones(4, int), twin, None, 0.5).tolist()
+    [0, 0, 1, 1]
+    """
+    n = len(colour)
+    taken = np.flatnonzero((counts > 0) & (colour >= 0))
+    rows, cols = [], []
+    for a in taken:
+        for b in acting_at(int(a), ov, colour, twin, site_overlap, mates):
+            rows.append(int(a))
+            cols.append(int(b))
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
+    out = np.full(n, -1, dtype=np.int64)
+    _, out[taken] = np.unique(comp[taken], return_inverse=True)
+    return out
+
+
+def held_colours(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """Colour of what the hand holds in every observation, int64 shape (N,), -1 for nothing:
+    after a pick, what it lifted; before a place, what it puts down.
+
+    >>> held_colours(np.array([0, 1, -1, 0]), np.array([0, 1]), np.array([2, 2])).tolist()
+    [-1, 2, -1, -1, 2]
+    """
+    held = np.full(len(actions) + 1, -1, dtype=np.int64)
+    for t, a in enumerate(actions):
+        if a < 0:
+            continue
+        if kinds[a] == PICK:
+            held[t + 1] = colour[a]
+        else:
+            held[t] = colour[a]
+    return held
+
+
+def object_counts(values: np.ndarray, held: np.ndarray, n_col: int) -> np.ndarray:
+    """The number of objects of each colour on the slots and in the hand that most
+    observations show, int64 shape (C,): where the search for ``K_c`` starts
+    (:func:`best_counts`).
+
+    Parameters
+    ----------
+    values : ndarray of int, shape (N, S)
+        What every slot holds as settled: -1 empty, else a colour.
+    held : ndarray of int, shape (N,)
+        :func:`held_colours`.
+
+    >>> values = np.array([[0, -1], [-1, -1], [0, -1], [0, 0]])    # one misread frame
+    >>> object_counts(values, np.array([-1, 0, -1, -1]), 1).tolist()   # in the hand at 1
+    [1]
+    """
+    out = np.zeros(n_col, dtype=np.int64)
+    for c in range(n_col):
+        per_frame = (values == c).sum(axis=1) + (held == c)
+        out[c] = int(np.bincount(per_frame).argmax())
+    return out
+
+
+def _gains(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Log-likelihood of every slot holding what every column stands for, shape (L, L), and
+    the columns: ``need[c]`` of colour ``c``, the rest empty (-1)."""
+    p = np.clip(np.nan_to_num(p_occupied, nan=0.5), FLOOR, 1.0 - FLOOR)
+    post = np.clip(np.nan_to_num(colour_post, nan=1.0), FLOOR, None)
+    post = post / post.sum(axis=1, keepdims=True)
+    occupied = np.log(p)[:, None] + np.log(post)                    # (L, C)
+    empty = np.log(1.0 - p)                                          # (L,)
+    columns = np.concatenate([np.repeat(np.arange(len(need)), need),
+                              np.full(len(p) - int(need.sum()), -1)]).astype(np.int64)
+    gain = np.where(columns[None, :] >= 0, occupied[:, np.maximum(columns, 0)], empty[:, None])
+    return gain, columns
+
+
+def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray
+                       ) -> tuple[np.ndarray, float]:
+    """The most likely contents of untouched slots that hold ``need[c]`` objects of colour
+    ``c``, and their log-likelihood.
+
+    Parameters
+    ----------
+    p_occupied : ndarray, shape (L,)
+        Probability that each slot holds something.
+    colour_post : ndarray, shape (L, C)
+        Colour posterior of what each slot holds.
+    need : ndarray of int, shape (C,)
+
+    Returns
+    -------
+    contents : ndarray of int64, shape (L,)
+        -1 empty, else a colour.
+    loglik : float
+        Of the readings under ``contents``. Counts no assignment meets (a negative need,
+        or more objects than slots) cost ``log FLOOR`` per object too many or too few, as
+        a reading that rules a value out would: the counts are as much evidence as a
+        reading, no more.
+
+    >>> contents, _ = episode_assignment(np.array([0.5, 0.5, 0.9]),
+    ...                                  np.array([[1.0], [1.0], [1.0]]), np.array([2]))
+    >>> contents.tolist()
+    [0, -1, 0]
+    """
+    need = np.asarray(need, dtype=np.int64)
+    short = int(np.maximum(-need, 0).sum())
+    need = np.maximum(need, 0)
+    excess = max(int(need.sum()) - len(p_occupied), 0)
+    for _ in range(excess):                      # drop the most wanted colour's extra ones
+        need[int(np.argmax(need))] -= 1
+    penalty = (short + excess) * np.log(FLOOR)
+    out = np.empty(len(p_occupied), dtype=np.int64)
+    if not len(p_occupied):
+        return out, float(penalty)
+    gain, columns = _gains(p_occupied, colour_post, need)
+    rows, picked = linear_sum_assignment(-gain)
+    out[rows] = columns[picked]
+    return out, float(gain[rows, picked].sum() + penalty)
+
+
+def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+              contents: np.ndarray) -> float:
+    """Log-likelihood of the most likely assignment (as :func:`episode_assignment`, ``need``
+    met) that differs from ``contents`` in at least one slot; ``-inf`` where none does.
+
+    The best assignment that gives slot ``i`` anything but ``contents[i]``, the best over
+    ``i`` (the first step of Murty's ranking of assignments).
+
+    >>> p, post = np.array([0.9, 0.9, 0.2]), np.ones((3, 1))
+    >>> best, loglik = episode_assignment(p, post, np.array([1]))
+    >>> round(loglik - runner_up(p, post, np.array([1]), best), 6)    # a coin toss
+    0.0
+    """
+    gain, columns = _gains(p_occupied, colour_post, np.asarray(need, dtype=np.int64))
+    out = -np.inf
+    for i in range(len(contents)):
+        banned = gain.copy()
+        banned[i, columns == contents[i]] = -np.inf
+        if not np.isfinite(banned[i]).any():
+            continue
+        try:
+            rows, picked = linear_sum_assignment(-banned)
+        except ValueError:                       # no assignment avoids the ban
+            continue
+        out = max(out, float(banned[rows, picked].sum()))
+    return out
+
+
+def best_counts(episodes: list[tuple], start: np.ndarray) -> np.ndarray:
+    """``K_c``: the object counts under which the episodes' readings are most likely.
+
+    Each episode contributes the log-likelihood of its best assignment
+    (:func:`episode_assignment`) given what its touched slots and the hand hold; the counts
+    move one object of one colour at a time from ``start`` while that raises the total (a
+    slot misread in most frames would make the most frequent count wrong; the episodes
+    whose actions state where the objects are outweigh it).
+
+    Parameters
+    ----------
+    episodes : list of (fixed, p_occupied, colour_post)
+        ``fixed`` (C,): objects of each colour the touched slots and the hand hold at the
+        episode's start; the rest as for :func:`episode_assignment`.
+    start : ndarray of int, shape (C,)
+
+    >>> ones = np.ones((2, 1))
+    >>> eps = [(np.array([1]), np.array([0.9, 0.1]), ones)] * 3 + \\
+    ...       [(np.array([0]), np.array([0.9, 0.9]), ones)]          # one episode misread
+    >>> best_counts(eps, np.array([3])).tolist()               # from the wrong start
+    [2]
+    """
+    def total(k):
+        return sum(episode_assignment(p, post, k - fixed)[1] for fixed, p, post in episodes)
+
+    best, score = start.copy(), total(start)
+    improved = True
+    while improved:
+        improved = False
+        for c in range(len(best)):
+            for step in (-1, 1):
+                k = best.copy()
+                k[c] += step
+                if k[c] < 0:
+                    continue
+                t = total(k)
+                if t > score + 1e-9:
+                    best, score, improved = k, t, True
+    return best
+
+
+def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
+             trust: np.ndarray, slot: np.ndarray, colour: np.ndarray,
+             above: dict[int, list[int]] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """What every episode's untouched slots hold, as the object counts require (module
+    docstring).
+
+    Parameters
+    ----------
+    trace : Trace
+        Its actions and episodes (never its states).
+    presence, posterior : ndarray, shapes (N, A) and (N, A, C)
+        Settled (:func:`vggc_cp.vision.occupancy.settle`).
+    stated : ndarray of bool, shape (N, A)
+        Where the actions state what a site holds.
+    trust : ndarray, shape (N, A)
+        How far each settled presence can be trusted, in [0, 1] (kappa of its reading).
+    slot : ndarray of int, shape (A,)
+        :func:`slot_groups`.
+    colour : ndarray of int, shape (A,)
+    above : dict, optional
+        Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+
+    Returns
+    -------
+    presence, posterior : ndarray
+        Copies, the untouched slots of every episode set to 0 / 1 and one-hot colours.
+    changed : int
+        Slot-episodes whose contents changed.
+    """
+    presence, posterior = presence.copy(), posterior.copy()
+    n_slots = int(slot.max()) + 1 if len(slot) and slot.max() >= 0 else 0
+    if n_slots == 0:
+        return presence, posterior, 0
+    n_col = posterior.shape[2]
+    members = [np.flatnonzero(slot == s) for s in range(n_slots)]
+    soft = 0.5 + np.clip(trust, 0.0, 1.0) * (presence - 0.5)
+    p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
+    p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
+    post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
+    told = np.stack([stated[:, m].any(axis=1) for m in members], axis=1)
+    values = np.where(p >= 0.5, post.argmax(axis=-1), -1)
+    held = held_colours(trace.actions, trace.action_kinds(), colour)
+    below = {}                                     # slot -> slots that must hold something
+    for a, tops in (above or {}).items():
+        for b in tops:
+            if slot[a] >= 0 and slot[b] >= 0:
+                below.setdefault(int(slot[b]), set()).add(int(slot[a]))
+    # every episode: the slots it leaves untouched, what the others and the hand hold
+    plans = []
+    for first, last in trace.episodes():
+        frames = np.arange(first, last + 1)
+        acted = np.zeros(n_slots, dtype=bool)
+        steps = trace.actions[first:last]
+        steps = slot[steps[steps >= 0]]
+        acted[steps[steps >= 0]] = True
+        loose = np.flatnonzero(~acted & ~told[frames].any(axis=0))
+        fixed = np.setdiff1d(np.arange(n_slots), loose)
+        holds = np.array([(values[first, fixed] == c).sum() + (held[first] == c)
+                          for c in range(n_col)])
+        plans.append((first, last, loose, fixed, holds,
+                      p_soft[frames][:, loose].mean(axis=0), post[frames][:, loose].mean(axis=0)))
+    total = best_counts([(h, ps, po) for *_, h, ps, po in plans],
+                        object_counts(values, held, n_col))
+    changed = 0
+    for first, last, loose, fixed, holds, p_loose, post_loose in plans:
+        need = total - holds
+        if not len(loose) or (need < 0).any() or need.sum() > len(loose):
+            continue                       # the stated slots already break the counts
+        new, best = episode_assignment(p_loose, post_loose, need)
+        if (new != values[first, loose]).any() and \
+                best - runner_up(p_loose, post_loose, need, new) < TIE:
+            continue                       # another assignment as likely: a coin toss
+        full = np.zeros(n_slots, dtype=bool)
+        full[fixed] = values[first, fixed] >= 0
+        full[loose] = new >= 0
+        if any(full[s] and not full[list(under)].all() for s, under in below.items()):
+            continue                       # an object above an empty slot: a stack
+        for i, s in enumerate(loose):
+            changed += int(new[i] != values[first, s])
+            cols = members[s]
+            if new[i] < 0:
+                presence[first:last + 1, cols] = 0.0
+            else:
+                presence[first:last + 1, cols] = 1.0
+                posterior[first:last + 1, cols] = np.eye(n_col)[new[i]]
+    return presence, posterior, changed
