@@ -6,7 +6,10 @@ hand, is the same, ``K_c`` (objects at places no action of the trace touches nev
 and are left out of the count alike). ``K_c`` is the count under which the episodes'
 readings are most likely (:func:`best_counts`), searched from the count most observations
 show (:func:`object_counts`): a slot an arm hides in most frames can make the most frequent
-count wrong, and the episodes whose actions state where the objects are outweigh it.
+count wrong, and the episodes whose actions state where the objects are outweigh it. Where
+the recording does not settle the counts (a count one object away at least 1/20 as likely:
+a slot above another read full where nothing stands, in a short recording), nothing is
+assigned.
 
 In an episode the actions state what every slot they touch holds (:func:`settle
 <vggc_cp.vision.occupancy.settle>`); every other slot holds one thing for the whole episode,
@@ -47,6 +50,9 @@ from vggc_cp.vision.slots import acting_at
 FLOOR = 1e-3
 #: Log-likelihoods closer than this are a tie: the counts do not decide between them.
 TIE = 1e-6
+#: The object counts are used only where they are at least 20 times as likely as any count
+#: one object away (the odds the sequence's twins are taken at, :mod:`vggc_cp.vision.slots`).
+COUNT_ODDS = float(np.log(20.0))
 
 
 def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np.ndarray,
@@ -201,8 +207,9 @@ def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
     return out
 
 
-def best_counts(episodes: list[tuple], start: np.ndarray) -> np.ndarray:
-    """``K_c``: the object counts under which the episodes' readings are most likely.
+def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, float]:
+    """``K_c``: the object counts under which the episodes' readings are most likely, and by
+    how much they beat the counts one object away.
 
     Each episode contributes the log-likelihood of its best assignment
     (:func:`episode_assignment`) given what its touched slots and the hand hold; the counts
@@ -217,34 +224,48 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> np.ndarray:
         episode's start; the rest as for :func:`episode_assignment`.
     start : ndarray of int, shape (C,)
 
+    Returns
+    -------
+    counts : ndarray of int64, shape (C,)
+    margin : float
+        Log-likelihood of ``counts`` less the best of the counts one object away (``inf``
+        where there is none).
+
     >>> ones = np.ones((2, 1))
     >>> eps = [(np.array([1]), np.array([0.9, 0.1]), ones)] * 3 + \\
     ...       [(np.array([0]), np.array([0.9, 0.9]), ones)]          # one episode misread
-    >>> best_counts(eps, np.array([3])).tolist()               # from the wrong start
-    [2]
+    >>> counts, margin = best_counts(eps, np.array([3]))           # from the wrong start
+    >>> counts.tolist(), round(margin, 2)
+    ([2], 8.79)
     """
     def total(k):
         return sum(episode_assignment(p, post, k - fixed)[1] for fixed, p, post in episodes)
 
-    best, score = start.copy(), total(start)
+    def neighbours(k):
+        for c in range(len(k)):
+            for step in (-1, 1):
+                near = k.copy()
+                near[c] += step
+                if near[c] >= 0:
+                    yield near
+
+    best, score = np.asarray(start, dtype=np.int64).copy(), total(start)
     improved = True
     while improved:
         improved = False
-        for c in range(len(best)):
-            for step in (-1, 1):
-                k = best.copy()
-                k[c] += step
-                if k[c] < 0:
-                    continue
-                t = total(k)
-                if t > score + 1e-9:
-                    best, score, improved = k, t, True
-    return best
+        for k in neighbours(best):
+            t = total(k)
+            if t > score + 1e-9:
+                best, score, improved = k, t, True
+                break
+    margin = min((score - total(k) for k in neighbours(best)), default=np.inf)
+    return best, float(margin)
 
 
 def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
              trust: np.ndarray, slot: np.ndarray, colour: np.ndarray,
-             above: dict[int, list[int]] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+             above: dict[int, list[int]] | None = None, odds: float = COUNT_ODDS
+             ) -> tuple[np.ndarray, np.ndarray, int]:
     """What every episode's untouched slots hold, as the object counts require (module
     docstring).
 
@@ -263,6 +284,9 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
     colour : ndarray of int, shape (A,)
     above : dict, optional
         Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+    odds : float
+        The log-likelihood by which the counts must beat every count one object away
+        (:func:`best_counts`) to be used; :data:`COUNT_ODDS` (20 to 1) by default.
 
     Returns
     -------
@@ -303,8 +327,10 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
                           for c in range(n_col)])
         plans.append((first, last, loose, fixed, holds,
                       p_soft[frames][:, loose].mean(axis=0), post[frames][:, loose].mean(axis=0)))
-    total = best_counts([(h, ps, po) for *_, h, ps, po in plans],
-                        object_counts(values, held, n_col))
+    total, margin = best_counts([(h, ps, po) for *_, h, ps, po in plans],
+                                object_counts(values, held, n_col))
+    if margin < odds:
+        return presence, posterior, 0      # the recording does not settle the counts
     changed = 0
     for first, last, loose, fixed, holds, p_loose, post_loose in plans:
         need = total - holds
