@@ -157,6 +157,24 @@ def content_prefix(shape) -> bytes:
     return repr(tuple(int(v) for v in shape)).encode()
 
 
+def hand_colours_along(n_obs: int, src: np.ndarray, act: np.ndarray, dst: np.ndarray,
+                       lifted: np.ndarray, put: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """Colour of what the hand holds in every observation, int64 shape (N,), -1 for nothing:
+    after a transition that lifts an object (``lifted``) the colour of its action, before one
+    that puts it down (``put``) likewise; where the two disagree the putting down wins.
+
+    >>> hand_colours_along(4, np.array([0, 1, 2]), np.array([0, 1, 0]), np.array([1, 2, 3]),
+    ...                    np.array([True, False, True]), np.array([False, True, False]),
+    ...                    np.array([5, 5])).tolist()
+    [-1, 5, -1, 5]
+    """
+    hand = np.full(n_obs, -1, dtype=np.int64)
+    colour = np.asarray(colour, dtype=np.int64)
+    hand[dst[lifted]] = colour[act[lifted]]
+    hand[src[put]] = colour[act[put]]
+    return hand
+
+
 def compute_roles(actions: np.ndarray, action_names) -> np.ndarray:
     """Roles from actions alone (assumes a valid trace). Returns int8 array of shape (N,)."""
     kinds = np.array([action_kind(a) for a in action_names], dtype=np.int8)

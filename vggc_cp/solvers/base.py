@@ -18,7 +18,7 @@ from vggc_cp.errors import lookup
 from vggc_cp.graph import TaskGraph
 from vggc_cp.score import visual_score
 from vggc_cp.solvers.selection import GRID
-from vggc_cp.trace import PICK, PLACE, Trace
+from vggc_cp.trace import PICK, PLACE, Trace, hand_colours_along
 
 OPTIMAL = "optimal"
 FEASIBLE = "feasible"
@@ -134,16 +134,13 @@ def hand_colours(problem) -> np.ndarray:
     >>> hand_colours(p).tolist()
     [-1, 0, -1, 1]
     """
-    hand = np.full(len(problem.roles), -1, dtype=np.int64)
     colour = problem.action_colour
     if colour is None or len(problem.act) == 0:
-        return hand
-    colour = np.asarray(colour, dtype=np.int64)
-    into = problem.roles[problem.dst] == PLACE            # a pick: the hand now holds it
-    hand[problem.dst[into]] = colour[problem.act[into]]
-    out = problem.roles[problem.src] == PLACE             # a place: the hand held it
-    hand[problem.src[out]] = colour[problem.act[out]]
-    return hand
+        return np.full(len(problem.roles), -1, dtype=np.int64)
+    return hand_colours_along(len(problem.roles), problem.src, problem.act, problem.dst,
+                              problem.roles[problem.dst] == PLACE,   # a pick: it holds it now
+                              problem.roles[problem.src] == PLACE,   # a place: it held it
+                              colour)
 
 
 @dataclass(frozen=True, eq=False)

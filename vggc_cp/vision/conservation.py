@@ -43,7 +43,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from vggc_cp.trace import PICK, Trace
+from vggc_cp.trace import PICK, Trace, hand_colours_along
 from vggc_cp.vision.slots import acting_at
 
 #: Floor of a probability in the log-likelihoods (a reading never rules a value out).
@@ -81,20 +81,17 @@ def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np
 
 def held_colours(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
     """Colour of what the hand holds in every observation, int64 shape (N,), -1 for nothing:
-    after a pick, what it lifted; before a place, what it puts down.
+    after a pick, what it lifted; before a place, what it puts down
+    (:func:`~vggc_cp.trace.hand_colours_along`, as :func:`vggc_cp.solvers.base.hand_colours`
+    reads a problem).
 
     >>> held_colours(np.array([0, 1, -1, 0]), np.array([0, 1]), np.array([2, 2])).tolist()
     [-1, 2, -1, -1, 2]
     """
-    held = np.full(len(actions) + 1, -1, dtype=np.int64)
-    for t, a in enumerate(actions):
-        if a < 0:
-            continue
-        if kinds[a] == PICK:
-            held[t + 1] = colour[a]
-        else:
-            held[t] = colour[a]
-    return held
+    src = np.flatnonzero(np.asarray(actions) >= 0)
+    act = np.asarray(actions)[src]
+    lifted = np.asarray(kinds)[act] == PICK
+    return hand_colours_along(len(actions) + 1, src, act, src + 1, lifted, ~lifted, colour)
 
 
 def object_counts(values: np.ndarray, held: np.ndarray, n_col: int) -> np.ndarray:
@@ -238,8 +235,14 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
     >>> counts.tolist(), round(margin, 2)
     ([2], 8.79)
     """
+    seen: dict[tuple, float] = {}
+
     def total(k):
-        return sum(episode_assignment(p, post, k - fixed)[1] for fixed, p, post in episodes)
+        key = tuple(int(v) for v in k)
+        if key not in seen:
+            seen[key] = sum(episode_assignment(p, post, k - fixed)[1]
+                            for fixed, p, post in episodes)
+        return seen[key]
 
     def neighbours(k):
         for c in range(len(k)):

@@ -408,12 +408,13 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
+    above = slots_above(runs, ov, site_overlap)
     if n_col > 1:
-        uncovered_colour(presence, posterior, seen, runs, ov, site_overlap)
+        uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
     # objects are conserved: the counts decide what the readings leave open
     slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
-                                      slots_above(runs, ov, site_overlap))
+                                      above)
     return presence, posterior, stated, kappa
 
 
@@ -473,7 +474,8 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float) -> dict[int, li
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,
-                     runs: dict, ov: np.ndarray, site_overlap: float) -> None:
+                     runs: dict, ov: np.ndarray, site_overlap: float,
+                     above: dict[int, list[int]] | None = None) -> None:
     """The colour of a covered slot's unlabelled runs from its uncovered frames, in place.
 
     Between two actions at a slot what it holds does not change, but while another slot
@@ -482,7 +484,7 @@ def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarr
     site above it empty there, presence below 1/2) takes the mean colour those frames read
     (``seen``, the posterior before the run means); a run covered throughout keeps its mean.
     """
-    above = slots_above(runs, ov, site_overlap)
+    above = slots_above(runs, ov, site_overlap) if above is None else above
     for a, tops in above.items():
         _, run, loose, _ = runs[a]
         if not len(loose):
