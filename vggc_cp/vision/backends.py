@@ -1,7 +1,7 @@
 """Array backends of the batched Sinkhorn solver: the same operations on numpy or torch.
 
 :func:`array_ops` gives the solver of :mod:`vggc_cp.vision.sinkhorn` one object whose methods
-(products, column slices, ``logsumexp``, ...) run on numpy (CPU, BLAS threads) or torch (CUDA
+(products, column slices, ``logsumexp``, ...) run on numpy (CPU) or torch (CUDA
 when asked and present, else CPU); torch is imported only when a torch device is asked for.
 """
 
@@ -19,7 +19,7 @@ DTYPES = ("float32", "float64")
 
 
 class NumpyOps:
-    """Array operations of the solver on numpy (CPU, BLAS threads)."""
+    """Array operations of the solver on numpy (CPU; one BLAS thread per worker thread)."""
 
     name = "numpy"
 
@@ -59,7 +59,16 @@ class NumpyOps:
 
     @contextlib.contextmanager
     def session(self) -> Iterator[None]:
-        yield  # BLAS threads follow OMP/OPENBLAS_NUM_THREADS; nothing to change per call
+        """One BLAS thread per worker while solving (restored after), as :class:`TorchOps`.
+
+        The solver's worker threads each own a slice of the problems and call BLAS at once.
+        OpenBLAS's own thread pool, entered by two Python threads at a time, can hang the
+        process (OpenBLAS#1844, numpy#17752): ``threadpoolctl`` keeps it at one thread.
+        """
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
 
     @contextlib.contextmanager
     def worker(self) -> Iterator[None]:

@@ -328,7 +328,7 @@ def sinkhorn_costs(hists: np.ndarray, src: np.ndarray, dst: np.ndarray, M: np.nd
         Problems in flight at once (columns of each matrix product).
     threads : int or None
         Worker threads on the CPU, each solving an interleaved share of the problems with one
-        intra-op thread (numpy's BLAS keeps its own threads).
+        intra-op thread (numpy's BLAS and torch's pool are held at one thread meanwhile).
     domain : {"auto", "log"}
         ``log`` forces the log-domain iteration (``auto`` uses it only when needed).
     on_done : callable, optional
