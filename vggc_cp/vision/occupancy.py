@@ -47,6 +47,7 @@ from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
 from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
+from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_agreement,
@@ -409,10 +410,12 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
     above = slots_above(runs, ov, site_overlap)
+    slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
+    # objects rest on something: nothing above an empty slot
+    presence, _ = supported(presence, trust, stated, slot, above)
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
     # objects are conserved: the counts decide what the readings leave open
-    slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
                                       above)
     return presence, posterior, stated, kappa

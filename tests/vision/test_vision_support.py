@@ -1,0 +1,63 @@
+"""Objects rest on something (vggc_cp.vision.support): nothing is read in the air."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.vision.support import fillings, supported
+
+#: two sites per slot (a pick and a place), three slots stacked: 0 at the bottom
+SLOT = np.array([0, 0, 1, 1, 2, 2])
+#: the pick at slot 1 and the place at slot 2 stand on the place below them (as
+#: vggc_cp.vision.occupancy.slots_above reports stacks: site -> sites on it)
+ABOVE = {1: [2, 3], 3: [4, 5]}
+
+
+def _slots(values):
+    """(N, 3) slot presences -> (N, 6) site presences."""
+    return np.repeat(np.asarray(values, dtype=float), 2, axis=1)
+
+
+def test_a_tower_is_filled_from_the_bottom_and_two_tops_need_their_base():
+    assert fillings({1: {0}, 2: {1}}, [0, 1, 2]).astype(int).tolist() == \
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [1, 1, 1]]
+    both = fillings({1: {0}, 2: {0}}, [0, 1, 2]).astype(int).tolist()
+    assert sorted(both) == [[0, 0, 0], [1, 0, 0], [1, 0, 1], [1, 1, 0], [1, 1, 1]]
+
+
+def test_readings_with_nothing_in_the_air_stay_as_read():
+    presence = _slots([[1, 1, 0], [1, 0, 0], [0, 0, 0], [1, 1, 1]]) * 0.9
+    trust = np.full(presence.shape, 0.5)
+    out, changed = supported(presence, trust, np.zeros(presence.shape, bool), SLOT, ABOVE)
+    assert changed == 0 and np.array_equal(out, presence)
+
+
+def test_the_less_trusted_reading_gives_way():
+    """Slot 1 read full above an empty slot 0: with slot 0 trusted more, slot 1 is emptied;
+    with slot 1 trusted more, slot 0 is filled. Both sites of a slot change together."""
+    presence = _slots([[0, 1, 0], [0, 1, 0]])
+    trust = np.repeat(np.array([[0.9, 0.3, 0.9], [0.3, 0.9, 0.9]]), 2, axis=1)
+    out, changed = supported(presence, trust, np.zeros(presence.shape, bool), SLOT, ABOVE)
+    assert changed == 2
+    assert out[0].tolist() == [0, 0, 0, 0, 0, 0]
+    assert out[1].tolist() == [1, 1, 1, 1, 0, 0]
+
+
+def test_a_stated_reading_is_a_fact():
+    """Slot 0 stated empty (its trust no matter): slot 1 and 2, read full at kappa 0.99, are
+    emptied; slot 2 stated full: the slots under it are filled."""
+    presence = _slots([[0, 1, 1], [0, 0, 1]])
+    trust = np.full(presence.shape, 0.99)
+    trust[:, 0:2] = 0.0
+    stated = np.zeros(presence.shape, bool)
+    stated[0, 0:2] = True
+    stated[1, 4:6] = True
+    out, changed = supported(presence, trust, stated, SLOT, ABOVE)
+    assert out[0].tolist() == [0] * 6 and out[1].tolist() == [1] * 6 and changed == 4
+
+
+def test_no_stack_no_change():
+    presence = _slots([[0, 1, 1]])
+    out, changed = supported(presence, np.ones(presence.shape), np.zeros(presence.shape, bool),
+                             SLOT, {})
+    assert changed == 0 and np.array_equal(out, presence)

@@ -1,0 +1,125 @@
+"""Objects rest on something: a slot above another holds something only where that one does.
+
+Where the actions state that one slot is stacked on another (a block on a block,
+:func:`vggc_cp.vision.occupancy.slots_above`), a reading that puts something on the upper
+slot while the one below it is read empty is impossible: one of the two readings is wrong.
+Which one is the question the readings themselves answer: every way the slots of a stack can
+be filled that leaves nothing in the air (for a tower of three: heights 0 to 3) is scored by
+the log-likelihood of the readings, each trusted as far as its held-out kappa allows (as
+:mod:`vggc_cp.vision.conservation` weighs them: the probability that a slot holds something
+is ``1/2 + kappa (p - 1/2)``), and the most likely one is what the frame holds. What the
+actions state is a fact: a filling that contradicts it is ruled out, and a stated slot is
+never changed. Readings that already leave nothing in the air are the most likely
+filling and stay as they are.
+
+A robot arm's camera misreads the upper slots of a stack most (the tuning split's blocks-3
+robot traces read a level-1 slot full above an empty level 0 in 74 of 126 frames where their
+readings went wrong at all); the clean and randomized looks read them right.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+#: Floor of a probability in the log-likelihoods (a reading never rules a value out), as in
+#: :data:`vggc_cp.vision.conservation.FLOOR`.
+FLOOR = 1e-3
+#: Stacks of more slots than this are left as read (2^k fillings are scored per frame).
+MAX_STACK = 8
+
+
+def fillings(below: dict[int, set[int]], slots: list[int]) -> np.ndarray:
+    """Every way to fill ``slots`` that leaves nothing in the air, bool shape (F, len(slots)).
+
+    ``below[s]``: the slots that must hold something where ``s`` does.
+
+    >>> fillings({1: {0}, 2: {1}}, [0, 1, 2]).astype(int).tolist()   # a tower of three
+    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [1, 1, 1]]
+    """
+    index = {s: i for i, s in enumerate(slots)}
+    out = []
+    for bits in itertools.product((False, True), repeat=len(slots)):
+        if all(not bits[index[s]] or all(bits[index[u]] for u in below.get(s, ()) if u in index)
+               for s in slots):
+            out.append(bits)
+    return np.array(out, dtype=bool).reshape(-1, len(slots))
+
+
+def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot: np.ndarray,
+              above: dict[int, list[int]]) -> tuple[np.ndarray, int]:
+    """The presence of every site with nothing in the air (module docstring).
+
+    Parameters
+    ----------
+    presence : ndarray, shape (N, A)
+        Settled presence of every site (:func:`vggc_cp.vision.occupancy.settle`).
+    trust : ndarray, shape (N, A)
+        How far each settled presence can be trusted, in [0, 1] (kappa of its reading).
+    stated : ndarray of bool, shape (N, A)
+        Where the actions state what a site holds (trusted fully).
+    slot : ndarray of int, shape (A,)
+        Slot of every site (:func:`vggc_cp.vision.conservation.slot_groups`), -1 for none.
+    above : dict
+        Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+
+    Returns
+    -------
+    presence : ndarray, shape (N, A)
+        A copy; where a frame's readings put something in the air, every site of the stack
+        set to 0 / 1 as its most likely filling.
+    changed : int
+        Slot-frames whose presence changed.
+
+    Examples
+    --------
+    Level 1 read full (kappa 0.3) above an empty level 0 (kappa 0.9): level 1 is emptied.
+
+    >>> presence = np.array([[0.0, 1.0]]); trust = np.array([[0.9, 0.3]])
+    >>> out, changed = supported(presence, trust, np.zeros((1, 2), bool), np.array([0, 1]),
+    ...                          {0: [1]})
+    >>> out.tolist(), changed
+    ([[0.0, 0.0]], 1)
+    """
+    presence = presence.copy()
+    below: dict[int, set[int]] = {}
+    for a, tops in above.items():
+        for b in tops:
+            if slot[a] >= 0 and slot[b] >= 0 and slot[a] != slot[b]:
+                below.setdefault(int(slot[b]), set()).add(int(slot[a]))
+    if not below:
+        return presence, 0
+    n_slots = int(slot.max()) + 1
+    rows = [s for s, under in below.items() for _ in under]
+    cols = [u for under in below.values() for u in under]
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_slots, n_slots))
+    _, comp = connected_components(graph, directed=False)
+    soft = 0.5 + np.clip(np.where(stated, 1.0, trust), 0.0, 1.0) * (presence - 0.5)
+    changed = 0
+    for c in np.unique(comp[sorted(set(rows) | set(cols))]):
+        slots = [int(s) for s in np.flatnonzero(comp == c)]
+        if len(slots) > MAX_STACK:
+            continue
+        members = [np.flatnonzero(slot == s) for s in slots]
+        p = np.clip(np.stack([soft[:, m].mean(axis=1) for m in members], axis=1),
+                    FLOOR, 1.0 - FLOOR)                                   # (N, k)
+        fact = np.stack([stated[:, m].any(axis=1) for m in members], axis=1)
+        told = np.stack([(presence[:, m] * stated[:, m]).sum(axis=1)
+                         / np.maximum(stated[:, m].sum(axis=1), 1) >= 0.5 for m in members],
+                        axis=1)
+        fill = fillings(below, slots)                                     # (F, k)
+        loglik = np.log(p) @ fill.T + np.log(1.0 - p) @ (~fill).T         # (N, F)
+        # a filling that contradicts a stated slot is impossible, not unlikely
+        clash = (fact[:, None, :] & (fill[None, :, :] != told[:, None, :])).any(axis=2)
+        loglik[clash] = -np.inf
+        best = fill[loglik.argmax(axis=1)]                                # (N, k)
+        now = np.stack([presence[:, m].mean(axis=1) >= 0.5 for m in members], axis=1)
+        wrong = (best != now) & np.isfinite(loglik.max(axis=1))[:, None] & ~fact
+        for i, m in enumerate(members):
+            frames = np.flatnonzero(wrong[:, i])
+            presence[np.ix_(frames, m)] = best[frames, i][:, None].astype(float)
+            changed += len(frames)
+    return presence, changed
