@@ -12,9 +12,9 @@ actions state is a fact: a filling that contradicts it is ruled out, and a state
 never changed. Readings that already leave nothing in the air are the most likely
 filling and stay as they are.
 
-A robot arm's camera misreads the upper slots of a stack most (the tuning split's blocks-3
-robot traces read a level-1 slot full above an empty level 0 in 74 of 126 frames where their
-readings went wrong at all); the clean and randomized looks read them right.
+A robot arm's camera misreads the upper slots of a stack most (blocks-3 robot seed 75 read a
+level-1 place full above an empty level 0 in 132 of the 181 frames where its place sites were
+read wrong); the clean and randomized looks read them right.
 """
 
 from __future__ import annotations
