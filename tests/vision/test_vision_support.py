@@ -61,3 +61,13 @@ def test_no_stack_no_change():
     out, changed = supported(presence, np.ones(presence.shape), np.zeros(presence.shape, bool),
                              SLOT, {})
     assert changed == 0 and np.array_equal(out, presence)
+
+
+def test_a_slots_pick_and_place_read_apart_take_the_stacks_filling():
+    """Slot 2's place read full at kappa 0.14 and its pick empty above an empty slot 1 (their
+    mean says empty, the place alone says full): both sites empty, as the stack has it."""
+    presence = np.array([[1.0, 1.0, 0.2, 0.0, 0.0, 0.52]])
+    trust = np.array([[0.9, 0.9, 0.66, 0.68, 0.0, 0.14]])
+    out, changed = supported(presence, trust, np.zeros(presence.shape, bool), SLOT, ABOVE)
+    assert out[0, 4:].tolist() == [0.0, 0.0] and changed == 1
+    assert out[0, :4].tolist() == [1.0, 1.0, 0.2, 0.0]     # as read: nothing in the air there

@@ -69,8 +69,9 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
     Returns
     -------
     presence : ndarray, shape (N, A)
-        A copy; where a frame's readings put something in the air, every site of the stack
-        set to 0 / 1 as its most likely filling.
+        A copy; every site of a stack whose reading differs from the stack's most likely
+        filling in a frame (something in the air, or a slot's pick and place read apart) set
+        to 0 / 1 as that filling has it; a stated site as it is.
     changed : int
         Slot-frames whose presence changed.
 
@@ -116,10 +117,11 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
         clash = (fact[:, None, :] & (fill[None, :, :] != told[:, None, :])).any(axis=2)
         loglik[clash] = -np.inf
         best = fill[loglik.argmax(axis=1)]                                # (N, k)
-        now = np.stack([presence[:, m].mean(axis=1) >= 0.5 for m in members], axis=1)
-        wrong = (best != now) & np.isfinite(loglik.max(axis=1))[:, None] & ~fact
+        decided = np.isfinite(loglik.max(axis=1))
         for i, m in enumerate(members):
-            frames = np.flatnonzero(wrong[:, i])
-            presence[np.ix_(frames, m)] = best[frames, i][:, None].astype(float)
-            changed += len(frames)
+            # every site of the slot: its pick and its place may read it differently
+            wrong = ((presence[:, m] >= 0.5) != best[:, i:i + 1]) & decided[:, None] \
+                & ~stated[:, m]
+            presence[:, m] = np.where(wrong, best[:, i:i + 1].astype(float), presence[:, m])
+            changed += int(wrong.any(axis=1).sum())
     return presence, changed
