@@ -25,9 +25,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-#: Floor of a probability in the log-likelihoods (a reading never rules a value out), as in
-#: :data:`vggc_cp.vision.conservation.FLOOR`.
-FLOOR = 1e-3
+from vggc_cp.vision.conservation import FLOOR
+
 #: Stacks of more slots than this are left as read (2^k fillings are scored per frame).
 MAX_STACK = 8
 
@@ -105,8 +104,8 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
         if len(slots) > MAX_STACK:
             continue
         members = [np.flatnonzero(slot == s) for s in slots]
-        p = np.clip(np.stack([soft[:, m].mean(axis=1) for m in members], axis=1),
-                    FLOOR, 1.0 - FLOOR)                                   # (N, k)
+        p = np.clip(np.nan_to_num(np.stack([soft[:, m].mean(axis=1) for m in members],
+                                           axis=1), nan=0.5), FLOOR, 1.0 - FLOOR)  # (N, k)
         fact = np.stack([stated[:, m].any(axis=1) for m in members], axis=1)
         told = np.stack([(presence[:, m] * stated[:, m]).sum(axis=1)
                          / np.maximum(stated[:, m].sum(axis=1), 1) >= 0.5 for m in members],
