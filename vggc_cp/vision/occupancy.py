@@ -277,6 +277,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       a run of a slot that another slot covers in some of its frames takes the colour of its
       uncovered frames (:func:`uncovered_colour`).
 
+    Then objects rest on something: where a frame's readings put something above an empty
+    slot of a stack, the stack takes its most likely filling with nothing in the air
+    (:func:`vggc_cp.vision.support.supported`), before the uncovered colours are read.
+
     Last, objects are conserved: what the slots an episode never touches hold is assigned as
     the trace's object counts require and the readings, each as far as its kappa trusts it,
     make most likely (:func:`vggc_cp.vision.conservation.conserve`).
