@@ -79,6 +79,31 @@ def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np
     return out
 
 
+def slots_below(above: dict[int, list[int]], slot: np.ndarray) -> dict[int, set[int]]:
+    """Slot -> the other slots that must hold something where it does, from the sites stacked
+    on each site (:func:`vggc_cp.vision.occupancy.slots_above`).
+
+    >>> slots_below({0: [2, 3], 2: [4]}, np.array([0, 0, 1, 1, 2]))
+    {1: {0}, 2: {1}}
+    """
+    out: dict[int, set[int]] = {}
+    for a, tops in above.items():
+        for b in tops:
+            if slot[a] >= 0 and slot[b] >= 0 and slot[a] != slot[b]:
+                out.setdefault(int(slot[b]), set()).add(int(slot[a]))
+    return out
+
+
+def trusted(presence: np.ndarray, trust: np.ndarray) -> np.ndarray:
+    """The probability that a site holds something, a reading counted as far as its kappa
+    trusts it: ``1/2 + kappa (p - 1/2)`` (module docstring).
+
+    >>> trusted(np.array([1.0, 0.0, 1.0]), np.array([1.0, 0.5, 0.0])).tolist()
+    [1.0, 0.25, 0.5]
+    """
+    return 0.5 + np.clip(trust, 0.0, 1.0) * (presence - 0.5)
+
+
 def held_colours(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
     """Colour of what the hand holds in every observation, int64 shape (N,), -1 for nothing:
     after a pick, what it lifted; before a place, what it puts down
@@ -304,18 +329,14 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         return presence, posterior, 0
     n_col = posterior.shape[2]
     members = [np.flatnonzero(slot == s) for s in range(n_slots)]
-    soft = 0.5 + np.clip(trust, 0.0, 1.0) * (presence - 0.5)
+    soft = trusted(presence, trust)
     p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
     p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
     post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
     told = np.stack([stated[:, m].any(axis=1) for m in members], axis=1)
     values = np.where(p >= 0.5, post.argmax(axis=-1), -1)
     held = held_colours(trace.actions, trace.action_kinds(), colour)
-    below = {}                                     # slot -> slots that must hold something
-    for a, tops in (above or {}).items():
-        for b in tops:
-            if slot[a] >= 0 and slot[b] >= 0:
-                below.setdefault(int(slot[b]), set()).add(int(slot[a]))
+    below = slots_below(above or {}, slot)
     # every episode: the slots it leaves untouched, what the others and the hand hold
     plans = []
     for first, last in trace.episodes():

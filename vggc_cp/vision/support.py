@@ -25,7 +25,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from vggc_cp.vision.conservation import FLOOR
+from vggc_cp.vision.conservation import FLOOR, slots_below, trusted
 
 #: Stacks of more slots than this are left as read (2^k fillings are scored per frame).
 MAX_STACK = 8
@@ -85,11 +85,7 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
     ([[0.0, 0.0]], 1)
     """
     presence = presence.copy()
-    below: dict[int, set[int]] = {}
-    for a, tops in above.items():
-        for b in tops:
-            if slot[a] >= 0 and slot[b] >= 0 and slot[a] != slot[b]:
-                below.setdefault(int(slot[b]), set()).add(int(slot[a]))
+    below = slots_below(above, slot)
     if not below:
         return presence, 0
     n_slots = int(slot.max()) + 1
@@ -97,7 +93,7 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
     cols = [u for under in below.values() for u in under]
     graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_slots, n_slots))
     _, comp = connected_components(graph, directed=False)
-    soft = 0.5 + np.clip(np.where(stated, 1.0, trust), 0.0, 1.0) * (presence - 0.5)
+    soft = trusted(presence, np.where(stated, 1.0, trust))
     changed = 0
     for c in np.unique(comp[sorted(set(rows) | set(cols))]):
         slots = [int(s) for s in np.flatnonzero(comp == c)]
