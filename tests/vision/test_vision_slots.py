@@ -140,3 +140,11 @@ def test_too_little_sequence_leaves_the_slot_to_the_pixels():
     alone = slots.sequence_mates(np.array([0, 1, -1, 2, 3]), [(0, 2), (3, 5)], ov, colour,
                                kinds, twin, 0.2)
     np.testing.assert_array_equal(alone, (colour[:, None] != colour) & (ov >= 0.2))
+
+
+def test_twins_are_mutual():
+    """A place that names a pick its twin (the sequence settles it) makes that pick's twin
+    the place, where the pick named none; a pick two places name stays without one."""
+    assert slots.mutual_twins(np.array([-1, 0])).tolist() == [1, 0]
+    assert slots.mutual_twins(np.array([-1, 0, 0])).tolist() == [-1, 0, 0]
+    assert slots.mutual_twins(np.array([1, 0, -1])).tolist() == [1, 0, -1]

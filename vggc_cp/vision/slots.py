@@ -11,7 +11,9 @@ overlaps the block's below it; the trace's own sequence says what it can:
   episode; a candidate that breaks this once is not the twin, one that never does is taken at
   odds of :data:`TWIN_ODDS`; the footprints decide the rest (:func:`twins`). A slot has one
   pick and one place of a colour, so an action whose nearest candidate pairs with another
-  action both ways has no twin in the trace (:func:`exclusive_twins`);
+  action both ways has no twin in the trace (:func:`exclusive_twins`); being twins is
+  mutual, so an action that names none takes the one action that names it
+  (:func:`mutual_twins`);
 * **mates** (:func:`sequence_mates`): what one action leaves at a slot is what the next one
   there finds; a candidate that breaks this once is ruled out, one that always agrees is taken
   at :data:`TWIN_ODDS`, the footprints decide the rest; one mate of each colour and kind
@@ -160,9 +162,9 @@ def qualifies(counts: np.ndarray) -> np.ndarray:
 
 def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
     """:func:`sequence_twins` of ``trace`` (its actions and episodes, never its states), each
-    :func:`exclusive_twins`."""
-    return exclusive_twins(sequence_twins(trace.actions, trace.episodes(), ov, colour,
-                                          trace.action_kinds()))
+    :func:`exclusive_twins`, then :func:`mutual_twins`."""
+    return mutual_twins(exclusive_twins(sequence_twins(trace.actions, trace.episodes(), ov,
+                                                       colour, trace.action_kinds())))
 
 
 def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.ndarray,
@@ -306,6 +308,27 @@ def exclusive_twins(twin: np.ndarray) -> np.ndarray:
     for a, b in enumerate(twin):
         if b >= 0 and twin[b] != a and twin[b] >= 0 and twin[twin[b]] == b:
             out[a] = -1
+    return out
+
+
+def mutual_twins(twin: np.ndarray) -> np.ndarray:
+    """Twins in return, int shape (A,) (-1 when none).
+
+    Being twins is mutual: the pick that empties a slot and the place that refills it. Where
+    ``b`` names ``a`` its twin and ``a`` names none (its own choice was another slot's twin,
+    :func:`exclusive_twins`, or nothing the footprints could tell), and no other action names
+    ``a``, ``a``'s twin is ``b``. Otherwise the site of ``a`` would not count ``b``'s
+    actions (:func:`acting_at`) while ``b``'s counts ``a``'s, and the actions would state
+    that ``a``'s slot holds what ``b`` has just taken from it.
+
+    >>> mutual_twins(np.array([-1, 0, -1, 2, 2])).tolist()  # 1 names 0; 3 and 4 both name 2
+    [1, 0, -1, 2, 2]
+    """
+    out = twin.copy()
+    for a in np.flatnonzero(twin < 0):
+        claims = np.flatnonzero(twin == a)
+        if len(claims) == 1:
+            out[a] = int(claims[0])
     return out
 
 
