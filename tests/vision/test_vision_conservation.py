@@ -185,3 +185,36 @@ def test_a_tie_keeps_the_readings():
     fixed, _, changed = cons.conserve(trace, presence, np.ones((n, 6, 1)), stated, trust,
                                       SLOT, COLOUR)
     assert changed == 1 and (fixed[0:3, 2:4] == 0.0).all() and (fixed[0:3, 4:6] == 1.0).all()
+
+
+def test_a_block_put_on_an_untouched_slot_shows_it_holds_one_all_episode():
+    """Slot 2 stands on slot 1. The first episode puts an object on slot 2 and takes it back;
+    slot 1, untouched, is read empty by a trusted reading and slot 0 full by a weak one. The
+    count (two objects, taught by the second episode) leaves one object for slots 0 and 1:
+    it is on slot 1, which held the block put on it at frame 1 and, untouched, held it all
+    episode (the stack is checked in every frame, not only the first)."""
+    trace = _trace([5, 4, -1, 0, 1])       # place 2, pick 2 | pick 0, place 0
+    n = trace.n_obs
+    presence = np.zeros((n, 6))
+    stated = np.zeros((n, 6), dtype=bool)
+    trust = np.zeros((n, 6))
+    presence[0:3, 4:6] = np.array([0.0, 1.0, 0.0])[:, None]
+    stated[0:3, 4:6], trust[0:3, 4:6] = True, 1.0
+    presence[0:3, 2:4], trust[0:3, 2:4] = 0.1, 0.9
+    presence[0:3, 0:2], trust[0:3, 0:2] = 0.6, 0.3
+    presence[3:6, 0:2] = np.array([1.0, 0.0, 1.0])[:, None]
+    stated[3:6, 0:2], trust[3:6, 0:2] = True, 1.0
+    presence[3:6, 2:4], trust[3:6, 2:4] = 0.95, 0.9
+    presence[3:6, 4:6], trust[3:6, 4:6] = 0.05, 0.9
+    out, _, changed = cons.conserve(trace, presence, np.ones((n, 6, 1)), stated, trust, SLOT,
+                                    COLOUR, above={2: [4]}, odds=0.0)
+    assert (out[0:3, 2:4] == 1.0).all() and (out[0:3, 0:2] == 0.0).all() and changed == 2
+    assert (out[stated] == presence[stated]).all()
+    # what the stacks require of the untouched slots: slot 1 full, as the block showed
+    full = np.array([[False, False, False], [False, False, True], [False, False, False]])
+    assert cons.stack_forced(full, np.array([0, 1]), {2: {1}}).tolist() == [0, 1]
+    # a tower of untouched slots: what is required of the middle passes down and up
+    assert cons.stack_forced(full, np.array([0, 1]), {2: {1}, 1: {0}}).tolist() == [1, 1]
+    empty_base = np.zeros((2, 3), dtype=bool)
+    assert cons.stack_forced(empty_base, np.array([1, 2]), {2: {1}, 1: {0}}).tolist() == \
+        [-1, -1]

@@ -209,3 +209,21 @@ def test_a_covered_slot_takes_the_colour_its_uncovered_frames_read():
     runs[1] = (np.full(8, slots.EMPTY), np.arange(8), np.zeros(0, dtype=np.int64),
                np.array([1]))
     assert occ.slots_above(runs, ov, 0.5) == {}
+
+
+def test_the_sequence_alone_can_show_a_stack():
+    """Site 1 is filled in four separate runs, each while site 0 is full, and site 0 is full
+    in a quarter of its stated frames: (1/q)^k = 4^4 = 256 to 1 for a stack. Their footprints
+    do not overlap (an arm hides the block below), yet site 1 is above site 0; filled twice,
+    it is not (16 < 20)."""
+    la = np.array([0, 0] * 4 + [slots.EMPTY] * 24)
+    lb = np.array([0, slots.EMPTY] * 4 + [slots.EMPTY] * 24)
+    run = np.arange(len(la))
+    assert occ.sequence_stacked(la, lb, run)
+    ov = np.eye(2)
+    runs = {0: (la, run, np.zeros(0, dtype=np.int64), np.array([0])),
+            1: (lb, run, np.zeros(0, dtype=np.int64), np.array([1]))}
+    assert occ.slots_above(runs, ov, 0.5) == {0: [1]}
+    lb2 = np.array([0, slots.EMPTY] * 2 + [slots.EMPTY] * 28)
+    la2 = np.array([0, 0] * 2 + [slots.EMPTY] * 4 + [0] * 4 + [slots.EMPTY] * 20)
+    assert not occ.sequence_stacked(la2, lb2, run)

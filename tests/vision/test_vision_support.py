@@ -71,3 +71,35 @@ def test_a_slots_pick_and_place_read_apart_take_the_stacks_filling():
     out, changed = supported(presence, trust, np.zeros(presence.shape, bool), SLOT, ABOVE)
     assert out[0, 4:].tolist() == [0.0, 0.0] and changed == 1
     assert out[0, :4].tolist() == [1.0, 1.0, 0.2, 0.0]     # as read: nothing in the air there
+
+
+def test_an_untouched_slot_holds_one_thing_all_episode():
+    """Slot 1 is untouched for the whole episode (read full throughout, kappa 0.8) while the
+    actions empty slot 0 below it in frame 0 and fill it in frame 1. Frame by frame only
+    frame 0 is wrong; over the episode, slot 1 cannot hold anything in any frame."""
+    presence = _slots([[0, 1, 0], [1, 1, 0], [1, 1, 0]])
+    trust = np.full(presence.shape, 0.8)
+    stated = np.zeros(presence.shape, bool)
+    stated[:, 0:2] = True
+    per_frame, changed = supported(presence, trust, stated, SLOT, ABOVE)
+    assert changed == 1 and per_frame[:, 2].tolist() == [0, 1, 1]
+    whole, changed = supported(presence, trust, stated, SLOT, ABOVE, [(0, 2)])
+    assert changed == 3 and whole[:, 2:4].tolist() == [[0, 0]] * 3
+    # two episodes: the second, whose base is full throughout, keeps its reading
+    presence = np.concatenate([presence, _slots([[1, 1, 0], [1, 1, 0]])])
+    trust = np.full(presence.shape, 0.8)
+    stated = np.zeros(presence.shape, bool)
+    stated[:, 0:2] = True
+    out, changed = supported(presence, trust, stated, SLOT, ABOVE, [(0, 2), (3, 4)])
+    assert changed == 3 and out[:, 2].tolist() == [0, 0, 0, 1, 1]
+
+
+def test_a_base_the_actions_fill_above_holds_all_episode():
+    """The actions put something on slot 2 in frame 1; slots 0 and 1, untouched and read
+    empty (kappa 0.6), hold something all episode."""
+    presence = _slots([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
+    trust = np.full(presence.shape, 0.6)
+    stated = np.zeros(presence.shape, bool)
+    stated[:, 4:6] = True
+    out, changed = supported(presence, trust, stated, SLOT, ABOVE, [(0, 2)])
+    assert out[:, :4].tolist() == [[1.0] * 4] * 3 and changed == 6

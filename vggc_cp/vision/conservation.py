@@ -27,13 +27,18 @@ that times the run's colour posterior. A slot nothing can read is decided by the
 the other slots alone; where they cannot decide either (two unread slots, one object), the
 reading's low kappa is what the read doubts report (:mod:`vggc_cp.solvers.read_doubts`).
 
+Stacks are facts too (a block on a block, where the actions state which slot is above
+which): an untouched slot under one the actions fill in any frame of the episode holds
+something, and one above a slot they empty holds nothing (:func:`stack_forced`); the other
+value costs as much as a reading that rules it out.
+
 The counts decide only where they do: an episode whose best assignment changes a reading
 but ties with another assignment (two slots read full with equal certainty and one object
 to place: the counts would toss a coin) keeps its readings (:func:`runner_up`). So do an
-episode whose assignment puts an object on a slot above an empty one (a block on a block,
-where the actions state which slot is above which) and one whose counts the stated slots
-already contradict (fewer objects left than they need, or more than the untouched slots can
-hold). Nothing reads action names or ground-truth states.
+episode whose assignment still puts an object on a slot above an empty one in any of its
+frames and one whose counts the stated slots already contradict (fewer objects left than
+they need, or more than the untouched slots can hold). Nothing reads action names or
+ground-truth states.
 """
 
 from __future__ import annotations
@@ -142,23 +147,27 @@ def object_counts(values: np.ndarray, held: np.ndarray, n_col: int) -> np.ndarra
     return out
 
 
-def _gains(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray
-           ) -> tuple[np.ndarray, np.ndarray]:
+def _gains(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+           forced: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Log-likelihood of every slot holding what every column stands for, shape (L, L), and
-    the columns: ``need[c]`` of colour ``c``, the rest empty (-1)."""
+    the columns: ``need[c]`` of colour ``c``, the rest empty (-1). A slot ``forced`` full
+    (1) or empty (-1) by a stack pays ``log FLOOR`` more for the other (:func:`stack_forced`)."""
     p = np.clip(np.nan_to_num(p_occupied, nan=0.5), FLOOR, 1.0 - FLOOR)
     post = np.clip(np.nan_to_num(colour_post, nan=1.0), FLOOR, None)
     post = post / post.sum(axis=1, keepdims=True)
     occupied = np.log(p)[:, None] + np.log(post)                    # (L, C)
     empty = np.log(1.0 - p)                                          # (L,)
+    if forced is not None:
+        occupied = occupied + np.where(forced < 0, np.log(FLOOR), 0.0)[:, None]
+        empty = empty + np.where(forced > 0, np.log(FLOOR), 0.0)
     columns = np.concatenate([np.repeat(np.arange(len(need)), need),
                               np.full(len(p) - int(need.sum()), -1)]).astype(np.int64)
     gain = np.where(columns[None, :] >= 0, occupied[:, np.maximum(columns, 0)], empty[:, None])
     return gain, columns
 
 
-def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray
-                       ) -> tuple[np.ndarray, float]:
+def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+                       forced: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """The most likely contents of untouched slots that hold ``need[c]`` objects of colour
     ``c``, and their log-likelihood.
 
@@ -169,6 +178,9 @@ def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np
     colour_post : ndarray, shape (L, C)
         Colour posterior of what each slot holds.
     need : ndarray of int, shape (C,)
+    forced : ndarray of int, shape (L,), optional
+        1 where a stack requires the slot to hold something, -1 where it requires it empty,
+        0 elsewhere (:func:`stack_forced`); the other value costs a reading at ``FLOOR``.
 
     Returns
     -------
@@ -195,14 +207,14 @@ def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np
     out = np.empty(len(p_occupied), dtype=np.int64)
     if not len(p_occupied):
         return out, float(penalty)
-    gain, columns = _gains(p_occupied, colour_post, need)
+    gain, columns = _gains(p_occupied, colour_post, need, forced)
     rows, picked = linear_sum_assignment(-gain)
     out[rows] = columns[picked]
     return out, float(gain[rows, picked].sum() + penalty)
 
 
 def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-              contents: np.ndarray) -> float:
+              contents: np.ndarray, forced: np.ndarray | None = None) -> float:
     """Log-likelihood of the most likely assignment (as :func:`episode_assignment`, ``need``
     met) that differs from ``contents`` in at least one slot; ``-inf`` where none does.
 
@@ -214,7 +226,7 @@ def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
     >>> round(loglik - runner_up(p, post, np.array([1]), best), 6)    # a coin toss
     0.0
     """
-    gain, columns = _gains(p_occupied, colour_post, np.asarray(need, dtype=np.int64))
+    gain, columns = _gains(p_occupied, colour_post, np.asarray(need, dtype=np.int64), forced)
     out = -np.inf
     for i in range(len(contents)):
         banned = gain.copy()
@@ -241,7 +253,7 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
 
     Parameters
     ----------
-    episodes : list of (fixed, p_occupied, colour_post)
+    episodes : list of (fixed, p_occupied, colour_post[, forced])
         ``fixed`` (C,): objects of each colour the touched slots and the hand hold at the
         episode's start; the rest as for :func:`episode_assignment`.
     start : ndarray of int, shape (C,)
@@ -265,8 +277,8 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
     def total(k):
         key = tuple(int(v) for v in k)
         if key not in seen:
-            seen[key] = sum(episode_assignment(p, post, k - fixed)[1]
-                            for fixed, p, post in episodes)
+            seen[key] = sum(episode_assignment(p, post, k - fixed, *rest)[1]
+                            for fixed, p, post, *rest in episodes)
         return seen[key]
 
     def neighbours(k):
@@ -288,6 +300,56 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
                 break
     margin = min((score - total(k) for k in neighbours(best)), default=np.inf)
     return best, float(margin)
+
+
+def stack_forced(full: np.ndarray, loose: np.ndarray, below: dict[int, set[int]]
+                 ) -> np.ndarray:
+    """What the stacks require of an episode's untouched slots: 1 where one must hold
+    something, -1 where one must be empty, 0 where nothing is required; int64 shape
+    ``(len(loose),)``.
+
+    An untouched slot holds one thing all episode. Where a slot stacked on it holds something
+    in any frame (a block the actions put on it), it holds something too; where a slot it
+    stands on is empty in any frame, it is empty. What is required of one untouched slot
+    passes down (full) or up (empty) to the untouched slots it is stacked with. A slot
+    required both ways (readings that contradict the stack) is required neither way.
+
+    Parameters
+    ----------
+    full : ndarray of bool, shape (F, S)
+        What every slot holds in every frame of the episode, as settled.
+    loose : ndarray of int
+        The untouched slots.
+    below : dict
+        Slot -> slots that must hold something where it does (:func:`slots_below`).
+
+    >>> full = np.array([[False, False], [False, True]])    # slot 1 put on slot 0 at frame 1
+    >>> stack_forced(full, np.array([0]), {1: {0}}).tolist()
+    [1]
+    >>> stack_forced(full[:, ::-1], np.array([1]), {1: {0}}).tolist()   # 0 empty: 1 too
+    [-1]
+    """
+    index = {int(s): i for i, s in enumerate(loose)}
+    need_full = np.zeros(len(loose), dtype=bool)
+    need_empty = np.zeros(len(loose), dtype=bool)
+    for top, under in below.items():
+        for u in under:
+            if u in index and top not in index and full[:, top].any():
+                need_full[index[u]] = True
+            if top in index and u not in index and (~full[:, u]).any():
+                need_empty[index[top]] = True
+    changed = True
+    while changed:
+        changed = False
+        for top, under in below.items():
+            for u in under:
+                if top in index and u in index:
+                    if need_full[index[top]] and not need_full[index[u]]:
+                        need_full[index[u]] = changed = True
+                    if need_empty[index[u]] and not need_empty[index[top]]:
+                        need_empty[index[top]] = changed = True
+    both = need_full & need_empty
+    return np.where(both, 0, need_full.astype(np.int64) - need_empty.astype(np.int64))
 
 
 def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
@@ -349,25 +411,27 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         fixed = np.setdiff1d(np.arange(n_slots), loose)
         holds = np.array([(values[first, fixed] == c).sum() + (held[first] == c)
                           for c in range(n_col)])
-        plans.append((first, last, loose, fixed, holds,
-                      p_soft[frames][:, loose].mean(axis=0), post[frames][:, loose].mean(axis=0)))
-    total, margin = best_counts([(h, ps, po) for *_, h, ps, po in plans],
+        forced = stack_forced(values[frames] >= 0, loose, below)
+        plans.append((first, last, loose, holds, p_soft[frames][:, loose].mean(axis=0),
+                      post[frames][:, loose].mean(axis=0), forced))
+    total, margin = best_counts([(h, ps, po, fo) for *_, h, ps, po, fo in plans],
                                 object_counts(values, held, n_col))
     if margin < odds:
         return presence, posterior, 0      # the recording does not settle the counts
     changed = 0
-    for first, last, loose, fixed, holds, p_loose, post_loose in plans:
+    for first, last, loose, holds, p_loose, post_loose, forced in plans:
         need = total - holds
         if not len(loose) or (need < 0).any() or need.sum() > len(loose):
             continue                       # the stated slots already break the counts
-        new, best = episode_assignment(p_loose, post_loose, need)
+        new, best = episode_assignment(p_loose, post_loose, need, forced)
         if (new != values[first, loose]).any() and \
-                best - runner_up(p_loose, post_loose, need, new) < TIE:
+                best - runner_up(p_loose, post_loose, need, new, forced) < TIE:
             continue                       # another assignment as likely: a coin toss
-        full = np.zeros(n_slots, dtype=bool)
-        full[fixed] = values[first, fixed] >= 0
-        full[loose] = new >= 0
-        if any(full[s] and not full[list(under)].all() for s, under in below.items()):
+        # in every frame of the episode (the touched slots change, the untouched do not)
+        full = values[first:last + 1] >= 0
+        full[:, loose] = new >= 0
+        if any((full[:, s] & ~full[:, sorted(under)].all(axis=1)).any()
+               for s, under in below.items()):
             continue                       # an object above an empty slot: a stack
         for i, s in enumerate(loose):
             changed += int(new[i] != values[first, s])

@@ -34,19 +34,21 @@ is left to the hand-made posterior.
 **Covered slots.** While a slot above holds something, the slot below it is read from pixels
 the object on top covers, and its colour reads the top object's. Which slot is above which is
 what the actions state (:func:`slots_above`: the one above holds something only when the one
-below does); an unlabelled run of the slot below takes the colour its uncovered frames read
+below does, where their footprints overlap or the sequence alone makes it 20 to 1); an unlabelled run of the slot below takes the colour its uncovered frames read
 (:func:`uncovered_colour`): nothing acts at the slot during the run, so it holds one object
 throughout. Nothing reads action names or ground-truth states.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
-from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins
+from vggc_cp.vision.slots import EMPTY, TWIN_ODDS, acting_at, action_mates, action_twins
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
@@ -416,7 +418,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     above = slots_above(runs, ov, site_overlap)
     slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
     # objects rest on something: nothing above an empty slot
-    presence, _ = supported(presence, trust, stated, slot, above)
+    presence, _ = supported(presence, trust, stated, slot, above, trace.episodes())
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
     # objects are conserved: the counts decide what the readings leave open
@@ -456,11 +458,12 @@ def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
 def slots_above(runs: dict, ov: np.ndarray, site_overlap: float) -> dict[int, list[int]]:
     """For every site, the sites of other slots stacked on it, as the actions state them.
 
-    Site ``b`` is above site ``a`` when their footprints overlap by ``site_overlap`` or more,
-    ``b`` is no action at ``a``'s slot, and wherever the actions state both, ``b`` holds
-    something only when ``a`` does, while ``a`` is stated to hold something with ``b``
-    empty at least once (a block on a block: the one below holds whenever the one above
-    does).
+    Site ``b`` is above site ``a`` when ``b`` is no action at ``a``'s slot, wherever the
+    actions state both, ``b`` holds something only when ``a`` does, while ``a`` is stated to
+    hold something with ``b`` empty at least once (a block on a block: the one below holds
+    whenever the one above does), and either their footprints overlap by ``site_overlap`` or
+    more or the sequence says so by itself (:func:`sequence_stacked`: a footprint on an arm
+    may miss the block below).
 
     Parameters
     ----------
@@ -469,15 +472,42 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float) -> dict[int, li
     """
     out: dict[int, list[int]] = {}
     for a, (la, _, _, acting) in runs.items():
-        for b, (lb, _, _, _) in runs.items():
-            if b == a or b in acting or ov[a, b] < site_overlap:
+        for b, (lb, run_b, _, _) in runs.items():
+            if b == a or b in acting:
                 continue
             both = (la != UNLABELLED) & (lb != UNLABELLED)
             full_b = both & (lb >= 0)
             if full_b.any() and (la[full_b] >= 0).all() and \
-                    ((la >= 0) & (lb == EMPTY) & both).any():
+                    ((la >= 0) & (lb == EMPTY) & both).any() and \
+                    (ov[a, b] >= site_overlap or sequence_stacked(la, lb, run_b)):
                 out.setdefault(a, []).append(b)
     return out
+
+
+def sequence_stacked(la: np.ndarray, lb: np.ndarray, run_b: np.ndarray) -> bool:
+    """Whether the stated frames alone take site ``b`` for one stacked on site ``a``.
+
+    ``b`` never holds something without ``a`` (checked by :func:`slots_above`). By chance,
+    an unrelated ``a`` holds something in a share ``q`` of its stated frames, so ``k``
+    separate times that ``b`` is filled with ``a`` full (runs of ``b`` between actions at
+    it) are ``(1/q)^k`` times likelier from a stack, taken at odds of
+    :data:`~vggc_cp.vision.slots.TWIN_ODDS` (20 to 1) as the sequence's twins are.
+
+    >>> la = np.array([0, 0, 0, 0, -1, -1]); lb = np.array([0, -1, 0, -1, -1, -1])
+    >>> sequence_stacked(la, lb, np.array([0, 1, 2, 3, 4, 4]))   # q = 4/6, k = 2: 2.25 < 20
+    False
+    >>> la = np.array([0] * 6 + [-1] * 10); lb = np.array([0, -1] * 3 + [-1] * 10)
+    >>> sequence_stacked(la, lb, np.arange(16))                   # q = 6/16, k = 3: 19 < 20
+    False
+    """
+    stated_a = la != UNLABELLED
+    if not stated_a.any():
+        return False
+    q = float(np.mean(la[stated_a] >= 0))
+    if not 0 < q < 1:
+        return False
+    k = len(np.unique(run_b[stated_a & (lb >= 0)]))
+    return k * math.log(1.0 / q) >= math.log(TWIN_ODDS)
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,

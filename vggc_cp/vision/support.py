@@ -10,7 +10,10 @@ the log-likelihood of the readings, each trusted as far as its held-out kappa al
 is ``1/2 + kappa (p - 1/2)``), and the most likely one is what the frame holds. What the
 actions state is a fact: a filling that contradicts it is ruled out, and a stated slot is
 never changed. Readings that already leave nothing in the air are the most likely
-filling and stay as they are.
+filling and stay as they are. A slot that no action touches in an episode holds one thing
+for the whole episode, so its value is chosen for all the episode's frames together: a block
+the actions put on it in one frame shows it full in every frame, a base they empty in one
+frame shows it empty in every frame (:func:`episode_filling`).
 
 A robot arm's camera misreads the upper slots of a stack most (blocks-3 robot seed 75 read a
 level-1 place full above an empty level 0 in 132 of the 181 frames where its place sites were
@@ -49,7 +52,8 @@ def fillings(below: dict[int, set[int]], slots: list[int]) -> np.ndarray:
 
 
 def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot: np.ndarray,
-              above: dict[int, list[int]]) -> tuple[np.ndarray, int]:
+              above: dict[int, list[int]], episodes: list[tuple[int, int]] | None = None
+              ) -> tuple[np.ndarray, int]:
     """The presence of every site with nothing in the air (module docstring).
 
     Parameters
@@ -64,6 +68,12 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
         Slot of every site (:func:`vggc_cp.vision.conservation.slot_groups`), -1 for none.
     above : dict
         Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+    episodes : list of (first, last), optional
+        The trace's episodes. A slot the actions state nowhere in an episode and read alike
+        in all its frames is untouched there: it holds one thing all episode, so the
+        filling is chosen for the episode's frames together (a block the actions put on it
+        in one frame, or a base they empty in another, settles it for all). Without them,
+        every frame is a filling of its own.
 
     Returns
     -------
@@ -94,6 +104,7 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
     graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_slots, n_slots))
     _, comp = connected_components(graph, directed=False)
     soft = trusted(presence, np.where(stated, 1.0, trust))
+    spans = [(0, len(presence) - 1)] if episodes is None else episodes
     changed = 0
     for c in np.unique(comp[sorted(set(rows) | set(cols))]):
         slots = [int(s) for s in np.flatnonzero(comp == c)]
@@ -111,8 +122,16 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
         # a filling that contradicts a stated slot is impossible, not unlikely
         clash = (fact[:, None, :] & (fill[None, :, :] != told[:, None, :])).any(axis=2)
         loglik[clash] = -np.inf
-        best = fill[loglik.argmax(axis=1)]                                # (N, k)
-        decided = np.isfinite(loglik.max(axis=1))
+        best = np.zeros((len(presence), len(slots)), dtype=bool)
+        decided = np.zeros(len(presence), dtype=bool)
+        for first, last in spans:
+            frames = slice(first, last + 1)
+            whole = [] if episodes is None else untouched(presence[frames], fact[frames],
+                                                          members)
+            choice = episode_filling(loglik[frames], fill, whole)
+            if choice is not None:
+                best[frames] = fill[choice]
+                decided[frames] = True
         for i, m in enumerate(members):
             # every site of the slot: its pick and its place may read it differently
             wrong = ((presence[:, m] >= 0.5) != best[:, i:i + 1]) & decided[:, None] \
@@ -120,3 +139,51 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
             presence[:, m] = np.where(wrong, best[:, i:i + 1].astype(float), presence[:, m])
             changed += int(wrong.any(axis=1).sum())
     return presence, changed
+
+
+def untouched(presence: np.ndarray, fact: np.ndarray, members: list[np.ndarray]) -> list[int]:
+    """The slots of a stack that hold one thing all episode: stated in none of its frames and
+    read alike in all of them (positions in ``members``).
+
+    >>> untouched(np.array([[1.0, 0.0, 0.3], [1.0, 1.0, 0.3]]), np.zeros((2, 3), bool),
+    ...           [np.array([0]), np.array([1]), np.array([2])])
+    [0, 2]
+    """
+    return [i for i, m in enumerate(members)
+            if not fact[:, i].any() and np.ptp(presence[:, m], axis=0).max() == 0]
+
+
+def episode_filling(loglik: np.ndarray, fill: np.ndarray, whole: list[int]) -> np.ndarray | None:
+    """The stack's filling in every frame of an episode, indices into ``fill`` (shape
+    (n,)), or None where no filling is possible (stated facts that contradict each other).
+
+    The slots ``whole`` take one value for the episode: of their joint values, the one whose
+    frames' best fillings are the most likely together; every other slot is chosen frame by
+    frame.
+
+    Parameters
+    ----------
+    loglik : ndarray, shape (n, F)
+        Log-likelihood of every filling in every frame (-inf: contradicts a stated slot).
+    fill : ndarray of bool, shape (F, k)
+    whole : list of int
+        Positions of the slots that hold one thing all episode.
+
+    >>> fill = fillings({1: {0}}, [0, 1])                     # [[0, 0], [1, 0], [1, 1]]
+    >>> loglik = np.array([[-1.0, -2.0, -np.inf], [-3.0, -2.0, -0.5]])
+    >>> episode_filling(loglik, fill, []).tolist()            # frame by frame
+    [0, 2]
+    >>> episode_filling(loglik, fill, [0]).tolist()           # slot 0 one value: full
+    [1, 2]
+    """
+    best, score = None, -np.inf
+    for bits in itertools.product((False, True), repeat=len(whole)):
+        allowed = (fill[:, whole] == np.array(bits, dtype=bool)).all(axis=1)
+        if not allowed.any():
+            continue
+        masked = np.where(allowed[None, :], loglik, -np.inf)
+        choice = masked.argmax(axis=1)
+        total = masked[np.arange(len(masked)), choice].sum()
+        if total > score:
+            best, score = choice, total
+    return best
