@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from vggc_cp.trace import Trace
+from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.colours import (
     action_classes,
     colour_classes,
     colour_posteriors,
     pooled,
+    twin_colours,
     window_colours,
 )
 
@@ -94,3 +95,40 @@ def test_classes_pooled_by_grey_footprints_are_read_again_in_the_windows():
     # the windows see one colour too: one colour
     same = [red, red + 0.001, np.zeros((0, 2)), np.zeros((0, 2))]
     assert window_colours(one, classes, counts, grey, same, 0.02).tolist() == [0] * 5 + [-1]
+
+
+def test_an_action_no_place_follows_takes_its_twins_colour():
+    """Pick 4 ends every episode it is in, so its class is its own and the pixels called it
+    yellow (1). Its twin is the place that never breaks alternation with it, is seen
+    alternating with it most often, then acts nearest it: place 1 (red, 0), though yellow
+    place 3 is nearer (it breaks alternation: placed twice in a row with no pick 4 between).
+    Where two candidates are equally near, or every candidate breaks alternation, the
+    colour stays the pixels'."""
+    kinds = np.array([PICK, PLACE, PICK, PLACE, PICK])
+    actions = np.array([2, 3, 2, 3, 0, 1, 4, -1, 0, 1, 4])
+    episodes = [(0, 7), (8, 11)]
+    classes, colour = np.array([0, 0, 1, 1, 2]), np.array([0, 0, 1, 1, 1])
+    counts = np.array([2, 2, 2, 2, 2])
+    near = np.array([[1, .5, 0, 0, .1], [.5, 1, 0, 0, .6], [0, 0, 1, .5, 0],
+                     [0, 0, .5, 1, .9], [.1, .6, 0, .9, 1]])
+    assert twin_colours(colour, classes, counts, kinds, actions, episodes, near).tolist() \
+        == [0, 0, 1, 1, 0]
+    tie = near.copy()
+    tie[4, 1] = tie[1, 4] = 0.9
+    tie[4, 3] = tie[3, 4] = 0.9
+    both = np.array([2, 3, 4, -1, 0, 1, 4])      # each place alternates with it once
+    assert twin_colours(colour, classes, counts, kinds, both, [(0, 3), (4, 7)],
+                        tie).tolist() == [0, 0, 1, 1, 1]
+    # seen alternating more often outweighs nearer: place 3 before it twice, place 1 once
+    often = np.array([2, 3, 4, -1, 2, 3, 4, -1, 0, 1, 4])
+    far = near.copy()
+    far[4, 1], far[4, 3] = 0.9, 0.3                   # place 1 nearer, place 3 more often
+    assert twin_colours(np.array([0, 0, 1, 1, 0]), classes, counts, kinds, often,
+                        [(0, 3), (4, 7), (8, 11)], far).tolist() == [0, 0, 1, 1, 1]
+    never = np.array([0, 1, 1, 4, -1, 2, 3, 3, 4])     # both places break it
+    assert twin_colours(colour, classes, counts, kinds, never, [(0, 4), (5, 9)],
+                        near).tolist() == [0, 0, 1, 1, 1]
+    # a colour only the unlinked action had is gone: colours are numbered from 0 again
+    alone = np.array([0, 0, 1, 1, 2])
+    assert twin_colours(alone, classes, counts, kinds, actions, episodes, near).tolist() \
+        == [0, 0, 1, 1, 0]

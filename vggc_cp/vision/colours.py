@@ -13,6 +13,16 @@ where they pool classes (on a robot's camera every footprint may read the arm's 
 windows the actions' labels teach read them again and may split what the footprints pooled
 (:func:`window_colours`). A site's colour is the posterior of each colour given the chroma it
 shows (:func:`colour_posteriors`).
+
+**Actions the sequence does not link.** A pick that ends every episode it is in (the hand
+still holds what it lifted) is linked to no place, so its class is its own and only the
+pixels guess its colour: a few frames in which an arm may hide the object. Such an action
+takes the colour of its twin instead (:func:`twin_colours`): what it lifts was put down by
+the place at its slot, the action of the other kind that never breaks alternation with it in
+any episode (as :func:`~vggc_cp.vision.slots.sequence_twins` asks of a twin), is seen
+alternating with it most often, and acts nearest it by the trace's own picture of the places
+(the after-looks where the hand rests at the place it acted on, else the footprints). The
+pixels keep their colour where they clearly contradict the twin's.
 """
 
 from __future__ import annotations
@@ -22,8 +32,8 @@ import numpy as np
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.density import kernel_loglik, kernel_posterior
 from vggc_cp.vision.occupancy import site_labels
-from vggc_cp.vision.places import trace_slots
-from vggc_cp.vision.slots import EMPTY, acting_at
+from vggc_cp.vision.places import after_distances, trace_slots
+from vggc_cp.vision.slots import EMPTY, acting_at, action_episodes, alternations
 from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
 
 #: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
@@ -138,6 +148,139 @@ def action_colours(points: list[np.ndarray], counts: np.ndarray, classes: np.nda
     for k, g in zip(known, group):
         colour[(classes == k) & (counts > 0)] = g
     return colour
+
+
+def twin_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
+                 kinds: np.ndarray, actions: np.ndarray, episodes: list[tuple[int, int]],
+                 near: np.ndarray, points: list[np.ndarray] | None = None,
+                 bandwidth: float = 0.02, distinct: float = 1.0) -> np.ndarray:
+    """Colours of the actions the sequence links to no other action, from their twins
+    (module docstring), shape (A,).
+
+    An action whose task class holds no other taken action takes the colour of the action of
+    the other kind, in a class of several, that never breaks alternation with it and is seen
+    alternating with it most often (:func:`~vggc_cp.vision.slots.alternations`: the place
+    that filled the slot a pick empties comes before it wherever both are in an episode),
+    then the nearest (``near``, larger: nearer); it keeps its colour where no such action
+    exists, two are equally near, or its
+    own chroma contradicts the twin's colour (:func:`fits_colour`: the pixels decide where
+    they are clear). The colours are numbered from 0 again.
+
+    Parameters
+    ----------
+    colour, classes, counts, kinds : ndarray, shape (A,)
+    actions : ndarray of int, shape (N-1,)
+        The trace's actions (-1 between episodes).
+    episodes : list of (first, last)
+    near : ndarray, shape (A, A)
+        How near two actions act: footprint overlaps, or minus the after-look distances.
+    points : list of ndarray, shape (n_k, 2), optional
+        Chroma of every task class (:func:`class_points`); without them the twin decides.
+    bandwidth, distinct : float
+        Of the colour kernel, and the nats by which the chroma must contradict the twin's
+        colour to keep its own (:func:`colour_classes`' bar).
+
+    Examples
+    --------
+    Pick 0 and place 1 are one class (red, 0), pick 2 and place 3 another (yellow, 1); pick
+    4 ends both its episodes, right after place 1, so its class is its own and the pixels
+    called it yellow. Place 1 is nearest it and never breaks alternation with it: red.
+
+    >>> kinds = np.array([PICK, PLACE, PICK, PLACE, PICK])
+    >>> actions = np.array([2, 3, 0, 1, 4, -1, 2, 3, 0, 1, 4])
+    >>> near = np.array([[1, .5, 0, 0, .1], [.5, 1, 0, 0, .6], [0, 0, 1, .5, 0],
+    ...                  [0, 0, .5, 1, .3], [.1, .6, 0, .3, 1]])
+    >>> classes = np.array([0, 0, 1, 1, 2]); colour = np.array([0, 0, 1, 1, 1])
+    >>> twin_colours(colour, classes, np.array([2, 2, 2, 2, 2]), kinds, actions,
+    ...              [(0, 5), (6, 11)], near).tolist()
+    [0, 0, 1, 1, 0]
+    """
+    out = colour.copy()
+    taken = counts > 0
+    sizes = np.bincount(classes[taken], minlength=int(classes.max()) + 1 if len(classes) else 0)
+    alone = np.flatnonzero(taken & (sizes[classes] == 1) & (colour >= 0))
+    if not len(alone):
+        return out
+    actions = np.asarray(actions)
+    episode_of = action_episodes(len(actions), episodes)
+    for a in alone:
+        cand = np.flatnonzero(taken & (kinds != kinds[a]) & (sizes[classes] > 1) & (colour >= 0))
+        if not len(cand):
+            continue
+        counts_ab = alternations(actions, episode_of, kinds, int(a), cand)
+        keep = (counts_ab[:, 0] == 0) & (counts_ab[:, 1] > 0) & np.isfinite(near[a, cand])
+        cand, seen = cand[keep], counts_ab[keep, 1]
+        if not len(cand):
+            continue
+        # the most often seen alternating with it, then the nearest
+        top = cand[seen == seen.max()]
+        best = near[a, top].max()
+        if (near[a, top] == best).sum() > 1:
+            continue
+        twin = int(colour[top[int(np.argmax(near[a, top]))]])
+        if points is not None:
+            ks = {int(classes[b]) for b in np.flatnonzero(taken & (colour == twin))} - \
+                {int(classes[a])}
+            examples = [points[k] for k in sorted(ks) if len(points[k])]
+            if examples and not fits_colour(points[classes[a]], np.concatenate(examples),
+                                            bandwidth, distinct):
+                continue
+        out[a] = twin
+    # colours numbered from 0 again (one only an unlinked action had is gone)
+    known = out >= 0
+    out[known] = np.unique(out[known], return_inverse=True)[1]
+    return out
+
+
+#: Most examples of a colour :func:`fits_colour` compares with (evenly spaced).
+MAX_FIT = 500
+
+
+def fits_colour(own: np.ndarray, examples: np.ndarray, bandwidth: float,
+                distinct: float = 1.0) -> bool:
+    """Whether chroma ``own`` (n, 2) could be of the colour of ``examples`` (m, 2): its median
+    likelihood under their kernel density is no more than ``distinct`` nats below the
+    median of their own, each left out of it (at most :data:`MAX_FIT` examples, evenly
+    spaced). True where there is nothing to compare (no chroma, fewer than two examples).
+
+    >>> rng = np.random.default_rng(0)
+    >>> red = [0.6, 0.3] + 0.01 * rng.standard_normal((50, 2))
+    >>> fits_colour(np.array([[0.6, 0.31]]), red, 0.02), fits_colour(np.array([[0.4, 0.4]]),
+    ...                                                                 red, 0.02)
+    (True, False)
+    """
+    if not len(own) or len(examples) < 2:
+        return True
+    if len(examples) > MAX_FIT:
+        examples = examples[np.linspace(0, len(examples) - 1, MAX_FIT).round().astype(int)]
+    d2 = ((examples[:, None] - examples[None]) ** 2).sum(-1) / bandwidth ** 2
+    np.fill_diagonal(d2, np.inf)
+    m = (-0.5 * d2).max(axis=1)
+    typical = float(np.median(m + np.log(np.exp(-0.5 * d2 - m[:, None]).sum(axis=1)
+                                         / (len(examples) - 1))))
+    return float(np.median(kernel_loglik(own, examples, bandwidth))) >= typical - distinct
+
+
+def trace_twin_colours(trace: Trace, x: np.ndarray, ov: np.ndarray, colour: np.ndarray,
+                       classes: np.ndarray, counts: np.ndarray, site_overlap: float,
+                       points: list[np.ndarray] | None = None, bandwidth: float = 0.02
+                       ) -> np.ndarray:
+    """:func:`twin_colours` of ``trace``, nearness read as its slots are
+    (:func:`~vggc_cp.vision.places.trace_slots`): minus the after-look distances where the
+    hand rests at the place it acted on, else the footprint overlaps ``ov``. ``colour`` as
+    it is where every action is linked to another (nothing computed)."""
+    taken = counts > 0
+    sizes = np.bincount(classes[taken], minlength=int(classes.max()) + 1 if len(classes) else 0)
+    if not (taken & (sizes[classes] == 1)).any():
+        return colour
+    _, _, rests = trace_slots(trace, x, ov, colour, site_overlap)
+    if rests:
+        _, act, dst = trace.transitions()
+        near = -after_distances(x, act, dst, trace.n_actions)
+    else:
+        near = ov
+    return twin_colours(colour, classes, counts, trace.action_kinds(), trace.actions,
+                        trace.episodes(), near, points, bandwidth)
 
 
 def pooled(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray) -> bool:

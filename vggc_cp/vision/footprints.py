@@ -98,6 +98,7 @@ from vggc_cp.vision.colours import (
     class_points,
     colour_posteriors,
     pooled,
+    trace_twin_colours,
     window_class_chroma,
     window_colours,
 )
@@ -430,6 +431,9 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                                     params.site_overlap, params.support,
                                                     params.saturation),
                                 params.bandwidth)
+    # an action the sequence links to no other takes its twin's colour, not the pixels' guess
+    colour = trace_twin_colours(trace, x, ov, colour, classes, counts, params.site_overlap,
+                                points, params.bandwidth)
     sites = site_maps(maps, ov, colour)
     mag, chroma = describe(x, sites, empty_of)
     presence = np.zeros((trace.n_obs, n_act))
