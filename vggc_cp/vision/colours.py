@@ -161,10 +161,10 @@ def twin_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     the other kind, in a class of several, that never breaks alternation with it and is seen
     alternating with it most often (:func:`~vggc_cp.vision.slots.alternations`: the place
     that filled the slot a pick empties comes before it wherever both are in an episode),
-    then the nearest (``near``, larger: nearer); it keeps its colour where no such action
-    exists, two are equally near, or its
-    own chroma contradicts the twin's colour (:func:`fits_colour`: the pixels decide where
-    they are clear). The colours are numbered from 0 again.
+    then the nearest (``near``, larger: nearer). It keeps its colour where no such action
+    exists, where two are equally near, and where its own chroma contradicts the twin's
+    colour (:func:`fits_colour`: the pixels decide where they are clear). The colours are
+    numbered from 0 again.
 
     Parameters
     ----------

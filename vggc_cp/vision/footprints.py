@@ -26,6 +26,9 @@ names are not read). Classes whose colours cannot be told apart are one colour: 
 clearly likelier under its own class's kernel density than under another's
 (:func:`~vggc_cp.vision.colours.colour_classes`); where the footprints pool classes, the
 windows the labels teach read them again (:func:`~vggc_cp.vision.colours.window_colours`).
+An action the sequence links to no other (a pick that ends every episode it is in) takes its
+twin's colour where its own chroma does not clearly contradict it
+(:func:`~vggc_cp.vision.colours.twin_colours`).
 
 **Sites.** Objects of another colour may stand where ``a`` acts (an apple where a banana was
 picked) and have another shape. The site of ``a`` widens ``F_a`` by the footprints of the
