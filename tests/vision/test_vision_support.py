@@ -103,3 +103,16 @@ def test_a_base_the_actions_fill_above_holds_all_episode():
     stated[:, 4:6] = True
     out, changed = supported(presence, trust, stated, SLOT, ABOVE, [(0, 2)])
     assert out[:, :4].tolist() == [[1.0] * 4] * 3 and changed == 6
+
+
+def test_a_frame_whose_facts_contradict_each_other_leaves_the_others_decided():
+    """Frame 1 states slot 1 full above a slot 0 stated empty (a misread fact): no filling
+    fits it and it stays as it is; the episode's other frames still lose slot 2, read full
+    (kappa 0.3) above an empty slot 1."""
+    presence = _slots([[1, 0, 1], [0, 1, 0], [1, 0, 1]])
+    trust = np.full(presence.shape, 0.3)
+    stated = np.zeros(presence.shape, bool)
+    stated[:, 0:4] = True
+    out, changed = supported(presence, trust, stated, SLOT, ABOVE, [(0, 2)])
+    assert out[1].tolist() == presence[1].tolist()
+    assert out[[0, 2], 4:6].tolist() == [[0, 0], [0, 0]] and changed == 2

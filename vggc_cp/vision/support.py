@@ -130,8 +130,9 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
                                                           members)
             choice = episode_filling(loglik[frames], fill, whole)
             if choice is not None:
-                best[frames] = fill[choice]
-                decided[frames] = True
+                ok = choice >= 0
+                best[frames] = np.where(ok[:, None], fill[np.maximum(choice, 0)], False)
+                decided[frames] = ok
         for i, m in enumerate(members):
             # every site of the slot: its pick and its place may read it differently
             wrong = ((presence[:, m] >= 0.5) != best[:, i:i + 1]) & decided[:, None] \
@@ -155,7 +156,8 @@ def untouched(presence: np.ndarray, fact: np.ndarray, members: list[np.ndarray])
 
 def episode_filling(loglik: np.ndarray, fill: np.ndarray, whole: list[int]) -> np.ndarray | None:
     """The stack's filling in every frame of an episode, indices into ``fill`` (shape
-    (n,)), or None where no filling is possible (stated facts that contradict each other).
+    (n,), -1 for a frame no filling fits: stated facts that contradict each other), or None
+    where no value of the slots ``whole`` fits every other frame.
 
     The slots ``whole`` take one value for the episode: of their joint values, the one whose
     frames' best fillings are the most likely together; every other slot is chosen frame by
@@ -175,7 +177,10 @@ def episode_filling(loglik: np.ndarray, fill: np.ndarray, whole: list[int]) -> n
     [0, 2]
     >>> episode_filling(loglik, fill, [0]).tolist()           # slot 0 one value: full
     [1, 2]
+    >>> episode_filling(np.vstack([loglik, np.full(3, -np.inf)]), fill, [0]).tolist()
+    [1, 2, -1]
     """
+    possible = np.isfinite(loglik).any(axis=1)
     best, score = None, -np.inf
     for bits in itertools.product((False, True), repeat=len(whole)):
         allowed = (fill[:, whole] == np.array(bits, dtype=bool)).all(axis=1)
@@ -183,7 +188,7 @@ def episode_filling(loglik: np.ndarray, fill: np.ndarray, whole: list[int]) -> n
             continue
         masked = np.where(allowed[None, :], loglik, -np.inf)
         choice = masked.argmax(axis=1)
-        total = masked[np.arange(len(masked)), choice].sum()
+        total = masked[np.arange(len(masked)), choice][possible].sum()
         if total > score:
-            best, score = choice, total
+            best, score = np.where(possible, choice, -1), total
     return best
