@@ -41,14 +41,12 @@ throughout. Nothing reads action names or ground-truth states.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
-from vggc_cp.vision.slots import EMPTY, TWIN_ODDS, acting_at, action_mates, action_twins
+from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins, odds_met
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
@@ -507,7 +505,7 @@ def sequence_stacked(la: np.ndarray, lb: np.ndarray, run_b: np.ndarray) -> bool:
     if not 0 < q < 1:
         return False
     k = len(np.unique(run_b[stated_a & (lb >= 0)]))
-    return k * math.log(1.0 / q) >= math.log(TWIN_ODDS)
+    return bool(odds_met(k, q))
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,

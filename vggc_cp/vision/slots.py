@@ -141,6 +141,17 @@ def alternations(actions: np.ndarray, episode_of: np.ndarray, kinds: np.ndarray,
     return counts
 
 
+def odds_met(k, q: float):
+    """Whether ``k`` agreements that each happen by chance with probability ``q`` make a
+    relation :data:`TWIN_ODDS` (20 to 1) likelier than chance: ``k ln(1/q) >= ln 20``
+    (elementwise for an array ``k``).
+
+    >>> odds_met(np.array([2, 3]), 0.25).tolist()
+    [False, True]
+    """
+    return np.asarray(k) * math.log(1.0 / q) >= math.log(TWIN_ODDS)
+
+
 def qualifies(counts: np.ndarray) -> np.ndarray:
     """Which candidates the sequence takes for the twin (:func:`sequence_twins`), bool shape
     (len(counts),): never broken, and alternated ``k`` times with ``k ln(1/q) >= ln 20``,
@@ -157,7 +168,7 @@ def qualifies(counts: np.ndarray) -> np.ndarray:
     p_alt = counts[:, 1].sum() / total
     if p_alt <= 0:
         return np.zeros(len(counts), dtype=bool)
-    return (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_alt) >= math.log(TWIN_ODDS))
+    return (counts[:, 0] == 0) & odds_met(counts[:, 1], p_alt)
 
 
 def action_twins(trace: Trace, ov: np.ndarray, colour: np.ndarray) -> np.ndarray:
@@ -241,8 +252,7 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
         out[a, cand[counts[:, 0] > 0]] = False          # ruled out by the sequence
         if p_agree <= 0:
             continue
-        sure = (counts[:, 0] == 0) & (counts[:, 1] * math.log(1.0 / p_agree)
-                                      >= math.log(TWIN_ODDS))
+        sure = (counts[:, 0] == 0) & odds_met(counts[:, 1], p_agree)
         out[a, cand[sure]] = True
     seen = out & (ov >= site_overlap)                  # the pixels put them at the slot too
     return exclusive_mates(one_per_colour(out, seen, ov, colour, kinds), colour, kinds)
