@@ -18,9 +18,11 @@
   (:mod:`vggc_cp.solvers.confidence`); above 30 % the graph is flagged *suspect* with reasons.
 * **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
   (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
-  Two more flag the graph: nodes that only an untrustworthy reading of the images sets apart
-  (:func:`~vggc_cp.solvers.read_doubts.read_doubts`, listed first), and a join the images and the
-  actions both favour that a constraint forbids
+  Two more flag the graph: nodes that only an untrustworthy reading of the images sets apart,
+  or an episode that only such a reading puts on its path
+  (:func:`~vggc_cp.solvers.read_doubts.read_doubts`,
+  :func:`~vggc_cp.solvers.read_doubts.episode_doubts`, listed first), and a join the images and
+  the actions both favour that a constraint forbids
   (:func:`~vggc_cp.solvers.doubt_checks.doubt_forbidden`).
 
 Everything here reads observations and actions only, never ground-truth ``states``.
@@ -55,7 +57,7 @@ from vggc_cp.solvers.doubts import (
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
-from vggc_cp.solvers.read_doubts import read_doubts
+from vggc_cp.solvers.read_doubts import episode_doubts, read_doubts
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
@@ -556,8 +558,10 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                                                         DoubtRule().max_nats))
     read = learned_doubts(chosen, read=True)
     if read:
-        # nodes only an untrustworthy reading of the images sets apart: flagged, listed first
-        chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read))
+        # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
+        # their path): flagged, or noted where the episodes would misplace few plans; first
+        chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read,
+                                                           chosen.best.labels))
         pairs = {d.nodes for d in read}
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
     # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
@@ -595,12 +599,14 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
     ``differences``, the nodes the runner-up graph splits or joins
     (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
     untrustworthy reading of the images sets apart
-    (:func:`~vggc_cp.solvers.read_doubts.read_doubts`)."""
+    (:func:`~vggc_cp.solvers.read_doubts.read_doubts`), then the episodes only such a reading
+    puts on their path (:func:`~vggc_cp.solvers.read_doubts.episode_doubts`)."""
     problem = chosen.problem
     if isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS:
         return ()
-    if read:                    # a problem of codes: densified only if a pair is found
-        return read_doubts(problem, chosen.path, chosen.best.labels)
+    if read:                    # a problem of codes: densified only if a doubt is found
+        pairs = read_doubts(problem, chosen.path, chosen.best.labels)
+        return (*pairs, *episode_doubts(problem, chosen.path, chosen.best.labels))
     if isinstance(problem, CodedProblem):
         problem = problem.dense()
     if disputed:

@@ -23,7 +23,7 @@ from vggc_cp.solvers.doubts import (
     runner_up_doubts,
 )
 from vggc_cp.solvers.merge import PartitionClosure, threshold_path
-from vggc_cp.solvers.read_doubts import observation_episodes, read_doubts
+from vggc_cp.solvers.read_doubts import episode_doubts, observation_episodes, read_doubts
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 #: thresholds: two where the looks of '1' stay apart, three where they are one node
@@ -266,3 +266,106 @@ def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
     problem = Problem(roles, src, act, dst, NAMES, np.ones((n_pick, n_pick)),
                       np.ones((n_place, n_place)))
     assert observation_episodes(problem).tolist() == [0, 0, 1, 2, 2, 2]
+
+
+def _episode_on_a_read(kappa: float, stated_last: bool = False):
+    """States 'A' and 'B' (hand empty) and their held states: 'A' -pick_1-> 'HA' -place_1->
+    'A', the same from 'B', then a last episode 'A' -pick_1-> 'HA'. Site 0 (pick_1's) is
+    stated full, then empty, alike everywhere; site 1 (pick_2's) holds something in 'A' and
+    'HA' only, stated by the actions in the first two episodes and only read in the last
+    (agreement ``kappa`` beyond chance), unless ``stated_last``. The images put every state
+    apart. Returns the problem, its merge path and the labels (the true partition)."""
+    from vggc_cp.solvers.base import Readings, SiteReads
+
+    trace = make_trace([["A", "pick_1", "HA", "place_1", "A"],
+                        ["B", "pick_1", "HB", "place_1", "B"], ["A", "pick_1", "HA"]], NAMES)
+    src, act, dst = trace.transitions()
+    states = trace.states
+    held = np.array([[0 if s.startswith("H") else 1, 1 if s.endswith("A") else 0]
+                     for s in states])
+    stated = np.ones_like(held, dtype=bool)
+    stated[6:, 1] = stated_last
+    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]))
+    readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
+    roles = trace.roles()
+    apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
+             for r in (0, 1)}
+    problem = Problem(roles, src, act, dst, NAMES, apart[0], apart[1], readings=readings)
+    path = threshold_path(problem, (0.1, 0.2), "mdl")
+    _, labels = np.unique(states, return_inverse=True)
+    return problem, path, labels.astype(np.int64)
+
+
+def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
+    """The last episode's actions walk from 'B' as well as from 'A', and only site 1, read at
+    kappa 0.3 there, puts it on 'A''s path: one split doubt of 'A', its frames in that
+    episode against the rest, moved to 'B'. Read at kappa 0.9, or stated, it is settled."""
+    problem, path, labels = _episode_on_a_read(0.3)
+    (d,) = episode_doubts(problem, path, labels)
+    a, b = int(labels[0]), int(labels[3])
+    assert d.kind == SPLIT and d.nodes == (a,)
+    assert set(d.observations[0]) == {0, 2} and d.observations[1] == (6,)
+    ev = d.evidence
+    assert ev["episode"] == [6, 7] and ev["moved_to"] == b
+    assert ev["read_sites"] == ["pick_2"] and ev["read_kappa"] == 0.3 and d.closeness < 0
+    assert read_doubts(problem, path, labels) == ()   # no pair of nodes is in question
+    for kappa, stated in ((0.9, False), (0.3, True)):
+        problem, path, labels = _episode_on_a_read(kappa, stated)
+        assert episode_doubts(problem, path, labels) == ()
+
+
+def test_an_episode_doubt_flags_the_graph_and_names_the_episode():
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_readings
+
+    problem, path, labels = _episode_on_a_read(0.3)
+    doubts = episode_doubts(problem, path, labels)
+    assert doubts[0].evidence["moved_path"] == [int(labels[3]), int(labels[4])]
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    conf = doubt_readings(quiet, doubts, labels)
+    assert conf.suspect
+    (reason,) = conf.reasons
+    assert "observations 6-7" in reason and "pick_2" in reason and "0.30" in reason
+    # one render each moved to 'B' (2 renders) and 'HB' (1): s = (1/3 + 1/2) / 4, 1 - (1 - s)^2
+    assert "37.3 % of plans" in reason and "suggest" in reason
+
+
+def test_an_episode_doubt_that_would_misplace_few_plans_is_a_note():
+    """Moving two renders among 100 observations of 4 nodes misplaces the start or goal of
+    about 4 % of plans (< 10 %): the graph is usable either way, so the doubt is a note, which
+    joins the reasons when another check flags."""
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import MAX_PLAN_RISK, doubt_readings, misplaced_share
+
+    labels = np.repeat(np.arange(4), 25)
+    d = Doubt(SPLIT, (0,), ((0, 1), (24,)), {"episode": [24, 25], "moved_to": 2,
+                                           "moved_path": [2, 3], "read_sites": ["pick_2"],
+                                           "read_kappa": 0.3})
+    share = misplaced_share([d], labels)
+    assert share == pytest.approx((1 / 26 + 1 / 26) / 4)
+    assert 1 - (1 - share) ** 2 < MAX_PLAN_RISK
+    conf = doubt_readings(Confidence("mdl", 0.0, 5, None, 4.0, False, ()), [d], labels)
+    assert not conf.suspect and len(conf.notes) == 1 and "3.8 % of plans" in conf.notes[0]
+    assert conf.flagged("another check").reasons[0] == conf.notes[0]
+
+
+def test_the_plan_risk_a_doubt_may_leave_is_the_study_s_exec_bar():
+    from vggc_cp.evaluate.metrics import MIN_EXEC
+    from vggc_cp.solvers.doubt_checks import MAX_PLAN_RISK
+
+    assert MAX_PLAN_RISK == pytest.approx(1 - MIN_EXEC)
+
+
+def test_an_episode_walks_back_where_it_returns_on_a_new_edge():
+    """Walked from node 2, an episode 0 -a0-> 1 -a1-> 0: a0 is an edge (2 -> 3), a1 is none
+    from 3, and the episode returns to its first node, so the walk returns to 2 -- unless
+    another action already joins 3 and 2 (Exactly-One), or the episode goes on to a node it
+    never visited before (no edge says where)."""
+    from vggc_cp.solvers.read_doubts import _Graph
+
+    graph = _Graph(np.array([0, 1, 2]), np.array([0, 1, 0]), np.array([1, 0, 3]))
+    assert graph.walk(2, np.array([0, 1]), np.array([0, 1, 0])).tolist() == [2, 3, 2]
+    assert graph.walk(2, np.array([0, 1]), np.array([0, 1, 4])) is None
+    joined = _Graph(np.array([0, 1, 2, 3]), np.array([0, 1, 0, 2]), np.array([1, 0, 3, 2]))
+    assert joined.walk(2, np.array([0, 1]), np.array([0, 1, 0])) is None
+    assert joined.walk(0, np.array([0, 1]), np.array([2, 3, 2])).tolist() == [0, 1, 0]

@@ -111,3 +111,29 @@ def test_a_doubt_only_a_reading_settles_is_probed_at_the_read_sites_first():
     legal = [_legal(bench, state, (name,))[-1] for name in sites[:2]]
     assert any(legal) and any(
         all(_legal(bench, trace.states[p.start_observation], p.actions)) for p in read)
+
+
+def test_an_episode_a_reading_placed_is_probed_from_its_start():
+    """A split doubt of an episode that only a reading put on its path (``episode`` in its
+    evidence): the first proposals act at the read sites from the episode's own start, a
+    state the robot can be put in; the probe is legal there exactly where the state holds
+    what it needs."""
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    (first, last), *_ = trace.episodes()
+    u = int(labels[first])
+    rest = tuple(int(o) for o in np.flatnonzero(labels == u) if o > last)[:2]
+    picks = sorted(n for n in trace.action_names if n.startswith("pick"))
+    doubt = Doubt(SPLIT, (u,), (rest, (first,)),
+                  {"episode": [first, last], "moved_to": u + 1, "read_sites": picks[:2],
+                   "read_kappa": 0.3})
+    proposals = suggest_episodes(trace.without_states(), labels, [doubt])
+    from_start = [p for p in proposals if p.start_observation == first and len(p.actions) == 1]
+    assert {p.actions[0] for p in from_start} == set(picks[:2])
+    assert proposals[0] in from_start and "states what that site holds" in proposals[0].why
+    for p in from_start:
+        state = trace.states[first]
+        held = _legal(bench, state, p.actions)[-1]
+        slot = int(p.actions[0].rsplit("_", 1)[1])
+        assert held == (state.split("|")[0][slot] != "-")

@@ -290,6 +290,21 @@ class Confidence:
         return replace(self, suspect=True, reasons=(*self.reasons, *self.notes, reason),
                        notes=())
 
+    def noted(self, note: str) -> Confidence:
+        """This verdict with ``note`` added: to the reasons when it is flagged already, else to
+        the notes (it joins the reasons when another check flags).
+
+        >>> c = Confidence("mdl", 0.1, 5, None, 4.0, False, ())
+        >>> n = c.noted("one episode might be misread")
+        >>> n.suspect, n.reasons, n.notes
+        (False, (), ('one episode might be misread',))
+        >>> n.flagged("two evidences disagree").reasons
+        ('one episode might be misread', 'two evidences disagree')
+        """
+        if self.suspect:
+            return replace(self, reasons=(*self.reasons, note))
+        return replace(self, notes=(*self.notes, note))
+
     def as_dict(self) -> dict:
         d = asdict(self)
         d["reasons"] = list(self.reasons)

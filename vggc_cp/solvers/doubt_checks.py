@@ -20,27 +20,85 @@ import numpy as np
 from vggc_cp.solvers.confidence import Confidence
 
 
-def doubt_readings(conf: Confidence, doubts) -> Confidence:
+#: The share of plans between two observations that may fail before a graph stops being usable:
+#: the robustness study's bar, Exec >= 90 % (:data:`vggc_cp.evaluate.metrics.MIN_EXEC`).
+MAX_PLAN_RISK = 0.10
+
+
+def misplaced_share(doubts, labels: np.ndarray) -> float:
+    """The share of a state's renders that the episode doubts
+    (:func:`vggc_cp.solvers.read_doubts.episode_doubts`), were they all right, would move to
+    another node, averaged over the nodes: for every node ``v`` of the doubts' other paths,
+    ``m_v / (n_v + m_v)`` with ``m_v`` the observations the doubts would move there and
+    ``n_v`` those it holds, summed over those nodes and divided by the number of nodes.
+
+    A plan between two observations (a start and a goal drawn state by state, as a user
+    asks) starts or ends at a misplaced render with probability ``1 - (1 - s)^2`` for this
+    share ``s``.
+
+    >>> from vggc_cp.solvers.doubts import Doubt
+    >>> d = Doubt("split", (0,), ((1,), (4,)), {"episode": [4, 5], "moved_path": [2, 3]})
+    >>> round(misplaced_share([d], np.array([0, 1, 0, 1, 0, 1, 2, 3, 2, 3])), 4)
+    0.1667
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    n = int(labels.max()) + 1
+    moved = np.zeros(n)
+    for d in doubts:
+        path = (d.evidence or {}).get("moved_path")
+        if isinstance(path, list):
+            np.add.at(moved, np.asarray(path, dtype=np.int64), 1.0)
+    sizes = np.bincount(labels, minlength=n).astype(np.float64)
+    return float((moved / np.maximum(sizes + moved, 1.0)).sum() / n)
+
+
+def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None) -> Confidence:
     """``conf`` flagged when a doubt rests on an untrustworthy reading
     (:func:`vggc_cp.solvers.read_doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
     that nothing the actions state sets apart, told apart only by what the images read at
     sites whose reading agrees with the stated frames less than substantially beyond
-    chance. Re-runs and the description length cannot see it: both take the reading as
-    given. The reason names the nodes, the sites and what to record.
+    chance; or episodes that only such a reading puts on their path
+    (:func:`vggc_cp.solvers.read_doubts.episode_doubts`: its evidence has ``episode``, too)
+    and that, were they misplaced, would misplace the start or the goal of more than
+    :data:`MAX_PLAN_RISK` of the plans between two observations (:func:`misplaced_share`;
+    with ``labels`` only). Fewer, the graph stays usable either way: the episode is a note
+    (it joins the reasons when another check flags). Re-runs and the description length
+    cannot see either: both take the reading as given. The reason names the nodes (the
+    episode), the sites and what to record.
     """
     read = [d for d in doubts if "read_kappa" in d.evidence]
-    if not read:
-        return conf
-    d = read[0]
-    ev = d.evidence
-    more = f" (and {len(read) - 1} more such pair(s))" if len(read) > 1 else ""
-    reason = (f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
-              f"reading at {', '.join(ev.get('read_sites', [])) or 'some site'} tells them "
-              f"apart, and it agrees with the frames whose actions state it only "
-              f"{ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is substantial); record "
-              f"episodes that act there from both nodes (`vggc-cp suggest SOLUTION TRACE -o "
-              f"next.json`)")
-    return conf.flagged(reason)
+    pairs = [d for d in read if "episode" not in d.evidence]
+    moves = [d for d in read if "episode" in d.evidence]
+    for d in pairs[:1]:
+        ev = d.evidence
+        more = f" (and {len(pairs) - 1} more such pair(s))" if len(pairs) > 1 else ""
+        conf = conf.flagged(
+            f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
+            f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
+            f"actions state it only {ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is "
+            f"substantial); record episodes that act there from both nodes (`vggc-cp suggest "
+            f"SOLUTION TRACE -o next.json`)")
+    if moves:
+        d, ev = moves[0], moves[0].evidence
+        first, last = ev["episode"]
+        more = f" (and {len(moves) - 1} more such episode(s))" if len(moves) > 1 else ""
+        share = 0.0 if labels is None else misplaced_share(moves, labels)
+        risk = 1.0 - (1.0 - share) ** 2
+        reason = (
+            f"the episode of observations {first}-{last} might be another path of the graph, "
+            f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
+            f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
+            f"actions state it only {ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is "
+            f"substantial); if so, {100 * risk:.1f} % of plans between two observations start "
+            f"or end at a misplaced one; record an episode from that episode's start that acts "
+            f"there (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+        conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
+                else conf.noted(reason))
+    return conf
+
+
+def _sites(evidence: dict) -> str:
+    return ", ".join(evidence.get("read_sites", [])) or "some site"
 
 
 #: A node of at most this many observations is one render or two: what keeps it apart from

@@ -8,6 +8,14 @@ reading carries its agreement with the stated frames beyond chance
 (:attr:`~vggc_cp.solvers.base.SiteReads.kappa`); :func:`read_doubts` lists the node pairs that
 only such readings, below :data:`READ_KAPPA`, tell apart, as merge doubts of
 :mod:`vggc_cp.solvers.doubts`.
+
+The same misreading can also put a whole episode on the wrong path of a right-sized graph:
+its untouched sites read as another state's, every node it visits is a node of the graph, and
+its actions are edges there. :func:`episode_doubts` lists the episodes whose actions, walked
+on the learned graph from another node, give another path whose nodes nothing the episode's
+actions state rules out, and that only such readings tell apart from the one chosen, as split
+doubts (the episode's first node might be two: its frames in that episode are the other
+path's first node).
 """
 
 from __future__ import annotations
@@ -15,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.solvers.base import Problem
-from vggc_cp.solvers.doubts import MERGE, Doubt, DoubtRule, Flips
+from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
@@ -42,6 +50,42 @@ def observation_episodes(problem: Problem) -> np.ndarray:
     order = np.empty(len(first), dtype=np.int64)
     order[np.argsort(first)] = np.arange(len(first))
     return order[comp]
+
+
+class _NodeReads:
+    """What the observations of every node of ``labels`` hold at every site: ``facts``
+    (bool, shape ``(n, S, V)``: a value stated by the actions in one of the node's
+    observations), ``majority`` (shape ``(n, S)``: the value most of them hold, stated or
+    read), ``role`` (shape ``(n,)``), ``trust`` (every site's kappa, NaN as infinity: a
+    site read nowhere is never an untrustworthy reading) and the sites' ``held`` and
+    ``stated``, and ``action``, the action naming every site."""
+
+    def __init__(self, sites, labels: np.ndarray, roles: np.ndarray):
+        self.labels, self.action = labels, np.asarray(sites.action)
+        self.n = n = int(labels.max()) + 1
+        self.held = held = np.asarray(sites.held)
+        self.stated = stated = np.asarray(sites.stated, dtype=bool)
+        self.trust = np.nan_to_num(np.asarray(sites.kappa, dtype=np.float64), nan=np.inf)
+        n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
+        self.role = np.full(n, -1)
+        self.role[labels] = roles
+        rows, cols = np.repeat(labels, n_sites), np.tile(np.arange(n_sites), len(labels))
+        counts = np.zeros((n, n_sites, n_vals), dtype=np.int64)
+        np.add.at(counts, (rows, cols, held.ravel()), 1)
+        self.facts = np.zeros((n, n_sites, n_vals), dtype=bool)
+        told = stated.ravel()
+        self.facts[rows[told], cols[told], held.ravel()[told]] = True
+        self.majority = counts.argmax(axis=2)
+
+    @classmethod
+    def of(cls, problem: Problem, path: ThresholdPath, labels: np.ndarray, rule: DoubtRule
+           ) -> _NodeReads | None:
+        """None where nothing is read (no sites, no chosen threshold, no transition)."""
+        readings = getattr(problem, "readings", None)
+        sites = None if readings is None else readings.sites
+        if sites is None or path.selected is None or len(problem.act) == 0 or rule.limit == 0:
+            return None
+        return cls(sites, np.asarray(labels, dtype=np.int64), np.asarray(problem.roles))
 
 
 def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
@@ -88,24 +132,13 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     tuple of Doubt
     """
     rule = rule or DoubtRule()
-    readings = getattr(problem, "readings", None)
-    sites = None if readings is None else readings.sites
-    labels = np.asarray(labels, dtype=np.int64)
-    if sites is None or path.selected is None or len(problem.act) == 0 or rule.limit == 0:
+    nodes = _NodeReads.of(problem, path, labels, rule)
+    if nodes is None:
         return ()
-    n = int(labels.max()) + 1
-    held, stated = np.asarray(sites.held), np.asarray(sites.stated, dtype=bool)
-    trust = np.nan_to_num(np.asarray(sites.kappa, dtype=np.float64), nan=np.inf)
-    n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
-    role = np.full(n, -1)
-    role[labels] = problem.roles
-    rows, cols = np.repeat(labels, n_sites), np.tile(np.arange(n_sites), len(labels))
-    counts = np.zeros((n, n_sites, n_vals), dtype=np.int64)
-    np.add.at(counts, (rows, cols, held.ravel()), 1)
-    facts = np.zeros((n, n_sites, n_vals), dtype=bool)
-    told = stated.ravel()
-    facts[rows[told], cols[told], held.ravel()[told]] = True
-    majority, told_any = counts.argmax(axis=2), facts.any(axis=2)
+    n, role, trust = nodes.n, nodes.role, nodes.trust
+    facts, majority = nodes.facts, nodes.majority
+    told_any = facts.any(axis=2)
+    labels = nodes.labels
     episode = observation_episodes(problem)
     visits = np.zeros((n, int(episode.max()) + 1), dtype=bool)
     visits[labels, episode] = True
@@ -124,8 +157,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     if not candidates:
         return ()
     candidates.sort(key=lambda c: (c[0], c[1], c[2]))
-    if hasattr(problem, "dense"):       # a problem of descriptor codes: its matrices now
-        problem = problem.dense()
+    problem = _dense(problem)
     closure = PartitionClosure(problem, labels)
     flips = Flips(problem, path, labels)
     found = []
@@ -139,8 +171,168 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         found.append(flips.doubt(
             MERGE, (u, w), np.flatnonzero(labels == u), np.flatnonzero(labels == w), flipped,
             rule.typical, lambda steps, ev, b=best: round(b - max_kappa, 4),
-            read_sites=sorted(problem.action_names[int(sites.action[k])] for k in sep),
+            read_sites=sorted(problem.action_names[int(nodes.action[k])] for k in sep),
             read_kappa=round(best, 4), forced=sum(len(g) - 1 for g in groups) - 1))
         if len(found) == rule.limit:
             break
+    return tuple(found)
+
+
+def _dense(problem):
+    """A problem of descriptor codes made dense (its matrices), any other as it is."""
+    return problem.dense() if hasattr(problem, "dense") else problem
+
+
+def _chains(problem: Problem) -> list[np.ndarray]:
+    """Every episode's observations in the order its transitions link them (a problem's
+    transitions chain its observations: one successor and one predecessor at most)."""
+    n = problem.n_obs
+    nxt = np.full(n, -1, dtype=np.int64)
+    nxt[problem.src] = problem.dst
+    entered = np.zeros(n, dtype=bool)
+    entered[problem.dst] = True
+    out = []
+    for first in np.flatnonzero(~entered):
+        chain = [int(first)]
+        while nxt[chain[-1]] >= 0:
+            chain.append(int(nxt[chain[-1]]))
+        out.append(np.array(chain, dtype=np.int64))
+    return out
+
+
+class _Graph:
+    """The learned graph's edges: ``ahead[(u, a)]``, the nodes action ``a`` leads to from
+    ``u``, and ``labels_of[(u, v)]``, the actions between ``u`` and ``v``."""
+
+    def __init__(self, src: np.ndarray, act: np.ndarray, dst: np.ndarray):
+        self.ahead: dict[tuple[int, int], set[int]] = {}
+        self.labels_of: dict[tuple[int, int], set[int]] = {}
+        for s, a, d in zip(src.tolist(), act.tolist(), dst.tolist()):
+            self.ahead.setdefault((s, a), set()).add(d)
+            self.labels_of.setdefault((s, d), set()).add(a)
+
+    def walk(self, start: int, actions: np.ndarray, here: np.ndarray) -> np.ndarray | None:
+        """The nodes ``actions`` visit from ``start``, where the episode now visits the nodes
+        ``here``. An action that is an edge there leads where the edge does (None where it
+        leads to two nodes); one that is none returns, where the episode returns to a node it
+        visited before, to the node the walk visited then -- a new edge, allowed where no
+        other action joins the two nodes (Exactly-One); None otherwise."""
+        path = [start]
+        for k, a in enumerate(actions.tolist()):
+            ahead = self.ahead.get((path[-1], a))
+            if ahead is not None:
+                if len(ahead) != 1:
+                    return None
+                path.append(next(iter(ahead)))
+                continue
+            before = np.flatnonzero(here[:k + 1] == here[k + 1])
+            if len(before) == 0:
+                return None
+            back = path[int(before[0])]
+            if self.labels_of.get((path[-1], back), {a}) != {a}:
+                return None
+            path.append(back)
+        return np.array(path, dtype=np.int64)
+
+
+def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
+                   rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA
+                   ) -> tuple[Doubt, ...]:
+    """Episodes that only an untrustworthy reading of the images puts on their path.
+
+    An episode's actions, walked on the learned graph from another node of its first
+    node's role, may give another path: an action that is an edge there leads where the
+    edge does (to one node); one that is none may return where the episode returns, to the
+    node the walk visited when the episode was last at the node it now returns to (a pick
+    and a place that put an object back), where Exactly-One allows the new edge. The
+    episode's frames could then be that path's nodes instead -- the nodes stay, the edges
+    stay or one is added -- when
+
+    * no site that the actions state in one of its frames holds another value, stated,
+      in the other path's node at that step, nor differs from what most of that node's
+      observations hold, and
+    * the sites at which its frames differ from what most observations of the other
+      path's nodes hold are read at every such frame (not stated), and the best of those
+      readings agrees with the stated observations beyond chance by less than
+      ``max_kappa``.
+
+    The episode's first node ``N`` is then a split doubt: its observations in that
+    episode (side ``Q``) might be the other path's first node ``M``, the rest of ``N``
+    (side ``P``) stay. A node whose every observation lies in the episode is a merge
+    question (:func:`read_doubts`), not listed here. Evidence: that of
+    :func:`~vggc_cp.solvers.doubts.find_doubts` for moving the whole episode onto the other
+    path, plus ``episode`` (its first and last observation), ``moved_to`` (``M``),
+    ``moved_path`` (the other path's nodes, one per observation of the episode),
+    ``read_sites``, ``read_kappa`` as for :func:`read_doubts`. Ranked by ``read_kappa -
+    max_kappa``; the episode with the least trustworthy reading first, one doubt per
+    episode, at most ``rule.limit``.
+
+    Parameters
+    ----------
+    problem : Problem or CodedProblem
+        Its :attr:`~vggc_cp.solvers.base.Problem.readings` must hold
+        :class:`~vggc_cp.solvers.base.SiteReads`; else no doubt.
+    path : ThresholdPath
+    labels : ndarray of int, shape (N,)
+        The chosen partition.
+    rule : DoubtRule, optional
+    max_kappa : float
+        The least agreement beyond chance that settles a placement (:data:`READ_KAPPA`).
+
+    Returns
+    -------
+    tuple of Doubt
+    """
+    rule = rule or DoubtRule()
+    nodes = _NodeReads.of(problem, path, labels, rule)
+    if nodes is None:
+        return ()
+    labels = nodes.labels
+    held, stated, facts, majority = nodes.held, nodes.stated, nodes.facts, nodes.majority
+    graph = _Graph(labels[problem.src], problem.act, labels[problem.dst])
+    sizes = np.bincount(labels, minlength=nodes.n)
+    act_of = np.full(problem.n_obs, -1, dtype=np.int64)
+    act_of[problem.src] = problem.act
+    site_rows = np.arange(held.shape[1])
+    candidates = []
+    for chain in _chains(problem):
+        here = labels[chain]
+        if len(chain) < 2 or np.count_nonzero(here == here[0]) == sizes[here[0]]:
+            continue
+        best_move = None
+        for other in np.flatnonzero(nodes.role == nodes.role[here[0]]):
+            moved = graph.walk(int(other), act_of[chain[:-1]], here)
+            if moved is None or (moved == here).all():
+                continue
+            differ = held[chain] != majority[moved]
+            # another stated value in the other node at a stated site, or a stated site
+            # that the other node's observations mostly hold otherwise: ruled out
+            clash = facts[moved].copy()
+            clash[np.arange(len(chain))[:, None], site_rows, held[chain]] = False
+            if ((clash.any(axis=2) | differ) & stated[chain]).any() or not differ.any():
+                continue
+            best = float(nodes.trust[differ.any(axis=0)].max())
+            if best < max_kappa and (best_move is None or best < best_move[0]):
+                best_move = (best, int(other), moved, differ.any(axis=0))
+        if best_move is not None:
+            candidates.append((best_move[0], int(chain[0]), chain, *best_move[1:]))
+    if not candidates:
+        return ()
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    problem = _dense(problem)
+    flips = Flips(problem, path, labels)
+    found = []
+    for best, _first, chain, other, moved, sep in candidates[:rule.limit]:
+        u = int(labels[chain[0]])
+        mine = chain[labels[chain] == u]
+        rest = np.setdiff1d(np.flatnonzero(labels == u), mine)
+        flipped = labels.copy()
+        flipped[chain] = moved
+        found.append(flips.doubt(
+            SPLIT, (u,), rest, mine, flipped, rule.typical,
+            lambda steps, ev, b=best: round(b - max_kappa, 4),
+            episode=[int(chain[0]), int(chain[-1])], moved_to=other,
+            moved_path=[int(v) for v in moved],
+            read_sites=sorted(problem.action_names[int(a)] for a in nodes.action[sep]),
+            read_kappa=round(best, 4)))
     return tuple(found)

@@ -22,6 +22,10 @@ proposes episodes a robot can run:
     renders of ``A`` doing what ``B`` was never seen to do). When both nodes afford the same actions, an action
     they share is repeated from each (those whose outcomes differ first): do they lead to
     one node?
+  - split doubt that only a reading of the images settles (an episode put on its path by
+    that reading, :func:`~vggc_cp.solvers.read_doubts.episode_doubts`): from the episode's
+    start, and from ``N`` as the graph reaches it, an action at one of those sites that
+    ``N``'s role can take. Then, as for every split doubt:
   - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
     a typical observation of one side (the same predecessor node and action, or the same
     episode start), then an action taken from the other side only is tried, and (the
@@ -200,6 +204,20 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
     (u,) = doubt.nodes
     sides = [tuple(side) for side in doubt.observations]
     ev = doubt.evidence or {}
+    episode = ev.get("episode")
+    if isinstance(episode, list) and episode and int(episode[0]) in start_set:
+        # an episode only the images' reading put on its path (episode_doubts): act at those
+        # sites from its start, and from the node as the graph reaches it
+        first = int(episode[0])
+        for name in _read_probes(graph, doubt, u)[:per_doubt]:
+            yield 1, (first, None, (), u, name,
+                      f"split doubt {u}: the episode from observation {first} might start at "
+                      f"node {ev.get('moved_to')}; {name} from its start states what that site "
+                      f"holds there, legal or not, which tells node {u} from node "
+                      f"{ev.get('moved_to')}")
+            yield 0, (None, u, (), u, name,
+                      f"split doubt {u}: {name} from node {u} as the graph reaches it: what the "
+                      f"site holds in the node's other observations")
     if isinstance(ev.get("only_a"), list) and isinstance(ev.get("only_b"), list):
         # the actions each whole side took and the other never did (find_doubts)
         names = set(graph.action_names)
