@@ -308,6 +308,7 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     ev = d.evidence
     assert ev["episode"] == [6, 7] and ev["moved_to"] == b
     assert ev["read_sites"] == ["pick_2"] and ev["read_kappa"] == 0.3 and d.closeness < 0
+    assert f"episode 6-7 might start at node {b}, kappa 0.30: pick_2" in format_doubts([d])[1]
     assert read_doubts(problem, path, labels) == ()   # no pair of nodes is in question
     for kappa, stated in ((0.9, False), (0.3, True)):
         problem, path, labels = _episode_on_a_read(kappa, stated)

@@ -19,7 +19,6 @@ import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
 
-
 #: The share of plans between two observations that may fail before a graph stops being usable:
 #: the robustness study's bar, Exec >= 90 % (:data:`vggc_cp.evaluate.metrics.MIN_EXEC`).
 MAX_PLAN_RISK = 0.10

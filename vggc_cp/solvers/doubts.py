@@ -571,6 +571,11 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
                 f"{ev['contradicted']} held-out transition(s) dispute it"
                 if ev.get("contradicted") else
                 "the runner-up graph decides it the other way" if ev.get("runner_up") else
+                f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "
+                f"{ev.get('moved_to')}, kappa {ev['read_kappa']:.2f}: "
+                f"{', '.join(ev.get('read_sites', []))}"
+                if isinstance(ev.get("episode"), list) and ev["episode"]
+                and isinstance(ev.get("read_kappa"), (int, float)) else
                 f"only read apart, kappa {ev['read_kappa']:.2f}: {', '.join(ev.get('read_sites', []))}"
                 if isinstance(ev.get("read_kappa"), (int, float)) else "")
         lines.append(f"{k:>3}  {d.kind:<5}  {nodes:<9}  {obs[:24]:<24}  {ratio:>7.2f}  "
