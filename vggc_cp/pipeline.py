@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields, replace
+from itertools import zip_longest
 
 import numpy as np
 
@@ -563,6 +564,10 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read,
                                                            chosen.best.labels))
         pairs = {d.nodes for d in read}
+        # the pairs and the episodes in turn, so that the list keeps some of each
+        kinds = ([d for d in read if "episode" not in d.evidence],
+                 [d for d in read if "episode" in d.evidence])
+        read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
     # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
     # on the way to the runner-up graph, so the verdict says what is doubtful

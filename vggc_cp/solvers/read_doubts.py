@@ -215,8 +215,9 @@ class _Graph:
         """The nodes ``actions`` visit from ``start``, where the episode now visits the nodes
         ``here``. An action that is an edge there leads where the edge does (None where it
         leads to two nodes); one that is none returns, where the episode returns to a node it
-        visited before, to the node the walk visited then -- a new edge, allowed where no
-        other action joins the two nodes (Exactly-One); None otherwise."""
+        visited before, to the node the walk visited then (None where the walk visited two
+        there: one node of the episode would be two of the walk) -- a new edge, allowed where
+        no other action joins the two nodes (Exactly-One); None otherwise."""
         path = [start]
         for k, a in enumerate(actions.tolist()):
             ahead = self.ahead.get((path[-1], a))
@@ -225,10 +226,10 @@ class _Graph:
                     return None
                 path.append(next(iter(ahead)))
                 continue
-            before = np.flatnonzero(here[:k + 1] == here[k + 1])
-            if len(before) == 0:
+            before = {path[j] for j in np.flatnonzero(here[:k + 1] == here[k + 1])}
+            if len(before) != 1:
                 return None
-            back = path[int(before[0])]
+            (back,) = before
             if self.labels_of.get((path[-1], back), {a}) != {a}:
                 return None
             path.append(back)
@@ -243,7 +244,7 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     An episode's actions, walked on the learned graph from another node of its first
     node's role, may give another path: an action that is an edge there leads where the
     edge does (to one node); one that is none may return where the episode returns, to the
-    node the walk visited when the episode was last at the node it now returns to (a pick
+    node the walk visited whenever the episode was at the node it now returns to (a pick
     and a place that put an object back), where Exactly-One allows the new edge. The
     episode's frames could then be that path's nodes instead -- the nodes stay, the edges
     stay or one is added -- when
