@@ -22,6 +22,7 @@ ROOT = Path(vggc_cp.__file__).parent
 #: Floors, low to high; a module's floor is that of its longest listed prefix.
 FLOORS = (
     ("vggc_cp", "vggc_cp.version", "vggc_cp.errors", "vggc_cp.atomic", "vggc_cp.safeio", "vggc_cp.score",
+     "vggc_cp.recorded",
      "vggc_cp.trace", "vggc_cp.graph", "vggc_cp.solution"),
     ("vggc_cp.vision", "vggc_cp.sim", "vggc_cp.solvers", "vggc_cp.baselines",
      "vggc_cp.importers", "vggc_cp.export"),

@@ -39,7 +39,9 @@ import numpy as np
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError, lookup
 from vggc_cp.graph import TaskGraph
+from vggc_cp.recorded import recorded_facts
 from vggc_cp.solvers.base import Problem, Readings, SiteReads, SolveResult
+from vggc_cp.solvers.broken_facts import broken_facts, facts_check
 from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
@@ -569,6 +571,14 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                  [d for d in read if "episode" in d.evidence])
         read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
+    # what the recording states (resets, refusals) and the graph breaks: certain errors,
+    # flagged and listed first
+    facts = recorded_facts(trace)
+    if facts:
+        broken = broken_facts(facts, trace.actions, trace.action_names, chosen.best.labels)
+        if broken:
+            chosen = replace(chosen, confidence=facts_check(chosen.confidence, broken))
+            doubts = (*broken, *doubts)[:max(DoubtRule().limit, len(broken))]
     # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
     # on the way to the runner-up graph, so the verdict says what is doubtful
     asked = chosen.confidence.suspect or bool(chosen.confidence.notes)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from vggc_cp.errors import TraceError, VggcError
+from vggc_cp.recorded import recorded_facts
 
 PICK = 0
 PLACE = 1
@@ -112,7 +113,9 @@ class Trace:
     def content_hash(self) -> str:
         """SHA-256 of what solvers see (observations, actions, action names).
 
-        Ground-truth ``states`` and ``meta`` are excluded, so removing them keeps caches valid.
+        Ground-truth ``states`` and ``meta`` are excluded, so removing them keeps caches valid;
+        but the resets and refusals ``meta["appended"]`` records are seen by solvers
+        (:mod:`vggc_cp.recorded`): where there are any, they are hashed last.
         """
         from vggc_cp.frames import StreamedFrames
 
@@ -125,6 +128,7 @@ class Trace:
             h.update(np.ascontiguousarray(obs).reshape(-1))
         h.update(np.ascontiguousarray(self.actions, dtype=np.int64).tobytes())
         h.update("\x00".join(self.action_names).encode())
+        h.update(recorded_facts(self).key())
         return h.hexdigest()
 
     def identity_hash(self) -> str:
@@ -149,6 +153,9 @@ class Trace:
         part(len(self.action_names).to_bytes(8, "little"))
         for name in self.action_names:
             part(name.encode("utf-8", "surrogatepass"))
+        facts = recorded_facts(self).key()
+        if facts:                      # resets and refusals (vggc_cp.recorded)
+            part(facts)
         return h.hexdigest()
 
 
@@ -342,6 +349,7 @@ def load_trace(path: str | Path, validate_trace: bool = True) -> Trace:
     trace = Trace(obs, actions, tuple(str(x) for x in names_arr), states, meta, source)
     if validate_trace:
         validate(trace, source)
+        recorded_facts(trace)          # meta.appended, where present, fits the trace
     return trace
 
 

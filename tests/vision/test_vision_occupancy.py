@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vggc_cp.recorded import RecordedFacts
 from vggc_cp.trace import PICK, PLACE, load_trace
 from vggc_cp.vision import occupancy as occ
 from vggc_cp.vision import slots
@@ -28,6 +29,54 @@ def test_the_actions_state_what_a_site_holds_between_them():
     assert lab.tolist() == [0, 0, slots.EMPTY, slots.EMPTY, 0,
                             occ.UNLABELLED, occ.UNLABELLED,
                             occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED]
+
+
+def _reset_trace():
+    # actions: 0 pick red at s, 1 place red at s, 2 acts elsewhere (a pick), 3 acts elsewhere
+    # (a place); episode 1: o0 -2-> o1 -3-> o2 (nothing at s); episode 2: o3 -0-> o4 (picks
+    # red at s: s held red at o3); episode 3: o5 -2-> o6 (nothing at s)
+    kinds = np.array([PICK, PLACE, PICK, PLACE], dtype=np.int8)
+    colour = np.array([0, 0, 1, 1])
+    actions = np.array([2, 3, -1, 0, -1, 2])
+    return kinds, colour, actions, [(0, 2), (3, 4), (5, 6)], np.array([0, 1])
+
+
+def test_a_reset_carries_what_the_actions_state_to_an_episode_that_never_acts_there():
+    kinds, colour, actions, episodes, acting = _reset_trace()
+    alone = occ.site_labels(actions, episodes, acting, kinds, colour)
+    assert alone[:3].tolist() == [occ.UNLABELLED] * 3
+    # episode 2 was recorded from the state of o0: s held red there, in all of episode 1
+    facts = RecordedFacts(resets=((0, 3),))
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, facts)
+    assert lab.tolist() == [0, 0, 0, 0, slots.EMPTY, occ.UNLABELLED, occ.UNLABELLED]
+    # and on through a chain of resets between episodes that never act there
+    chain = RecordedFacts(resets=((0, 3), (1, 5)))
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, chain)
+    assert lab[5:].tolist() == [0, 0]
+    # a reset never overrides what an episode's own actions state
+    back = RecordedFacts(resets=((4, 0),))
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, back)
+    assert lab[:5].tolist() == [slots.EMPTY] * 3 + [0, slots.EMPTY]
+
+
+def test_a_refused_action_states_what_the_site_holds_only_where_one_value_is_left():
+    kinds, colour, actions, episodes, acting = _reset_trace()
+    # a place at s refused at o0 (a pick role: the hand's reason, nothing ruled out)
+    wrong_role = RecordedFacts(refusals=((0, 1),))
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, wrong_role, refusals=True)
+    assert lab[:3].tolist() == [occ.UNLABELLED] * 3
+    # a place at s refused at o1 (a place role): s is taken, and only red acts there
+    taken = RecordedFacts(refusals=((1, 1),))
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, taken, refusals=True)
+    assert lab[:3].tolist() == [0, 0, 0]
+    # the caller decides whether refusals count (a site in a stack: they do not)
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, taken)
+    assert lab[:3].tolist() == [occ.UNLABELLED] * 3
+    # a refused red pick at o5 leaves empty (episode 3 only), not at a site it does not act at
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour,
+                          RecordedFacts(refusals=((5, 0), (0, 2))), refusals=True)
+    assert lab.tolist()[5:] == [slots.EMPTY, slots.EMPTY]
+    assert lab[:3].tolist() == [occ.UNLABELLED] * 3
 
 
 def test_twins_actions_at_a_site_and_stacked_sites():

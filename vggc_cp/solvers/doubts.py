@@ -551,6 +551,19 @@ def _keep(kind: str, nodes: tuple[int, ...], obs, ev: dict, rule: DoubtRule) -> 
 # ------------------------------------------------------------------ reading and printing
 
 
+def broken_fact_note(d: Doubt) -> str:
+    """One line for a broken fact (:func:`vggc_cp.solvers.broken_facts.broken_facts`); empty for another doubt."""
+    ev = d.evidence or {}
+    if isinstance(ev.get("reset"), list):
+        a, b = ev["reset"]
+        return (f"observation {b} was recorded from the state of observation {a}, "
+                f"but they lie on nodes {d.nodes[1]} and {d.nodes[0]}")
+    if "refused" in ev:
+        return (f"{ev['refused']} was refused at observation {ev.get('observation')}, but "
+                f"node {d.nodes[0]} takes it (observation {d.observations[1][0]})")
+    return ""
+
+
 def format_doubts(doubts, limit: int = 10) -> list[str]:
     """A short table of doubts (at most ``limit`` rows), one line each::
 
@@ -566,7 +579,8 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
         obs = " | ".join(",".join(str(o) for o in side) for side in d.observations)
         ratio = ev.get("distance", 0.0) / ev["threshold"] if ev.get("threshold") else 0.0
         steps = ev.get("steps")
-        note = ("the hands hold different colours" if ev.get("forbidden") == "hand" else
+        note = ("the graph breaks it: " + broken_fact_note(d) if broken_fact_note(d) else
+                "the hands hold different colours" if ev.get("forbidden") == "hand" else
                 "Exactly-One forbids" if ev.get("forbidden") else
                 f"{ev['contradicted']} held-out transition(s) dispute it"
                 if ev.get("contradicted") else

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
@@ -68,8 +69,18 @@ NEAREST = 3
 
 
 def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np.ndarray,
-                kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
+                kinds: np.ndarray, colour: np.ndarray, facts: RecordedFacts = NO_FACTS,
+                refusals: bool = False) -> np.ndarray:
     """What a site holds at every observation, as its actions state it.
+
+    With ``facts`` (:func:`vggc_cp.recorded.recorded_facts`), an episode with no action at
+    the site holds one thing there throughout, and a reset states that it is what the
+    observation it restarts from holds: the value the actions state in one episode carries
+    over every reset to episodes without an action at the site (:func:`_reset_labels`).
+    With ``refusals`` too, a refused action at the site rules out what it needs there (a
+    pick: the class's colour; a place: nothing): where one value is left, that is what the
+    site holds. A refusal says that only where the site is in no stack (a block on top
+    forbids a pick below it, an empty slot below a place above it), which the caller knows.
 
     Parameters
     ----------
@@ -90,9 +101,11 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     labels = np.full(n, UNLABELLED, dtype=np.int64)
     is_acting = np.zeros(len(kinds), dtype=bool)
     is_acting[acting] = True
-    for first, last in episodes:
+    untouched = np.zeros(len(episodes), dtype=bool)
+    for e, (first, last) in enumerate(episodes):
         steps = [t for t in range(first, last) if actions[t] >= 0 and is_acting[actions[t]]]
         if not steps:
+            untouched[e] = True
             continue
         events = []                        # (t, held before, held after)
         for t in steps:
@@ -105,7 +118,67 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
         for prev, nxt in zip(events, events[1:]):
             labels[prev[0] + 1:nxt[0] + 1] = prev[2]
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
+    if facts:
+        _reset_labels(labels, actions, episodes, untouched, is_acting, kinds, colour, facts,
+                      refusals)
     return labels
+
+
+def _reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[int, int]],
+                  untouched: np.ndarray, is_acting: np.ndarray, kinds: np.ndarray,
+                  colour: np.ndarray, facts: RecordedFacts, refusals: bool) -> None:
+    """:func:`site_labels`' resets and refusals, in place on ``labels``.
+
+    Episodes without an action at the site that a reset joins hold one value (union-find);
+    a group takes the value a reset from a labelled observation states, or, with
+    ``refusals``, the one value the refused actions leave. Values that disagree leave the
+    group unlabelled.
+    """
+    n_ep = len(episodes)
+    episode = np.empty(len(labels), dtype=np.int64)
+    for e, (first, last) in enumerate(episodes):
+        episode[first:last + 1] = e
+    parent = list(range(n_ep))
+
+    def find(e: int) -> int:
+        while parent[e] != e:
+            parent[e] = parent[parent[e]]
+            e = parent[e]
+        return e
+
+    for a, b in facts.resets:
+        ea, eb = int(episode[a]), int(episode[b])
+        if untouched[ea] and untouched[eb]:
+            parent[find(ea)] = find(eb)
+    values: dict[int, set[int]] = {}
+    for a, b in facts.resets:
+        for x, y in ((a, b), (b, a)):
+            ex = int(episode[x])
+            if untouched[ex] and labels[y] != UNLABELLED and not untouched[episode[y]]:
+                values.setdefault(find(ex), set()).add(int(labels[y]))
+    if refusals:
+        acted = {int(c) for c in colour[np.flatnonzero(is_acting)] if c >= 0}
+        options: dict[int, set[int]] = {}
+        for o, k in facts.refusals:
+            e = int(episode[o])
+            if not (is_acting[k] and untouched[e]):
+                continue
+            # the hand's reason rules nothing out: the role the observation has in its episode
+            role = (kinds[actions[o]] if o < len(actions) and actions[o] >= 0
+                    else 1 - kinds[actions[o - 1]] if o > 0 and actions[o - 1] >= 0 else -1)
+            if role != kinds[k]:
+                continue
+            g = find(e)
+            options.setdefault(g, {EMPTY, *acted}).discard(
+                int(colour[k]) if kinds[k] == PICK else EMPTY)
+        for g, left in options.items():
+            if len(left) == 1:
+                values.setdefault(g, set()).update(left)
+    for e in np.flatnonzero(untouched):
+        held = values.get(find(int(e)), set())
+        if len(held) == 1:
+            first, last = episodes[e]
+            labels[first:last + 1] = next(iter(held))
 
 
 def nearest_looks(features: np.ndarray, ref: np.ndarray, episode: np.ndarray,
@@ -235,10 +308,11 @@ def refine_presence(trace: Trace, x: np.ndarray, sites: np.ndarray, ov: np.ndarr
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
     episodes, episode = trace.episodes(), trace.episode_index()
+    facts = recorded_facts(trace)
     for a in np.flatnonzero(stacked(ov, colour, twin, site_overlap) & (counts > 0)):
         labels = site_labels(trace.actions, episodes,
                              acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
-                             colour)
+                             colour, facts)
         support = sites[a] > 0
         look = look_presence(site_features(x[:, support], sites[a][support]), labels, episode)
         if look is not None:
@@ -355,9 +429,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     examples: list[list[np.ndarray]] = [[] for _ in range(n_col)]
     looks: dict = {}
     runs: dict = {}                                  # site -> (labels, run, loose, acting)
+    facts = recorded_facts(trace)
     for a in np.flatnonzero((counts > 0) & (colour >= 0)):
         acting = acting_at(int(a), ov, colour, twin, site_overlap, mates)
-        labels = site_labels(actions, episodes, acting, kinds, colour)
+        labels = site_labels(actions, episodes, acting, kinds, colour, facts)
         known = labels != UNLABELLED
         stated[:, a] = known
         trust[known, a] = 1.0
@@ -372,6 +447,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         cut = start.copy()
         cut[1:] |= (actions >= 0) & is_acting[np.maximum(actions, 0)]
         run = np.cumsum(cut) - 1
+        if facts.resets:
+            run = joined_runs(run, known, facts.resets)
         loose = np.flatnonzero(~known)
         runs[int(a)] = (labels, run, loose, acting)
         if not len(loose):
@@ -414,6 +491,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
     above = slots_above(runs, ov, site_overlap)
+    if facts.refusals:
+        _refused(runs, above, facts, actions, episodes, kinds, colour, presence, posterior,
+                 stated, trust)
     slot = slot_groups(ov, colour, counts, twin, mates, site_overlap)
     # objects rest on something: nothing above an empty slot
     presence, _ = supported(presence, trust, stated, slot, above, trace.episodes())
@@ -423,6 +503,60 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
                                       above)
     return presence, posterior, stated, kappa
+
+
+def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:
+    """``run`` with the unstated runs that a reset ``(a, b)`` joins made one.
+
+    Observation ``b`` shows the state of ``a`` (:mod:`vggc_cp.recorded`), and a run holds
+    one thing from one action at the site to the next, so the run of ``a`` and the run of
+    ``b`` hold the same thing: their frames are read together. Runs are renumbered by their
+    first frame.
+
+    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), np.zeros(6, bool), [(0, 4)]).tolist()
+    [0, 0, 1, 1, 0, 0]
+    >>> known = np.array([1, 1, 0, 0, 0, 0], bool)          # a stated run is not joined
+    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), known, [(0, 4)]).tolist()
+    [0, 0, 1, 1, 2, 2]
+    """
+    parent = np.arange(int(run.max()) + 1 if len(run) else 0)
+
+    def find(r: int) -> int:
+        while parent[r] != r:
+            parent[r] = parent[parent[r]]
+            r = int(parent[r])
+        return r
+
+    for a, b in resets:
+        if not (known[a] or known[b]):
+            ra, rb = find(int(run[a])), find(int(run[b]))
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(r) for r in range(len(parent))], dtype=run.dtype)
+    return roots[run]
+
+
+def _refused(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
+             episodes: list[tuple[int, int]], kinds: np.ndarray, colour: np.ndarray,
+             presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
+             trust: np.ndarray) -> None:
+    """What refused actions state (:func:`site_labels` with ``refusals``), in place, on the
+    sites in no stack (``above``, :func:`slots_above`, names none of their slots)."""
+    in_stack = set(above) | {int(b) for below in above.values() for b in below}
+    n_col = posterior.shape[2]
+    for a, (labels, _run, _loose, acting) in runs.items():
+        if a in in_stack or in_stack & {int(b) for b in acting}:
+            continue
+        now = site_labels(actions, episodes, acting, kinds, colour, facts, refusals=True)
+        new = np.flatnonzero((now != UNLABELLED) & (labels == UNLABELLED))
+        if not len(new):
+            continue
+        labels[new] = now[new]
+        stated[new, a] = True
+        trust[new, a] = 1.0
+        presence[new, a] = (now[new] >= 0).astype(np.float64)
+        full = new[now[new] >= 0]
+        if n_col > 1 and len(full):
+            posterior[full, a] = np.eye(n_col)[now[full]]
 
 
 def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:

@@ -1,0 +1,97 @@
+"""Facts a recording states that a graph breaks (:mod:`vggc_cp.solvers.broken_facts`): found
+exactly where the labels break them, flagged with what to record, printed in the doubts table;
+and, end to end, recorded episodes settle a site the learner could only read before."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from vggc_cp.pipeline import learn_graph
+from vggc_cp.recorded import RecordedFacts, recorded_facts
+from vggc_cp.sim.append import EpisodeRequest, append_episodes
+from vggc_cp.sim.explore import generate
+from vggc_cp.solvers.broken_facts import broken_facts, facts_check
+from vggc_cp.solvers.confidence import Confidence
+from vggc_cp.solvers.doubts import MERGE, SPLIT, format_doubts
+
+NAMES = ("pick_a", "pick_b", "place_a", "place_b")
+
+
+def test_only_the_facts_the_labels_break_are_listed():
+    # o0 -pick_a-> o1 -place_b-> o2 | o3 -pick_b-> o4
+    actions = np.array([0, 3, -1, 1])
+    labels = np.array([0, 1, 0, 2, 3])
+    facts = RecordedFacts(resets=((0, 3), (2, 3), (0, 2)), refusals=((2, 0), (3, 0), (2, 1)))
+    broken = broken_facts(facts, actions, NAMES, labels)
+    # resets: o0 and o3 on nodes 0 and 2 (broken), o2 likewise, o0 and o2 both node 0 (kept);
+    # refusals: pick_a refused at o2 (node 0 takes it at o0: broken), at o3 (node 2 never
+    # takes it: kept), pick_b at o2 (node 0 never takes it: kept)
+    assert [(d.kind, d.nodes, d.observations) for d in broken] == [
+        (MERGE, (0, 2), ((0,), (3,))), (MERGE, (0, 2), ((2,), (3,))),
+        (SPLIT, (0,), ((2,), (0,)))]
+    # one node for o0, o2, o3: no reset broken; node 0 takes pick_a (at o0) and pick_b (at
+    # o3), so every refusal is broken
+    joined = broken_facts(facts, actions, NAMES, np.array([0, 1, 0, 0, 1]))
+    assert [(d.kind, d.observations) for d in joined] == [
+        (SPLIT, ((2,), (0,))), (SPLIT, ((3,), (0,))), (SPLIT, ((2,), (3,)))]
+
+
+def test_a_broken_fact_flags_the_graph_and_says_what_to_record():
+    conf = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    broken = broken_facts(RecordedFacts(refusals=((2, 0),)), np.array([0, 3, -1, 1]), NAMES,
+                          np.array([0, 1, 0, 2, 3]))
+    flagged = facts_check(conf, broken)
+    assert flagged.suspect and "pick_a was refused at observation 2" in flagged.reasons[0]
+    assert "vggc-cp suggest" in flagged.reasons[0]
+    assert "the graph breaks it: pick_a was refused" in "\n".join(format_doubts(broken))
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    """fruit-2x3 (clean, 24 px, 40 transitions), then two episodes recorded from the starts of
+    the first two episodes of the trace."""
+    trace = generate("fruit-2x3", 40, seed=1, size=24).trace
+    starts = [first for first, _ in trace.episodes()][:2]
+    from vggc_cp.sim.tasks import get_benchmark
+
+    bench = get_benchmark(trace.meta["benchmark"])
+    requests = []
+    for s in starts:
+        state, acts = str(trace.states[s]), []
+        for _ in range(2):
+            name = bench.valid_actions(state)[-1]
+            acts.append(name)
+            state = bench.step(state, name)
+        requests.append(EpisodeRequest(s, tuple(acts)))
+    return trace, append_episodes(trace, requests).trace
+
+
+def test_a_graph_that_keeps_the_facts_is_not_flagged_for_them(recorded):
+    _, new = recorded
+    learned = learn_graph(new.without_states())
+    assert not broken_facts(recorded_facts(new), new.actions, new.action_names, learned.labels)
+    assert not any("facts the recording states" in r or "fact the recording states" in r
+                   for r in learned.confidence.reasons)
+
+
+def test_a_false_reset_is_broken_and_flagged(recorded):
+    # the record claims the first new episode began in the state of an observation of
+    # another state: a right graph must break it, and the verdict says so
+    _, new = recorded
+    meta = {**new.meta, "appended": [dict(r) for r in new.meta["appended"]]}
+    rnd = meta["appended"][0]
+    first = rnd["episodes"][0]["start_observation"]
+    other = next(o for o in range(rnd["observations"])
+                 if new.states[o] != new.states[first]
+                 and new.roles()[o] == new.roles()[first])
+    rnd["episodes"] = [{**rnd["episodes"][0], "start_observation": other},
+                       *rnd["episodes"][1:]]
+    lying = replace(new, meta=meta)
+    learned = learn_graph(lying.without_states())
+    broken = [d for d in learned.doubts if "reset" in d.evidence]
+    assert broken and broken[0].evidence["reset"][0] == other
+    assert learned.confidence.suspect
+    assert any("fact the recording states" in r for r in learned.confidence.reasons)

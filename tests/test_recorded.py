@@ -1,0 +1,93 @@
+"""Resets and refusals a recording states (``meta["appended"]``): read from a real appended
+trace they are true of its ground truth; a record that does not fit the trace is refused at
+load, naming the field; solvers see them, so the hashes do too."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from vggc_cp.errors import TraceError
+from vggc_cp.recorded import NO_FACTS, recorded_facts
+from vggc_cp.sim.append import EpisodeRequest, append_episodes
+from vggc_cp.sim.explore import generate
+from vggc_cp.sim.tasks import get_benchmark
+from vggc_cp.trace import load_trace, save_trace
+
+
+@pytest.fixture(scope="module")
+def appended():
+    trace = generate("fruit-2x3", 10, seed=3, size=16).trace
+    bench = get_benchmark(trace.meta["benchmark"])
+    starts = [first for first, _ in trace.episodes()]
+    requests = []
+    for k, start in enumerate([starts[0], starts[-1], starts[0]]):
+        state, acts = str(trace.states[start]), []
+        for _ in range(k + 1):
+            name = bench.valid_actions(state)[0]
+            acts.append(name)
+            state = bench.step(state, name)
+        bad = next(a for a in bench.action_names if bench.step(state, a) is None)
+        requests.append(EpisodeRequest(start, (*acts, bad)))
+    never = next(a for a in bench.action_names
+                 if bench.step(str(trace.states[starts[0]]), a) is None)
+    requests.append(EpisodeRequest(starts[0], (never,)))
+    return trace, append_episodes(trace, requests).trace, bench
+
+
+def test_resets_and_refusals_of_a_recording_are_true(appended):
+    trace, new, bench = appended
+    assert recorded_facts(trace) is NO_FACTS
+    facts = recorded_facts(new)
+    assert len(facts.resets) == 3 and len(facts.refusals) == 4
+    for a, b in facts.resets:      # the episode's first observation shows the start's state
+        assert b >= trace.n_obs and a < trace.n_obs and new.actions[b - 1] == -1
+        assert new.states[a] == new.states[b]
+    for o, k in facts.refusals:    # the refused action is illegal in the state it met
+        assert bench.step(str(new.states[o]), new.action_names[k]) is None
+    # the refusal with nothing recorded is met in the start observation's state
+    assert facts.refusals[-1][0] == trace.episodes()[0][0]
+
+
+def test_solvers_see_the_facts_so_the_hashes_do(appended):
+    _, new, _ = appended
+    bare = replace(new, meta={k: v for k, v in new.meta.items() if k != "appended"})
+    assert bare.content_hash() != new.content_hash()
+    assert bare.identity_hash() != new.identity_hash()
+    # the rest of meta is never read
+    other = replace(new, meta={**new.meta, "seed": 99})
+    assert other.content_hash() == new.content_hash()
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda r: r[0]["episodes"][0].update(executed=["pick_nothing"]), "episodes[0].executed"),
+    (lambda r: r[0]["episodes"][1]["executed"].reverse(), "episodes[1].executed"),
+    (lambda r: r[0]["episodes"][0].update(start_observation=10**6),
+     "episodes[0].start_observation"),
+    (lambda r: r[0].update(observations="3"), "[0].observations"),
+    (lambda r: r[0]["episodes"].pop(0), "episodes[0].executed"),
+    (lambda r: r[0]["episodes"].pop(2), "appended[0]"),
+])
+def test_a_record_that_does_not_fit_the_trace_is_refused_at_load(appended, tmp_path, change,
+                                                                  field):
+    _, new, _ = appended
+    meta = copy.deepcopy(new.meta)
+    change(meta["appended"])
+    path = tmp_path / "bad.npz"
+    save_trace(replace(new, meta=meta), path)
+    with pytest.raises(TraceError) as err:
+        load_trace(path)
+    msg = str(err.value)
+    assert msg.startswith(f"{path}: field 'meta.appended") and field + "'" in msg
+
+
+def test_a_trace_without_the_record_states_nothing():
+    obs = np.zeros((3, 2, 2, 3), np.uint8)
+    from vggc_cp.trace import Trace
+
+    t = Trace(obs, np.array([0, 1]), ("pick_a", "place_b"), None, {"appended": []})
+    assert not recorded_facts(t)
+    assert NO_FACTS.key() == b""

@@ -1,0 +1,140 @@
+"""What a recording states beyond its transitions: resets and refused actions (beyond the paper).
+
+An episode recorded on request (``vggc-cp suggest`` -> ``generate --episodes --append``,
+``docs/FORMATS.md``: ``meta["appended"]``) states two facts no image has to be read for:
+
+* **reset** -- the robot was put in the state of an earlier observation (the request's
+  ``start_observation``) before the episode began, so the episode's first observation shows
+  that same state;
+* **refusal** -- an action the request named could not be taken (``illegal_action``): in the
+  state the robot was in then (the episode's last recorded observation, or the start
+  observation where nothing was recorded), that action is not legal. A refused pick says the
+  place holds nothing the hand can take of that class; a refused place, that the place is taken.
+
+:func:`recorded_facts` reads them, checking ``meta["appended"]`` against the trace (bad input
+gets a :class:`~vggc_cp.errors.TraceError` naming the field and index). A trace without that
+field states neither; everything else in ``meta`` is ignored, so nothing learned ever reads the
+simulator's ground truth.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.errors import TraceError
+
+
+@dataclass(frozen=True)
+class RecordedFacts:
+    """Resets and refusals of a trace (module docstring).
+
+    Attributes
+    ----------
+    resets : tuple of (int, int)
+        ``(a, b)``: observation ``b`` (an episode's first) shows the state of observation ``a``.
+    refusals : tuple of (int, int)
+        ``(o, k)``: action ``k`` (an index into ``action_names``) was refused in the state of
+        observation ``o``.
+    """
+
+    resets: tuple[tuple[int, int], ...] = ()
+    refusals: tuple[tuple[int, int], ...] = ()
+
+    def __bool__(self) -> bool:
+        return bool(self.resets or self.refusals)
+
+    def key(self) -> bytes:
+        """Canonical bytes of the facts (empty where there are none), for cache keys."""
+        if not self:
+            return b""
+        return json.dumps([list(map(list, self.resets)), list(map(list, self.refusals))]
+                          ).encode()
+
+
+NO_FACTS = RecordedFacts()
+
+
+def _bad(src: str, field: str, msg: str) -> TraceError:
+    return TraceError(f"{src}: field '{field}' {msg}")
+
+
+def _int(value, src: str, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _bad(src, field, f"is {value!r}, expected an integer")
+    return value
+
+
+def recorded_facts(trace) -> RecordedFacts:
+    """The resets and refusals ``trace.meta["appended"]`` records (module docstring).
+
+    Every recorded episode is checked against the trace: it must start a new episode at the
+    observation the rounds' layout puts it, and its actions must be the ones recorded.
+
+    >>> import numpy as np
+    >>> from vggc_cp.trace import Trace
+    >>> obs = np.zeros((5, 2, 2, 3), np.uint8)
+    >>> meta = {"appended": [{"observations": 3, "episodes": [
+    ...     {"start_observation": 0, "executed": [], "illegal_action": "pick_a"},
+    ...     {"start_observation": 1, "executed": ["place_b"], "illegal_at": 1,
+    ...      "illegal_action": "pick_a"}]}]}
+    >>> t = Trace(obs, np.array([0, 1, -1, 1]), ("pick_a", "place_b"), None, meta)
+    >>> f = recorded_facts(t)
+    >>> f.resets, f.refusals
+    (((1, 3),), ((0, 0), (4, 0)))
+    >>> bool(recorded_facts(Trace(obs, np.array([0, 1, -1, 1]), ("pick_a", "place_b"))))
+    False
+    """
+    rounds = (trace.meta or {}).get("appended")
+    if rounds is None:
+        return NO_FACTS
+    src = trace.source or "the trace"
+    if not isinstance(rounds, list):
+        raise _bad(src, "meta.appended", "is not a list")
+    index = {name: k for k, name in enumerate(trace.action_names)}
+    n, actions = trace.n_obs, np.asarray(trace.actions)
+    resets, refusals = [], []
+    ends = [r.get("observations") if isinstance(r, dict) else None for r in rounds[1:]] + [n]
+    for r, (rnd, end) in enumerate(zip(rounds, ends)):
+        where = f"meta.appended[{r}]"
+        if not isinstance(rnd, dict) or not isinstance(rnd.get("episodes"), list):
+            raise _bad(src, f"{where}.episodes", "is missing or not a list")
+        t = _int(rnd.get("observations"), src, f"{where}.observations")
+        end = _int(end, src, f"meta.appended[{r + 1}].observations")
+        if not 0 < t <= end <= n:
+            raise _bad(src, f"{where}.observations", f"is {t}: outside 1 .. {min(end, n)}")
+        for e, ep in enumerate(rnd["episodes"]):
+            at = f"{where}.episodes[{e}]"
+            if not isinstance(ep, dict):
+                raise _bad(src, at, "is not an object")
+            start = _int(ep.get("start_observation"), src, f"{at}.start_observation")
+            if not 0 <= start < t:
+                raise _bad(src, f"{at}.start_observation", f"is {start}: outside 0 .. {t - 1}")
+            done = ep.get("executed")
+            if not isinstance(done, list) or any(a not in index for a in done):
+                raise _bad(src, f"{at}.executed", "is not a list of the trace's action names")
+            if done:
+                if t + len(done) >= end or actions[t - 1] >= 0:
+                    raise _bad(src, f"{at}.executed", f"does not fit: its {len(done)} actions "
+                               f"do not start a new episode at observation {t}")
+                got = [int(k) for k in actions[t:t + len(done)]]
+                if got != [index[a] for a in done] or (t + len(done) <= n - 2 and
+                                                       actions[t + len(done)] >= 0):
+                    raise _bad(src, f"{at}.executed",
+                               f"differs from actions[{t}:{t + len(done)}]")
+                resets.append((start, t))
+                last, t = t + len(done), t + len(done) + 1
+            else:
+                last = start
+            refused = ep.get("illegal_action")
+            if refused is not None:
+                if refused not in index:
+                    raise _bad(src, f"{at}.illegal_action",
+                               f"is {refused!r}, not an action of the trace")
+                refusals.append((last, index[refused]))
+        if t != end:
+            raise _bad(src, where, f"does not fit: its episodes record observations up to "
+                       f"{t}, but the next round starts at {end}")
+    return RecordedFacts(tuple(resets), tuple(refusals))
