@@ -79,6 +79,16 @@ def test_a_refused_action_states_what_the_site_holds_only_where_one_value_is_lef
     assert lab[:3].tolist() == [occ.UNLABELLED] * 3
 
 
+def test_a_refused_pick_rules_nothing_out_where_another_pick_there_shares_its_colour():
+    kinds, colour, actions, episodes, acting = _reset_trace()
+    # action 4: a pick of another shape of red at s (same colour 0): the site may hold that
+    kinds, colour = np.append(kinds, PICK).astype(np.int8), np.append(colour, 0)
+    facts = RecordedFacts(refusals=((5, 0),))
+    lab = occ.site_labels(actions, episodes, np.array([0, 1, 4]), kinds, colour, facts,
+                          refusals=True)
+    assert lab[5:].tolist() == [occ.UNLABELLED] * 2
+
+
 def test_twins_actions_at_a_site_and_stacked_sites():
     # 0 pick red at p, 1 place red at p, 2 place red at q (above p), 3 place yellow at p,
     # 4 pick red at q

@@ -78,8 +78,8 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     observation it restarts from holds: the value the actions state in one episode carries
     over every reset to episodes without an action at the site (:func:`_reset_labels`).
     With ``refusals`` too, a refused action at the site rules out what it needs there (a
-    pick: the class's colour; a place: nothing): where one value is left, that is what the
-    site holds. A refusal says that only where the site is in no stack (a block on top
+    pick: the class's colour, where no other pick at the site shares it; a place: nothing):
+    where one value is left, that is what the site holds. A refusal says that only where the site is in no stack (a block on top
     forbids a pick below it, an empty slot below a place above it), which the caller knows.
 
     Parameters
@@ -158,10 +158,15 @@ def _reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[
                 values.setdefault(find(ex), set()).add(int(labels[y]))
     if refusals:
         acted = {int(c) for c in colour[np.flatnonzero(is_acting)] if c >= 0}
+        # a refused pick rules out its colour only where no other pick at the site shares it
+        # (two shapes of one colour: the other may be what the site holds)
+        picks = np.flatnonzero(is_acting & (kinds == PICK))
+        shared = {int(c) for c in colour[picks] if np.sum(colour[picks] == c) > 1}
         options: dict[int, set[int]] = {}
         for o, k in facts.refusals:
             e = int(episode[o])
-            if not (is_acting[k] and untouched[e]):
+            if not (is_acting[k] and untouched[e]) or (kinds[k] == PICK
+                                                       and int(colour[k]) in shared):
                 continue
             # the hand's reason rules nothing out: the role the observation has in its episode
             role = (kinds[actions[o]] if o < len(actions) and actions[o] >= 0
