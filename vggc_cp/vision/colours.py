@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from vggc_cp.recorded import recorded_facts
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.density import kernel_loglik, kernel_posterior
 from vggc_cp.vision.occupancy import site_labels
@@ -401,12 +400,11 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     n_cls = int(classes.max()) + 1 if len(classes) else 0
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
-    facts = recorded_facts(trace)
     found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
     for a in np.flatnonzero(counts > 0):
         labels = site_labels(trace.actions, episodes,
                              acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
-                             colour, facts)
+                             colour)
         window = site_window(x, labels, pose, EMPTY, support)
         if window is None:
             continue
