@@ -79,6 +79,31 @@ def test_a_refused_action_states_what_the_site_holds_only_where_one_value_is_lef
     assert lab[:3].tolist() == [occ.UNLABELLED] * 3
 
 
+def test_recorded_facts_are_written_after_the_reading_and_refusals_skip_stacks():
+    kinds, colour, actions, episodes, acting = _reset_trace()
+    labels = occ.site_labels(actions, episodes, acting, kinds, colour)
+    n, n_act = len(actions) + 1, len(kinds)
+    presence = np.full((n, n_act), 0.3)
+    posterior = np.full((n, n_act, 2), 0.5)
+    stated = labels[:, None] != occ.UNLABELLED
+    stated = np.repeat(stated, n_act, axis=1)
+    trust = stated.astype(float)
+    runs = {0: (labels.copy(), np.zeros(n, int), np.flatnonzero(~stated[:, 0]), acting)}
+    facts = RecordedFacts(resets=((0, 3),), refusals=((5, 0),))
+    occ.recorded_labels(runs, {}, facts, actions, episodes, kinds, colour, presence,
+                        posterior, stated, trust)
+    # episode 1 takes what o3 holds (red), episode 3 is empty (its red pick was refused)
+    assert stated[:, 0].tolist() == [True] * n
+    assert presence[:, 0].tolist() == [1.0, 1.0, 1.0, 0.3, 0.3, 0.0, 0.0]
+    assert posterior[0, 0].tolist() == [1.0, 0.0] and trust[5, 0] == 1.0
+    # site 0 with a slot stacked on it: the reset still holds, the refusal says nothing
+    presence[:], stated[:] = 0.3, np.repeat(labels[:, None] != occ.UNLABELLED, n_act, axis=1)
+    runs = {0: (labels.copy(), np.zeros(n, int), np.flatnonzero(~stated[:, 0]), acting)}
+    occ.recorded_labels(runs, {0: [2]}, facts, actions, episodes, kinds, colour, presence,
+                        posterior, stated, trust)
+    assert stated[:, 0].tolist() == [True] * 5 + [False] * 2
+
+
 def test_a_refused_pick_rules_nothing_out_where_another_pick_there_shares_its_colour():
     kinds, colour, actions, episodes, acting = _reset_trace()
     # action 4: a pick of another shape of red at s (same colour 0): the site may hold that
