@@ -91,3 +91,25 @@ def test_a_trace_without_the_record_states_nothing():
     t = Trace(obs, np.array([0, 1]), ("pick_a", "place_b"), None, {"appended": []})
     assert not recorded_facts(t)
     assert NO_FACTS.key() == b""
+
+
+def test_problems_carry_the_refusals_to_the_merge(appended):
+    from vggc_cp.solvers.base import Problem
+    from vggc_cp.solvers.confidence import subproblem
+    from vggc_cp.solvers.pairs import CodedProblem
+
+    _, new, _ = appended
+    facts = recorded_facts(new)
+    n_pick, n_place = int((new.roles() == 0).sum()), int((new.roles() == 1).sum())
+    dense = Problem.from_trace(new, np.zeros((n_pick, n_pick)), np.zeros((n_place, n_place)))
+    assert dense.refused == facts.refusals
+    codes = (np.zeros(n_pick, np.int64), np.zeros(n_place, np.int64))
+    coded = CodedProblem.from_trace(new, codes, (np.zeros((1, 1)), np.zeros((1, 1))))
+    assert coded.refused == facts.refusals and coded.dense().refused == facts.refusals
+    # a restriction keeps the refusals of the observations it keeps, renumbered
+    keep = np.ones(new.n_obs, bool)
+    keep[: facts.refusals[0][0]] = False
+    sub, idx = subproblem(dense, keep)
+    sub_c, _ = coded.restricted(keep)
+    want = tuple((int(np.searchsorted(idx, o)), k) for o, k in facts.refusals if keep[o])
+    assert sub.refused == want == sub_c.refused and want

@@ -313,3 +313,26 @@ def test_a_hand_holds_one_colour():
                              action_colour=np.array([0, 0, 0, 0]))
     labels, stats = congruence_merge(one, threshold=0.1)
     assert labels[1] == labels[4] and stats.vetoed_hand == 0
+
+
+def test_an_observation_where_an_action_was_refused_is_never_joined_with_one_that_took_it():
+    # A -pick_1-> H1 -place_2-> X and B -pick_2-> H2 -place_1-> Y; the pick states A and B
+    # look alike, and so do the holding states: the images alone make one node of each pair
+    trace = make_trace([["A", "pick_1", "H1", "place_2", "X"],
+                        ["B", "pick_2", "H2", "place_1", "Y"]], NAMES)
+    pick = np.full((4, 4), 0.9) - 0.9 * np.eye(4)      # pick-role: A, X, B, Y
+    pick[0, 2] = pick[2, 0] = 0.0                         # A and B alike
+    place = np.zeros((2, 2))
+    blind = Problem.from_trace(trace.without_states(), pick, place)
+    labels, stats = congruence_merge(blind, threshold=0.1)
+    assert labels[0] == labels[3] and stats.vetoed_refused == 0
+    # pick_1 was refused in the state of B (observation 3): A and B are two states
+    told = Problem(blind.roles, blind.src, blind.act, blind.dst, blind.action_names,
+                   pick, place, refused=((3, 0),))
+    labels, stats = congruence_merge(told, threshold=0.1)
+    assert labels[0] != labels[3] and stats.vetoed_refused >= 1
+    assert check(told.graph(labels)).ok
+    # a refusal of an action neither takes (pick_3) changes nothing
+    other = Problem(blind.roles, blind.src, blind.act, blind.dst, blind.action_names,
+                    pick, place, refused=((3, 2),))
+    assert congruence_merge(other, threshold=0.1)[0][0] == congruence_merge(other, 0.1)[0][3]

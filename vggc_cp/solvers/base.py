@@ -16,6 +16,7 @@ import numpy as np
 
 from vggc_cp.errors import lookup
 from vggc_cp.graph import TaskGraph
+from vggc_cp.recorded import recorded_facts
 from vggc_cp.score import visual_score
 from vggc_cp.solvers.selection import GRID
 from vggc_cp.trace import PICK, PLACE, Trace, hand_colours_along
@@ -117,6 +118,16 @@ class Readings:
                         None if self.sites is None else self.sites.restricted(idx))
 
 
+def kept_refusals(refused, new: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """``refused`` on the observations a restriction keeps (``new``: the new index of every
+    observation, -1 where dropped).
+
+    >>> kept_refusals(((0, 1), (2, 0)), np.array([-1, 0, 1]))
+    ((1, 0),)
+    """
+    return tuple((int(new[o]), int(k)) for o, k in refused if new[o] >= 0)
+
+
 def hand_colours(problem) -> np.ndarray:
     """Colour of what the hand holds in every observation, int64 shape (N,), from the
     problem's ``action_colour``: a pick lifts an object of its colour and the next place puts
@@ -167,6 +178,10 @@ class Problem:
         What the evidence reads at every site (:class:`Readings`); the description length
         then codes them too (:func:`vggc_cp.solvers.mdl.description_length`). None: only the
         actions are coded.
+    refused : tuple of (int, int)
+        ``(o, k)``: action ``k`` was refused in the state of observation ``o``
+        (:func:`vggc_cp.recorded.recorded_facts`); the congruence merge never puts ``o`` in
+        one node with an observation that took ``k``.
     """
 
     roles: np.ndarray
@@ -180,6 +195,7 @@ class Problem:
     notes: tuple[str, ...] = ()
     action_colour: np.ndarray | None = None
     readings: Readings | None = None
+    refused: tuple[tuple[int, int], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -199,7 +215,8 @@ class Problem:
         src, act, dst = trace.transitions()
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64),
-                   action_colour=action_colour, readings=readings)
+                   action_colour=action_colour, readings=readings,
+                   refused=recorded_facts(trace).refusals)
 
     @property
     def n_obs(self) -> int:

@@ -71,7 +71,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.base import Problem, kept_refusals
 from vggc_cp.solvers.merge import congruence_merge
 from vggc_cp.solvers.pairs import CodedProblem, coded_merge
 from vggc_cp.trace import PICK, PLACE
@@ -369,7 +369,8 @@ def subproblem(problem: Problem, keep: np.ndarray) -> tuple[Problem, np.ndarray]
     sub = Problem(roles, new[problem.src[tk]], problem.act[tk], new[problem.dst[tk]],
                   problem.action_names, problem.dist_pick[np.ix_(lp, lp)],
                   problem.dist_place[np.ix_(lq, lq)], action_colour=problem.action_colour,
-                  readings=None if problem.readings is None else problem.readings.restricted(idx))
+                  readings=None if problem.readings is None else problem.readings.restricted(idx),
+                  refused=kept_refusals(problem.refused, new))
     return sub, idx
 
 

@@ -581,6 +581,8 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
         steps = ev.get("steps")
         note = ("the graph breaks it: " + broken_fact_note(d) if broken_fact_note(d) else
                 "the hands hold different colours" if ev.get("forbidden") == "hand" else
+                "an action refused in one is taken in the other" if ev.get("forbidden") == "refused"
+                else
                 "Exactly-One forbids" if ev.get("forbidden") else
                 f"{ev['contradicted']} held-out transition(s) dispute it"
                 if ev.get("contradicted") else

@@ -70,6 +70,7 @@ class MergeStats:
     vetoed_work: int
     vetoes_replayed: int = 0
     vetoed_hand: int = 0
+    vetoed_refused: int = 0
 
 
 class _Clusters:
@@ -106,6 +107,13 @@ class _Clusters:
         self.members: dict[int, list[int]] = {i: [i] for i in range(n)}
         # colour the hand holds in each root's observations (-1: none known)
         self.hand: list[int] = hand_colours(problem).tolist()
+        # actions refused in each root's observations (Problem.refused; None: none)
+        self.refused: list[set[int] | None] = [None] * n
+        for o, k in getattr(problem, "refused", ()):
+            if self.refused[o] is None:
+                self.refused[o] = set()
+            self.refused[o].add(int(k))
+        self.any_refused = any(r is not None for r in self.refused)
         self.sums = self._distance_sums(problem)
 
     def _distance_sums(self, problem: Problem):
@@ -157,6 +165,10 @@ class _Clusters:
                 self.members[head].extend(self.members.pop(r))
                 if self.hand[head] < 0:
                     self.hand[head] = self.hand[r]
+                if self.refused[r] is not None:
+                    if self.refused[head] is None:
+                        self.refused[head] = set()
+                    self.refused[head] |= self.refused[r]
         for head, absorbed in groups.items():
             for k in (0, 1):
                 sig, first = self.sig[k], self.first[k]
@@ -182,6 +194,16 @@ def within(average: float, threshold: float) -> bool:
     return average <= threshold * (1.0 + LINK_RTOL)
 
 
+def _refused_taken(cl: _Clusters, roots: list[int]) -> bool:
+    """Whether the cluster of ``roots`` (committed roots) would both take and refuse an
+    action."""
+    refused = [cl.refused[r] for r in roots if cl.refused[r] is not None]
+    if not refused:
+        return False
+    out = cl.first[0]
+    return any(k in out[r] for ref in refused for k in ref for r in roots)
+
+
 def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
                read: set[int] | None = None, linkage: list[float] | None = None
                ) -> tuple[dict[int, list[int]] | None, str]:
@@ -201,7 +223,9 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     larger threshold goes the same way unless that value is within it.
 
     A closure that would put place observations whose hands hold different colours in one
-    cluster is refused (``hand``): the hand holds one object, whatever the images say.
+    cluster is refused (``hand``): the hand holds one object, whatever the images say. So is
+    one that would put an observation where an action was refused (:attr:`Problem.refused`)
+    with one that took it (``refused``): the two are different states.
     """
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
@@ -241,6 +265,8 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
         held_b = next((hand[r] for r in rb if hand[r] >= 0), -1)
         if held_a >= 0 and held_b >= 0 and held_a != held_b:
             return None, "hand"
+        if cl.any_refused and _refused_taken(cl, ra + rb):
+            return None, "refused"
         na = sum(size[r] for r in ra)
         nb = sum(size[r] for r in rb)
         average = cl.link_sum(ra, rb) / (na * nb)
@@ -340,7 +366,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     cl = _Clusters(problem)
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "hand": 0}
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "hand": 0, "refused": 0}
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -388,7 +414,8 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     roots = np.array([find(x) for x in range(problem.n_obs)], dtype=np.int64)
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
-                              vetoes["work"], replayed, vetoes["hand"])
+                              vetoes["work"], replayed, vetoes["hand"],
+                              vetoes["refused"])
 
 
 def congruence_merge(problem: Problem, threshold: float, max_work: int = 2_000

@@ -53,7 +53,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vggc_cp.graph import TaskGraph
-from vggc_cp.solvers.base import FEASIBLE, Problem, Readings, SolveResult, set_role_index
+from vggc_cp.recorded import recorded_facts
+from vggc_cp.solvers.base import (
+    FEASIBLE,
+    Problem,
+    Readings,
+    SolveResult,
+    kept_refusals,
+    set_role_index,
+)
 from vggc_cp.solvers.merge import (
     MergeStats,
     ThresholdPath,
@@ -94,6 +102,8 @@ class CodedProblem:
         As :attr:`Problem.action_colour`.
     readings : Readings or None
         As :attr:`Problem.readings`.
+    refused : tuple of (int, int)
+        As :attr:`Problem.refused`.
     """
 
     roles: np.ndarray
@@ -109,6 +119,7 @@ class CodedProblem:
     notes: tuple[str, ...] = ()
     action_colour: np.ndarray | None = None
     readings: Readings | None = None
+    refused: tuple[tuple[int, int], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -137,7 +148,7 @@ class CodedProblem:
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
                    np.asarray(tables[1], dtype=np.float64), tuple(notes), action_colour,
-                   readings)
+                   readings, recorded_facts(trace).refusals)
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -180,7 +191,7 @@ class CodedProblem:
         return Problem(self.roles, self.src, self.act, self.dst, self.action_names,
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
                        self.table_place[np.ix_(self.codes_place, self.codes_place)],
-                       self.notes, self.action_colour, self.readings)
+                       self.notes, self.action_colour, self.readings, self.refused)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
@@ -197,7 +208,8 @@ class CodedProblem:
                            self.codes_place[self.local[place]], self.table_pick,
                            self.table_place, action_colour=self.action_colour,
                            readings=None if self.readings is None
-                           else self.readings.restricted(idx))
+                           else self.readings.restricted(idx),
+                           refused=kept_refusals(self.refused, new))
         return sub, idx
 
 
@@ -630,7 +642,8 @@ class _Pass:
         kinds = [o[1] for o in self.outcomes]
         stats = MergeStats(len(kinds), kinds.count("accepted"), kinds.count("distance"),
                            kinds.count("exactly_one"), kinds.count("work"),
-                           kinds.count("replayed"), kinds.count("hand"))
+                           kinds.count("replayed"), kinds.count("hand"),
+                           kinds.count("refused"))
         return labels, stats
 
     def _scan(self, d: np.ndarray, i: np.ndarray, j: np.ndarray, start: int, stop: int,
