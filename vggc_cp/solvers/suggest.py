@@ -17,9 +17,10 @@ proposes episodes a robot can run:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
-    simulator reports it), they differ. An illegal action is not recorded, so each such
-    probe comes with a confirming one that is: the same action again from ``A`` (more
-    renders of ``A`` doing what ``B`` was never seen to do). When both nodes afford the same actions, an action
+    simulator reports it), they differ. An illegal action is no transition of the trace
+    (the learner reads it as a refusal, :mod:`vggc_cp.recorded`), so each such probe comes
+    with a confirming one that is: the same action again from ``A`` (more renders of ``A``
+    doing what ``B`` was never seen to do). When both nodes afford the same actions, an action
     they share is repeated from each (those whose outcomes differ first): do they lead to
     one node?
   - split doubt that only a reading of the images settles (an episode put on its path by
