@@ -113,3 +113,23 @@ def test_problems_carry_the_refusals_to_the_merge(appended):
     sub_c, _ = coded.restricted(keep)
     want = tuple((int(np.searchsorted(idx, o)), k) for o, k in facts.refusals if keep[o])
     assert sub.refused == want == sub_c.refused and want
+
+
+def test_solve_says_what_it_read_and_refuses_a_record_that_does_not_fit(appended, tmp_path,
+                                                                         capsys):
+    from vggc_cp.cli import main
+
+    _, new, _ = appended
+    path = tmp_path / "t2.npz"
+    save_trace(new, path)
+    assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "recorded       3 reset(s), 4 refused action(s)" in out
+    meta = copy.deepcopy(new.meta)
+    meta["appended"][0]["episodes"][0]["start_observation"] = -1
+    bad = tmp_path / "bad.npz"
+    save_trace(replace(new, meta=meta), bad)
+    assert main(["solve", str(bad), "-o", str(tmp_path / "b.json"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "meta.appended[0].episodes[0].start_observation" in err
+    assert "Traceback" not in err and not (tmp_path / "b.json").exists()

@@ -347,6 +347,7 @@ def _learn_options(args):
 def _solve_merge(args) -> int:
     """``solve --solver merge``: the pipeline's evidence, merge path, selection, confidence."""
     from vggc_cp.pipeline import learn_graph
+    from vggc_cp.recorded import recorded_facts
     from vggc_cp.trace import load_trace
 
     options = _learn_options(args)
@@ -357,6 +358,10 @@ def _solve_merge(args) -> int:
     problem, path = chosen.problem, chosen.path
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
+    facts = recorded_facts(trace)
+    if facts:
+        print(f"recorded       {len(facts.resets)} reset(s), {len(facts.refusals)} refused "
+              f"action(s) (meta.appended): read as facts")
     for note in learned.skipped:
         print(f"evidence       skipped {note}")
     for cand in learned.candidates:
