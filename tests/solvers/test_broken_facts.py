@@ -95,3 +95,11 @@ def test_a_false_reset_is_broken_and_flagged(recorded):
     assert broken and broken[0].evidence["reset"][0] == other
     assert learned.confidence.suspect
     assert any("fact the recording states" in r for r in learned.confidence.reasons)
+    # the doubts round-trip through the solution and suggest proposes episodes for them
+    from vggc_cp.solvers.doubts import parse_doubts
+    from vggc_cp.solvers.suggest import suggest_episodes
+
+    again = parse_doubts([d.as_dict() for d in learned.doubts])
+    assert again[0].evidence["reset"] == broken[0].evidence["reset"]
+    proposals = suggest_episodes(lying.without_states(), learned.labels, again)
+    assert proposals and all(p.actions for p in proposals)

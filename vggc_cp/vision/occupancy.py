@@ -79,8 +79,9 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     over every reset to episodes without an action at the site (:func:`_reset_labels`).
     With ``refusals`` too, a refused action at the site rules out what it needs there (a
     pick: the class's colour, where no other pick at the site shares it; a place: nothing):
-    where one value is left, that is what the site holds. A refusal says that only where the site is in no stack (a block on top
-    forbids a pick below it, an empty slot below a place above it), which the caller knows.
+    where one value is left, that is what the site holds. A refusal says that only where the
+    site is in no stack (a block on top forbids a pick below it, an empty slot below a place
+    above it), which the caller knows.
 
     Parameters
     ----------
@@ -358,6 +359,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     Then objects rest on something: where a frame's readings put something above an empty
     slot of a stack, the stack takes its most likely filling with nothing in the air
     (:func:`vggc_cp.vision.support.supported`), before the uncovered colours are read.
+
+    Where the trace records resets and refusals (:mod:`vggc_cp.recorded`), unstated runs a
+    reset joins are read as one (:func:`joined_runs`), and what the facts state is written
+    after the reading, before the stacks and the counts (:func:`recorded_labels`).
 
     Last, objects are conserved: what the slots an episode never touches hold is assigned as
     the trace's object counts require and the readings, each as far as its kappa trusts it,
