@@ -53,33 +53,15 @@ def _load(args):
 
 def cmd_doubts(args) -> int:
     from vggc_cp.sim.sheet import pair_sheet
+    from vggc_cp.solvers.doubts import doubt_caption
 
     _solution, doubts, trace = _load(args)
     if not doubts:
         print(f"{args.solution}: no doubts (the images and the actions settle every decision, "
               f"or the solution predates doubts); nothing written")
         return 0
-    rows = []
-    for k, d in enumerate(doubts):
-        ev = d.evidence
-        what = (f"#{k} merge? nodes {d.nodes[0]} | {d.nodes[1]}" if d.kind == "merge"
-                else f"#{k} split? node {d.nodes[0]}: side P | side Q")
-        dist, thr = ev.get("distance"), ev.get("threshold")
-        parts = [what]
-        if isinstance(dist, (int, float)) and isinstance(thr, (int, float)) and thr:
-            parts.append(f"distance {dist:.3g} = {dist / thr:.2f} x threshold")
-        if isinstance(ev.get("dl_change"), (int, float)):
-            parts.append(f"flip {ev['dl_change']:+.4f} nats/transition")
-        if "thresholds_apart" in ev:
-            parts.append(f"apart at {ev['thresholds_apart']}, together at "
-                         f"{ev.get('thresholds_together')} thresholds")
-        if ev.get("forbidden"):
-            parts.append("the hands' colours forbid the join" if ev["forbidden"] == "hand"
-                         else "Exactly-One forbids the join")
-        if isinstance(ev.get("read_kappa"), (int, float)):
-            parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
-                         f"apart (kappa {ev['read_kappa']:.2f})")
-        rows.append((list(d.observations[0]), list(d.observations[1]), "; ".join(parts)))
+    rows = [(list(d.observations[0]), list(d.observations[1]), doubt_caption(k, d))
+            for k, d in enumerate(doubts)]
     pair_sheet(trace, rows, args.output, _read_outlines(trace, doubts))
     print(f"wrote {args.output} ({len(doubts)} doubt(s))")
     return 0

@@ -564,6 +564,38 @@ def broken_fact_note(d: Doubt) -> str:
     return ""
 
 
+def doubt_caption(k: int, d: Doubt) -> str:
+    """The caption of doubt ``k`` on the contact sheet (``vggc-cp doubts``): what is in
+    question, then the evidence each way.
+
+    >>> d = Doubt(SPLIT, (4,), ((7,), (2,)), {"refused": "pick_a", "observation": 7})
+    >>> doubt_caption(0, d)
+    '#0 split? node 4: side P | side Q; the graph breaks what the recording states: pick_a was refused at observation 7, but node 4 takes it (observation 2)'
+    """
+    ev = d.evidence
+    what = (f"#{k} merge? nodes {d.nodes[0]} | {d.nodes[1]}" if d.kind == MERGE
+            else f"#{k} split? node {d.nodes[0]}: side P | side Q")
+    dist, thr = ev.get("distance"), ev.get("threshold")
+    parts = [what]
+    if isinstance(dist, (int, float)) and isinstance(thr, (int, float)) and thr:
+        parts.append(f"distance {dist:.3g} = {dist / thr:.2f} x threshold")
+    if isinstance(ev.get("dl_change"), (int, float)):
+        parts.append(f"flip {ev['dl_change']:+.4f} nats/transition")
+    if "thresholds_apart" in ev:
+        parts.append(f"apart at {ev['thresholds_apart']}, together at "
+                     f"{ev.get('thresholds_together')} thresholds")
+    if ev.get("forbidden"):
+        parts.append("the hands' colours forbid the join" if ev["forbidden"] == "hand"
+                     else "an action refused in one is taken in the other"
+                     if ev["forbidden"] == "refused" else "Exactly-One forbids the join")
+    if isinstance(ev.get("read_kappa"), (int, float)):
+        parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
+                     f"apart (kappa {ev['read_kappa']:.2f})")
+    if broken_fact_note(d):
+        parts.append("the graph breaks what the recording states: " + broken_fact_note(d))
+    return "; ".join(parts)
+
+
 def format_doubts(doubts, limit: int = 10) -> list[str]:
     """A short table of doubts (at most ``limit`` rows), one line each::
 
