@@ -185,6 +185,12 @@ def hand_colours_along(n_obs: int, src: np.ndarray, act: np.ndarray, dst: np.nda
 def compute_roles(actions: np.ndarray, action_names) -> np.ndarray:
     """Roles from actions alone (assumes a valid trace). Returns int8 array of shape (N,)."""
     kinds = np.array([action_kind(a) for a in action_names], dtype=np.int8)
+    return roles_of(actions, kinds)
+
+
+def roles_of(actions: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """:func:`compute_roles` from the actions' kinds (:data:`PICK` / :data:`PLACE` per
+    action); -1 for an observation no transition touches."""
     n = len(actions) + 1
     roles = np.full(n, -1, dtype=np.int8)
     valid = actions >= 0

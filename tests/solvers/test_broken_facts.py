@@ -15,7 +15,8 @@ from vggc_cp.sim.append import EpisodeRequest, append_episodes
 from vggc_cp.sim.explore import generate
 from vggc_cp.solvers.broken_facts import broken_facts, facts_check
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.doubts import MERGE, SPLIT, format_doubts
+from vggc_cp.solvers.doubt_text import format_doubts
+from vggc_cp.solvers.doubts import MERGE, SPLIT
 
 NAMES = ("pick_a", "pick_b", "place_a", "place_b")
 

@@ -11,6 +11,7 @@ from conftest import make_trace
 
 from vggc_cp.errors import SolutionError
 from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.doubt_text import format_doubts
 from vggc_cp.solvers.doubts import (
     MERGE,
     SPLIT,
@@ -18,7 +19,6 @@ from vggc_cp.solvers.doubts import (
     DoubtRule,
     disputed_doubts,
     find_doubts,
-    format_doubts,
     parse_doubts,
     runner_up_doubts,
 )

@@ -415,7 +415,7 @@ def _solve_merge(args) -> int:
 def _print_doubts(doubts) -> None:
     """The doubts table after the summary (``vggc-cp doubts`` draws them, ``suggest``
     proposes episodes to settle them)."""
-    from vggc_cp.solvers.doubts import format_doubts
+    from vggc_cp.solvers.doubt_text import format_doubts
 
     if not doubts:
         print("doubts         none: the images and the actions settle every decision")

@@ -53,7 +53,7 @@ def _load(args):
 
 def cmd_doubts(args) -> int:
     from vggc_cp.sim.sheet import pair_sheet
-    from vggc_cp.solvers.doubts import doubt_caption
+    from vggc_cp.solvers.doubt_text import doubt_caption
 
     _solution, doubts, trace = _load(args)
     if not doubts:

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, broken_fact_note
+from vggc_cp.solvers.doubt_text import broken_fact_note
+from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
 
 
 def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray

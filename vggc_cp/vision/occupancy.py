@@ -47,7 +47,15 @@ from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
-from vggc_cp.vision.slots import EMPTY, acting_at, action_mates, action_twins, odds_met
+from vggc_cp.vision.resets import joined_runs, reset_labels
+from vggc_cp.vision.slots import (
+    EMPTY,
+    UNLABELLED,
+    acting_at,
+    action_mates,
+    action_twins,
+    odds_met,
+)
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
@@ -61,9 +69,6 @@ from vggc_cp.vision.untouched import (
     window_chroma,
 )
 
-#: Label of an unlabelled observation (:data:`~vggc_cp.vision.slots.EMPTY`: an empty site;
-#: colours are numbered from 0).
-UNLABELLED = -2
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
 
@@ -76,7 +81,8 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     With ``facts`` (:func:`vggc_cp.recorded.recorded_facts`), an episode with no action at
     the site holds one thing there throughout, and a reset states that it is what the
     observation it restarts from holds: the value the actions state in one episode carries
-    over every reset to episodes without an action at the site (:func:`_reset_labels`).
+    over every reset to episodes without an action at the site
+    (:func:`vggc_cp.vision.resets.reset_labels`).
     With ``refusals`` too, a refused action at the site rules out what it needs there (a
     pick: the class's colour, where no other pick at the site shares it; a place: nothing):
     where one value is left, that is what the site holds. A refusal says that only where the
@@ -120,71 +126,9 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
             labels[prev[0] + 1:nxt[0] + 1] = prev[2]
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
     if facts:
-        _reset_labels(labels, actions, episodes, untouched, is_acting, kinds, colour, facts,
-                      refusals)
+        reset_labels(labels, actions, episodes, untouched, is_acting, kinds, colour, facts,
+                     refusals)
     return labels
-
-
-def _reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[int, int]],
-                  untouched: np.ndarray, is_acting: np.ndarray, kinds: np.ndarray,
-                  colour: np.ndarray, facts: RecordedFacts, refusals: bool) -> None:
-    """:func:`site_labels`' resets and refusals, in place on ``labels``.
-
-    Episodes without an action at the site that a reset joins hold one value (union-find);
-    a group takes the value a reset from a labelled observation states, or, with
-    ``refusals``, the one value the refused actions leave. Values that disagree leave the
-    group unlabelled.
-    """
-    n_ep = len(episodes)
-    episode = np.empty(len(labels), dtype=np.int64)
-    for e, (first, last) in enumerate(episodes):
-        episode[first:last + 1] = e
-    parent = list(range(n_ep))
-
-    def find(e: int) -> int:
-        while parent[e] != e:
-            parent[e] = parent[parent[e]]
-            e = parent[e]
-        return e
-
-    for a, b in facts.resets:
-        ea, eb = int(episode[a]), int(episode[b])
-        if untouched[ea] and untouched[eb]:
-            parent[find(ea)] = find(eb)
-    values: dict[int, set[int]] = {}
-    for a, b in facts.resets:
-        for x, y in ((a, b), (b, a)):
-            ex = int(episode[x])
-            if untouched[ex] and labels[y] != UNLABELLED and not untouched[episode[y]]:
-                values.setdefault(find(ex), set()).add(int(labels[y]))
-    if refusals:
-        acted = {int(c) for c in colour[np.flatnonzero(is_acting)] if c >= 0}
-        # a refused pick rules out its colour only where no other pick at the site shares it
-        # (two shapes of one colour: the other may be what the site holds)
-        picks = np.flatnonzero(is_acting & (kinds == PICK))
-        shared = {int(c) for c in colour[picks] if np.sum(colour[picks] == c) > 1}
-        options: dict[int, set[int]] = {}
-        for o, k in facts.refusals:
-            e = int(episode[o])
-            if not (is_acting[k] and untouched[e]) or (kinds[k] == PICK
-                                                       and int(colour[k]) in shared):
-                continue
-            # the hand's reason rules nothing out: the role the observation has in its episode
-            role = (kinds[actions[o]] if o < len(actions) and actions[o] >= 0
-                    else 1 - kinds[actions[o - 1]] if o > 0 and actions[o - 1] >= 0 else -1)
-            if role != kinds[k]:
-                continue
-            g = find(e)
-            options.setdefault(g, {EMPTY, *acted}).discard(
-                int(colour[k]) if kinds[k] == PICK else EMPTY)
-        for g, left in options.items():
-            if len(left) == 1:
-                values.setdefault(g, set()).update(left)
-    for e in np.flatnonzero(untouched):
-        held = values.get(find(int(e)), set())
-        if len(held) == 1:
-            first, last = episodes[e]
-            labels[first:last + 1] = next(iter(held))
 
 
 def nearest_looks(features: np.ndarray, ref: np.ndarray, episode: np.ndarray,
@@ -361,8 +305,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     (:func:`vggc_cp.vision.support.supported`), before the uncovered colours are read.
 
     Where the trace records resets and refusals (:mod:`vggc_cp.recorded`), unstated runs a
-    reset joins are read as one (:func:`joined_runs`), and what the facts state is written
-    after the reading, before the stacks and the counts (:func:`recorded_labels`).
+    reset joins are read as one (:func:`~vggc_cp.vision.resets.joined_runs`), and what the
+    facts state is written after the reading, before the stacks and the counts
+    (:func:`recorded_labels`).
 
     Last, objects are conserved: what the slots an episode never touches hold is assigned as
     the trace's object counts require and the readings, each as far as its kappa trusts it,
@@ -512,36 +457,6 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
                                       above)
     return presence, posterior, stated, kappa
-
-
-def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:
-    """``run`` with the unstated runs that a reset ``(a, b)`` joins made one.
-
-    Observation ``b`` shows the state of ``a`` (:mod:`vggc_cp.recorded`), and a run holds
-    one thing from one action at the site to the next, so the run of ``a`` and the run of
-    ``b`` hold the same thing: their frames are read together. Runs are renumbered by their
-    first frame.
-
-    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), np.zeros(6, bool), [(0, 4)]).tolist()
-    [0, 0, 1, 1, 0, 0]
-    >>> known = np.array([1, 1, 0, 0, 0, 0], bool)          # a stated run is not joined
-    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), known, [(0, 4)]).tolist()
-    [0, 0, 1, 1, 2, 2]
-    """
-    parent = np.arange(int(run.max()) + 1 if len(run) else 0)
-
-    def find(r: int) -> int:
-        while parent[r] != r:
-            parent[r] = parent[parent[r]]
-            r = int(parent[r])
-        return r
-
-    for a, b in resets:
-        if not (known[a] or known[b]):
-            ra, rb = find(int(run[a])), find(int(run[b]))
-            parent[max(ra, rb)] = min(ra, rb)
-    roots = np.array([find(r) for r in range(len(parent))], dtype=run.dtype)
-    return roots[run]
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,

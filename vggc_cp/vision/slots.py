@@ -34,6 +34,9 @@ from vggc_cp.trace import PICK, Trace
 
 #: Label of an empty slot (colours are numbered from 0).
 EMPTY = -1
+#: Label of an observation whose site nothing states
+#: (:func:`vggc_cp.vision.occupancy.site_labels`).
+UNLABELLED = -2
 #: Odds from which a candidate that always alternates with an action is taken for its twin
 #: (:func:`sequence_twins`): 20 to 1, the bar of the warning's description-length margin.
 TWIN_ODDS = 20.0

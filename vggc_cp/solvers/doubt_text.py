@@ -1,0 +1,89 @@
+"""Doubts in words: the table ``solve`` prints and the captions of ``vggc-cp doubts``
+(:mod:`vggc_cp.solvers.doubts` finds them)."""
+
+from __future__ import annotations
+
+from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt  # noqa: F401  (SPLIT: doctests)
+
+
+def broken_fact_note(d: Doubt) -> str:
+    """One line for a broken fact (:func:`vggc_cp.solvers.broken_facts.broken_facts`); empty for another doubt."""
+    ev = d.evidence or {}
+    if isinstance(ev.get("reset"), list):
+        a, b = ev["reset"]
+        return (f"observation {b} was recorded from the state of observation {a}, "
+                f"but they lie on nodes {d.nodes[1]} and {d.nodes[0]}")
+    if "refused" in ev:
+        return (f"{ev['refused']} was refused at observation {ev.get('observation')}, but "
+                f"node {d.nodes[0]} takes it (observation {d.observations[1][0]})")
+    return ""
+
+
+def doubt_caption(k: int, d: Doubt) -> str:
+    """The caption of doubt ``k`` on the contact sheet (``vggc-cp doubts``): what is in
+    question, then the evidence each way.
+
+    >>> d = Doubt(SPLIT, (4,), ((7,), (2,)), {"refused": "pick_a", "observation": 7})
+    >>> doubt_caption(0, d)
+    '#0 split? node 4: side P | side Q; the graph breaks what the recording states: pick_a was refused at observation 7, but node 4 takes it (observation 2)'
+    """
+    ev = d.evidence
+    what = (f"#{k} merge? nodes {d.nodes[0]} | {d.nodes[1]}" if d.kind == MERGE
+            else f"#{k} split? node {d.nodes[0]}: side P | side Q")
+    dist, thr = ev.get("distance"), ev.get("threshold")
+    parts = [what]
+    if isinstance(dist, (int, float)) and isinstance(thr, (int, float)) and thr:
+        parts.append(f"distance {dist:.3g} = {dist / thr:.2f} x threshold")
+    if isinstance(ev.get("dl_change"), (int, float)):
+        parts.append(f"flip {ev['dl_change']:+.4f} nats/transition")
+    if "thresholds_apart" in ev:
+        parts.append(f"apart at {ev['thresholds_apart']}, together at "
+                     f"{ev.get('thresholds_together')} thresholds")
+    if ev.get("forbidden"):
+        parts.append("the hands' colours forbid the join" if ev["forbidden"] == "hand"
+                     else "an action refused in one is taken in the other"
+                     if ev["forbidden"] == "refused" else "Exactly-One forbids the join")
+    if isinstance(ev.get("read_kappa"), (int, float)):
+        parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
+                     f"apart (kappa {ev['read_kappa']:.2f})")
+    if broken_fact_note(d):
+        parts.append("the graph breaks what the recording states: " + broken_fact_note(d))
+    return "; ".join(parts)
+
+
+def format_doubts(doubts, limit: int = 10) -> list[str]:
+    """A short table of doubts (at most ``limit`` rows), one line each::
+
+        #  kind   nodes     observations       distance/t*  steps  dl nats/tr  apart/together
+    """
+    if not doubts:
+        return []
+    lines = [f"{'#':>3}  {'kind':<5}  {'nodes':<9}  {'observations (each side)':<24}  "
+             f"{'dist/t*':>7}  {'steps':>6}  {'dl/tr':>7}  {'apart/tog':>9}  note"]
+    for k, d in enumerate(doubts[:limit]):
+        ev = d.evidence
+        nodes = "+".join(str(u) for u in d.nodes)
+        obs = " | ".join(",".join(str(o) for o in side) for side in d.observations)
+        ratio = ev.get("distance", 0.0) / ev["threshold"] if ev.get("threshold") else 0.0
+        steps = ev.get("steps")
+        note = ("the graph breaks it: " + broken_fact_note(d) if broken_fact_note(d) else
+                "the hands hold different colours" if ev.get("forbidden") == "hand" else
+                "an action refused in one is taken in the other" if ev.get("forbidden") == "refused"
+                else
+                "Exactly-One forbids" if ev.get("forbidden") else
+                f"{ev['contradicted']} held-out transition(s) dispute it"
+                if ev.get("contradicted") else
+                "the runner-up graph decides it the other way" if ev.get("runner_up") else
+                f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "
+                f"{ev.get('moved_to')}, kappa {ev['read_kappa']:.2f}: "
+                f"{', '.join(ev.get('read_sites', []))}"
+                if isinstance(ev.get("episode"), list) and ev["episode"]
+                and isinstance(ev.get("read_kappa"), (int, float)) else
+                f"only read apart, kappa {ev['read_kappa']:.2f}: {', '.join(ev.get('read_sites', []))}"
+                if isinstance(ev.get("read_kappa"), (int, float)) else "")
+        lines.append(f"{k:>3}  {d.kind:<5}  {nodes:<9}  {obs[:24]:<24}  {ratio:>7.2f}  "
+                     f"{'-' if steps is None else f'{steps:+.2f}':>6}  "
+                     f"{ev.get('dl_change', 0.0):>+7.4f}  "
+                     f"{ev.get('thresholds_apart', 0):>4}/{ev.get('thresholds_together', 0):<4}  "
+                     f"{note}".rstrip())
+    return lines

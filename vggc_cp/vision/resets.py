@@ -1,0 +1,99 @@
+"""What a recording's resets and refusals state about a site (beyond the paper).
+
+A reset (:mod:`vggc_cp.recorded`) says that an episode's first observation shows the state of
+an earlier one. At one site, the episodes that no action acts at hold one thing throughout,
+so a reset makes such episodes hold the same thing, and carries to them what the actions
+state at the other end (:func:`reset_labels`). A refused action rules out what it needs at
+its site; where one value is left, that is what the site holds. Unstated runs of observations
+that a reset joins hold one thing too, and are read as one (:func:`joined_runs`).
+
+Groups are the connected components of the reset pairs (as
+:mod:`vggc_cp.vision.support` groups the slots of a stack).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from vggc_cp.recorded import RecordedFacts
+from vggc_cp.trace import PICK, roles_of
+from vggc_cp.vision.slots import EMPTY, UNLABELLED
+
+
+def components(n: int, pairs) -> np.ndarray:
+    """Component of each of ``n`` items under the links ``pairs``, numbered by their
+    smallest member (items in order).
+
+    >>> components(4, [(3, 1)]).tolist()
+    [0, 1, 2, 1]
+    """
+    pairs = np.asarray(list(pairs), dtype=np.int64).reshape(-1, 2)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[int, int]],
+                 untouched: np.ndarray, is_acting: np.ndarray, kinds: np.ndarray,
+                 colour: np.ndarray, facts: RecordedFacts, refusals: bool) -> None:
+    """:func:`~vggc_cp.vision.occupancy.site_labels`' resets and refusals, in place on
+    ``labels``.
+
+    Episodes without an action at the site (``untouched``) that resets join hold one value;
+    a group takes the value a reset from a labelled observation states, or, with
+    ``refusals``, the one value the refused actions leave. Values that disagree leave the
+    group unlabelled.
+    """
+    episode = np.empty(len(labels), dtype=np.int64)
+    for e, (first, last) in enumerate(episodes):
+        episode[first:last + 1] = e
+    group = components(len(episodes), [(episode[a], episode[b]) for a, b in facts.resets
+                                       if untouched[episode[a]] and untouched[episode[b]]])
+    values: dict[int, set[int]] = {}
+    for a, b in facts.resets:
+        for x, y in ((a, b), (b, a)):
+            if untouched[episode[x]] and labels[y] != UNLABELLED and \
+                    not untouched[episode[y]]:
+                values.setdefault(int(group[episode[x]]), set()).add(int(labels[y]))
+    if refusals:
+        acted = {int(c) for c in colour[np.flatnonzero(is_acting)] if c >= 0}
+        # a refused pick rules out its colour only where no other pick at the site shares it
+        # (two shapes of one colour: the other may be what the site holds)
+        picks = np.flatnonzero(is_acting & (kinds == PICK))
+        shared = {int(c) for c in colour[picks] if np.sum(colour[picks] == c) > 1}
+        # the hand's reason rules nothing out: a refusal counts in the role it was met in
+        role = roles_of(actions, kinds)
+        options: dict[int, set[int]] = {}
+        for o, k in facts.refusals:
+            if not (is_acting[k] and untouched[episode[o]]) or role[o] != kinds[k] or \
+                    (kinds[k] == PICK and int(colour[k]) in shared):
+                continue
+            options.setdefault(int(group[episode[o]]), {EMPTY, *acted}).discard(
+                int(colour[k]) if kinds[k] == PICK else EMPTY)
+        for g, left in options.items():
+            if len(left) == 1:
+                values.setdefault(g, set()).update(left)
+    for e in np.flatnonzero(untouched):
+        held = values.get(int(group[e]), set())
+        if len(held) == 1:
+            first, last = episodes[e]
+            labels[first:last + 1] = next(iter(held))
+
+
+def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:
+    """``run`` with the unstated runs that a reset ``(a, b)`` joins made one.
+
+    Observation ``b`` shows the state of ``a``, and a run holds one thing from one action at
+    the site to the next, so the run of ``a`` and the run of ``b`` hold the same thing: their
+    frames are read together. Runs are renumbered by their first frame.
+
+    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), np.zeros(6, bool), [(0, 4)]).tolist()
+    [0, 0, 1, 1, 0, 0]
+    >>> known = np.array([1, 1, 0, 0, 0, 0], bool)          # a stated run is not joined
+    >>> joined_runs(np.array([0, 0, 1, 1, 2, 2]), known, [(0, 4)]).tolist()
+    [0, 0, 1, 1, 2, 2]
+    """
+    n = int(run.max()) + 1 if len(run) else 0
+    links = [(run[a], run[b]) for a, b in resets if not (known[a] or known[b])]
+    return components(n, links).astype(run.dtype)[run]
