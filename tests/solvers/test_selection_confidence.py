@@ -126,6 +126,77 @@ def test_equal_description_lengths_go_to_the_graph_with_fewer_nodes():
     assert select_mdl([together, apart], problem) == 0
 
 
+def _read_walk(kappa, seed=0):
+    """fruit-2x3's walk with one read site: every observation's true state (as a symbol)
+    read, nothing stated; and the truth with two pick states merged (``half``)."""
+    from dataclasses import replace
+
+    from vggc_cp.solvers.base import Readings, SiteReads
+
+    problem, truth, _ = walk_problem("fruit-2x3", 300, seed=seed)
+    held = (1 + truth)[:, None].astype(np.int64)
+    sites = SiteReads(held, np.zeros(held.shape, bool), np.array([kappa]), np.array([0]))
+    seen = replace(problem, readings=Readings.from_rows(np.zeros((problem.n_obs, 1)), sites))
+    half = truth.copy()
+    half[problem.pick_obs] = truth[problem.pick_obs] // 2 * 2
+    return seen, truth, half
+
+
+def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
+    """Where the action code leaves two graphs within ln 20 of each other, what a trusted
+    site reads chooses: the graph that keeps differently read frames apart. Readings below
+    the trust, frames the actions state, and graphs the actions rule out (beyond the tie)
+    are left to the actions."""
+    from dataclasses import replace
+
+    from vggc_cp.solvers.base import Readings, SiteReads
+    from vggc_cp.solvers.mdl import TIE_NATS, choice_lengths, choice_margin
+
+    # beyond the tie: the actions prefer the truth by far, whatever is read
+    seen, truth, half = _read_walk(kappa=1.0)
+    assert description_length(seen, half) - description_length(seen, truth) > TIE_NATS
+    assert select_mdl([result(half), result(truth)], seen) == 1
+
+    # a tie: four picks alike to the actions, two read holding one colour and two another
+    held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
+    base = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
+                   np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
+                   np.zeros((4, 4)))
+    one, two = result(np.array([0, 1] * 4)), result(np.array([0, 1, 0, 1, 2, 3, 2, 3]))
+
+    def problem(kappa, stated=False):
+        sites = SiteReads(held, np.full((8, 1), stated), np.array([kappa]), np.array([0]))
+        return replace(base, readings=Readings.from_rows(np.zeros((8, 1)), sites))
+
+    for kappa, chosen in ((0.95, 1), (0.5, 0), (np.nan, 0)):
+        assert select_mdl([one, two], problem(kappa)) == chosen, kappa
+        assert select_mdl([two, one], problem(kappa)) == 1 - chosen, kappa
+    assert select_mdl([one, two], problem(1.0, stated=True)) == 0   # not read again
+    # the margin is measured in the code that chose
+    p = problem(1.0)
+    dls = [description_length(p, r.labels) for r in (one, two)]
+    choice = choice_lengths(p, [one.labels, two.labels])
+    gap, other = choice_margin(dls, choice, [2, 4], 1)
+    assert other == 0 and gap == pytest.approx(choice[0] - choice[1]) and gap > 0
+    assert dls[0] < dls[1]          # the actions alone favour the other graph
+
+
+def test_without_trusted_readings_the_margin_is_the_description_length_gap():
+    """No site read at the trust: the margin and the graph it is measured to are those of
+    the description lengths alone (the rule before trusted readings)."""
+    from vggc_cp.solvers.mdl import choice_lengths, choice_margin
+
+    seen, truth, half = _read_walk(kappa=0.3)
+    labels = [np.arange(seen.n_obs), half, truth]
+    dls = [description_length(seen, lab) for lab in labels]
+    choice = choice_lengths(seen, labels, dls)
+    k = int(np.argmin(dls))
+    sizes = [len(np.unique(lab)) for lab in labels]
+    gap, other = choice_margin(dls, choice, sizes, k)
+    j = min((j for j in range(3) if sizes[j] != sizes[k]), key=lambda j: dls[j])
+    assert other == j and gap == pytest.approx(dls[j] - dls[k])
+
+
 def test_plateau_length_counts_identical_partitions_in_a_row():
     a, b = np.array([0, 0, 1]), np.array([0, 1, 2])
     labs = [b, a, a.copy(), a.copy(), b, None]

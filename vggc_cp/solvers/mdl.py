@@ -34,6 +34,19 @@ readings of sites no action touches were tried (every site's symbol) and made sp
 wherever an arm or a covered slot misleads them. Sites alike on every observation (the
 actions of one slot) are one site (:func:`vggc_cp.vision.footprints.site_readings`).
 
+**Where the actions cannot choose, the trusted readings do.** Graphs whose description
+lengths lie within :data:`TIE_NATS` (``ln 20``) of the least are a tie: the actions and stated
+facts make none of them 20 times as probable as another (two states seen once each, one
+node or two, cost the same edges). Among them, the rule adds the code length of what the
+images read, where the actions do not state it, at the sites whose reading agrees with the
+stated frames almost perfectly (kappa >= :data:`TRUSTED_KAPPA`;
+:func:`trusted_readings`), coded as above (:func:`choice_lengths`). A split that only
+separates frames read alike gains nothing; a merge of frames read differently pays. Beyond
+the tie, the readings choose nothing: a run of frames read wrong at such a site (a moving
+arm, a turned camera) would otherwise buy its own node wherever that is cheaper than its
+entropy. The margin of the chosen graph (:func:`choice_margin`) is measured in the same
+code.
+
 References
 ----------
 J. Rissanen, *Modeling by shortest data description*, Automatica 14, 1978.
@@ -42,6 +55,7 @@ G. Schwarz, *Estimating the dimension of a model*, Annals of Statistics 6, 1978.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -77,19 +91,128 @@ def description_length(problem: Problem, labels: np.ndarray) -> float:
     return -loglik + 0.5 * np.log(n_trans) * len(keys) + seen
 
 
+#: Description lengths within this many nats of the least are a tie: no graph of the tie is
+#: 20 times as probable as another (the margin the confidence asks for, ``ln 20``).
+TIE_NATS = math.log(20)
+
+#: A site's reading is trusted to break a tie where it agrees with the frames whose actions
+#: state the site at least this far beyond chance: "almost perfect" (Landis and Koch 1977,
+#: from 0.81); where half the frames hold each of two symbols, at most 1 read in 20 wrong.
+TRUSTED_KAPPA = 0.9
+
+
 @register_selection("mdl", PATH)
 def select_mdl(results: Sequence[SolveResult], problem: Problem | None = None) -> int | None:
-    """The result of least description length (:func:`description_length`). Of graphs whose
-    code lengths are equal (to 1e-9 nats), the one with fewer nodes: observations from which
-    the trace takes no action (an episode's last) cost nothing wherever they go, and an equal
-    code length does not pay for a node. Of equal graphs, the first (the lowest threshold)."""
+    """The result of least description length (:func:`description_length`), where graphs
+    tie (within :data:`TIE_NATS`) the least with the trusted readings coded too
+    (:func:`choice_lengths`). Of graphs whose code lengths are equal (to 1e-9 nats), the one
+    with fewer nodes: observations from which the trace takes no action (an episode's last)
+    cost nothing wherever they go, and an equal code length does not pay for a node. Of
+    equal graphs, the first (the lowest threshold)."""
     if not results:
         return None
     if problem is None:
         raise ValueError("the mdl rule needs the problem")
-    keys = [(round(description_length(problem, r.labels), 9),
-             r.n_nodes if r.labels is not None else np.inf, i) for i, r in enumerate(results)]
+    scores = choice_lengths(problem, [r.labels for r in results])
+    keys = [(round(float(c), 9), r.n_nodes if r.labels is not None else np.inf, i)
+            for i, (c, r) in enumerate(zip(scores, results))]
     return int(min(keys)[2])
+
+
+def trusted_readings(readings: Readings | None, min_kappa: float = TRUSTED_KAPPA
+                     ) -> Readings | None:
+    """What the images read where the actions do not state it, at the sites read at least
+    ``min_kappa`` beyond chance, as symbols (0 elsewhere; 1 empty, ``2 + c`` colour ``c``);
+    None where no such site reads anything (or ``readings`` carries no site reads).
+
+    >>> from vggc_cp.solvers.base import SiteReads
+    >>> sites = SiteReads(held=np.array([[1, 0], [2, 1], [0, 1]]),
+    ...                   stated=np.array([[False, False], [True, False], [False, True]]),
+    ...                   kappa=np.array([0.95, 0.4]), action=np.array([3, 7]))
+    >>> trusted_readings(Readings.from_rows(np.zeros((3, 1)), sites)).symbols.tolist()
+    [[0], [1], [2]]
+    """
+    sites = None if readings is None else readings.sites
+    if sites is None:
+        return None
+    trust = np.nan_to_num(np.asarray(sites.kappa, dtype=np.float64), nan=-1.0) >= min_kappa
+    rows = np.where(trust[None, :] & ~np.asarray(sites.stated, dtype=bool),
+                    1 + np.asarray(sites.held, dtype=np.int64), 0)
+    rows = rows[:, trust]
+    if not rows.any():
+        return None
+    return Readings.from_rows(rows)
+
+
+def choice_lengths(problem: Problem, labels: Sequence[np.ndarray | None],
+                   dls: Sequence[float] | None = None) -> np.ndarray:
+    """What the mdl rule minimises over the graphs ``labels`` of a path: the description
+    length (``dls``, computed where not given) of each graph within :data:`TIE_NATS` of
+    the least, plus the code length of the trusted readings (:func:`trusted_readings`,
+    :func:`reading_length`) where two or more graphs tie and there are any; ``inf`` for a
+    graph beyond the tie. Shape (len(labels),), nats.
+
+    Four picks, two of them read holding colour 0 at a trusted site and two colour 1: the
+    actions favour one pick node by 0.69 nats (a tie), the readings two.
+
+    >>> from vggc_cp.solvers.base import SiteReads
+    >>> held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
+    >>> sites = SiteReads(held, np.zeros((8, 1), bool), np.array([1.0]), np.array([0]))
+    >>> p = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
+    ...             np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
+    ...             np.zeros((4, 4)), readings=Readings.from_rows(np.zeros((8, 1)), sites))
+    >>> one, two = np.array([0, 1] * 4), np.array([0, 1, 0, 1, 2, 3, 2, 3])
+    >>> [round(float(description_length(p, lab)), 2) for lab in (one, two)]
+    [0.69, 1.39]
+    >>> [round(float(c), 2) for c in choice_lengths(p, [one, two])]
+    [6.7, 5.78]
+    """
+    dls = np.array([description_length(problem, lab) for lab in labels] if dls is None
+                   else dls, dtype=np.float64)
+    out = np.full(len(dls), np.inf)
+    finite = np.isfinite(dls)
+    if not finite.any():
+        return out
+    tied = np.flatnonzero(finite & (dls <= dls[finite].min() + TIE_NATS))
+    reads = (trusted_readings(getattr(problem, "readings", None)) if len(tied) > 1 else None)
+    for i in tied:
+        out[i] = dls[i] + (0.0 if reads is None else reading_length(reads, labels[i]))
+    return out
+
+
+def choice_margin(dls: Sequence[float], choice: Sequence[float], sizes: Sequence[int],
+                  k: int) -> tuple[float, int | None]:
+    """How much less probable the likeliest graph of another size is than the chosen graph
+    ``k``, in nats, and its index (None, and ``inf``, where every graph has ``k``'s size).
+
+    A graph of the tie (finite ``choice``, :func:`choice_lengths`) is measured in the code
+    that chose: ``choice[j] - choice[k]``; one beyond it by the actions alone, which ruled
+    it out: ``dls[j] - min(dls)`` (at least :data:`TIE_NATS`). Without trusted readings, or
+    where ``k`` is itself beyond the tie (another rule chose it), this is ``dls[j] -
+    dls[k]``. Of equal margins, the graph nearest ``k`` on the path.
+
+    >>> choice_margin([10.0, 11.0, 20.0], [14.0, 12.0, np.inf], [3, 4, 5], 1)
+    (2.0, 0)
+    >>> choice_margin([10.0, 20.0], [10.0, np.inf], [3, 4], 0)
+    (10.0, 1)
+    >>> choice_margin([10.0, 20.0], [10.0, np.inf], [3, 4], 1)     # beyond the tie
+    (-10.0, 0)
+    """
+    dls = np.asarray(dls, dtype=np.float64)
+    choice = np.asarray(choice, dtype=np.float64)
+    if not np.isfinite(choice[k]):
+        choice = np.where(np.isfinite(dls), dls, np.inf)
+    finite = np.isfinite(dls)
+    least = dls[finite].min() if finite.any() else np.inf
+    best, arg = (np.inf, np.inf), None
+    for j, size in enumerate(sizes):
+        if size == sizes[k] or not finite[j]:
+            continue
+        gap = (choice[j] - choice[k]) if np.isfinite(choice[j]) else dls[j] - least
+        key = (float(gap), abs(j - k))
+        if key < best:
+            best, arg = key, j
+    return best[0], arg
 
 
 def reading_length(readings: Readings, labels: np.ndarray) -> float:
