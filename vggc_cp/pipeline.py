@@ -57,7 +57,7 @@ from vggc_cp.solvers.doubts import (
     find_doubts,
     runner_up_doubts,
 )
-from vggc_cp.solvers.mdl import choice_lengths, choice_margin, description_length
+from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
 from vggc_cp.solvers.read_doubts import episode_doubts, read_doubts
@@ -471,19 +471,22 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
     return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
 
 
-def runner_up(problem: Problem | CodedProblem, path: ThresholdPath, dls
-              ) -> tuple[float, int | None]:
-    """The description-length margin of the selected graph of ``path`` (nats) and the graph
-    it is measured to: the likeliest graph of another size, in the code that chose among
-    graphs that tie (``dls``, one per graph, plus the trusted readings:
-    :func:`~vggc_cp.solvers.mdl.choice_margin`), the nearest on the path of equal ones;
-    ``(inf, None)`` when there is none."""
+def runner_up(path: ThresholdPath, dls) -> int | None:
+    """The graph the description-length margin of the selected one is measured to: the least
+    description length (``dls``, one per graph of ``path``) among graphs of another size,
+    the nearest on the path of equal ones; None when there is none.
+
+    The margin stays in the code of the actions and stated facts even where the trusted
+    readings chose among a tie (:func:`~vggc_cp.solvers.mdl.choice_lengths`): they break a
+    tie but do not settle it (a run of frames read wrong at a well-read site is common
+    under a robot's arm), so a graph they chose keeps the warning that the actions leave
+    another size at least 1/20 as probable."""
     k = path.selected
     if k is None:
-        return float("inf"), None
-    labels = [r.labels for r in path.results]
-    return choice_margin(dls, choice_lengths(problem, labels, dls),
-                         [r.n_nodes for r in path.results], k)
+        return None
+    size = path.results[k].n_nodes
+    others = [j for j, r in enumerate(path.results) if r.n_nodes != size]
+    return min(others, key=lambda j: (dls[j], abs(j - k))) if others else None
 
 
 def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
@@ -494,9 +497,9 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     dls = tuple(description_length(problem, r.labels) for r in path.results)
     k = path.selected
     best = path.results[k]
-    gap, _ = runner_up(problem, path, dls)
+    other = runner_up(path, dls)
     n_trans = max(len(problem.act), 1)
-    margin = gap / n_trans
+    margin = (dls[other] - dls[k]) / n_trans if other is not None else float("inf")
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
@@ -633,7 +636,7 @@ def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: 
                 disputed_doubts(problem, chosen.path, chosen.best.labels, held.disputed))
     rule = None
     if toward_runner_up:
-        _, other = runner_up(problem, chosen.path, chosen.description_lengths)
+        other = runner_up(chosen.path, chosen.description_lengths)
         if other is None:
             return ()
         if differences:

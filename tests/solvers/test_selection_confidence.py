@@ -150,7 +150,7 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
     from dataclasses import replace
 
     from vggc_cp.solvers.base import Readings, SiteReads
-    from vggc_cp.solvers.mdl import TIE_NATS, choice_lengths, choice_margin
+    from vggc_cp.solvers.mdl import TIE_NATS, choice_lengths
 
     # beyond the tie: the actions prefer the truth by far, whatever is read
     seen, truth, half = _read_walk(kappa=1.0)
@@ -172,29 +172,43 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
         assert select_mdl([one, two], problem(kappa)) == chosen, kappa
         assert select_mdl([two, one], problem(kappa)) == 1 - chosen, kappa
     assert select_mdl([one, two], problem(1.0, stated=True)) == 0   # not read again
-    # the margin is measured in the code that chose
+    # the code that chose: the actions' lengths, plus the readings' among the tie
     p = problem(1.0)
     dls = [description_length(p, r.labels) for r in (one, two)]
     choice = choice_lengths(p, [one.labels, two.labels])
-    gap, other = choice_margin(dls, choice, [2, 4], 1)
-    assert other == 0 and gap == pytest.approx(choice[0] - choice[1]) and gap > 0
-    assert dls[0] < dls[1]          # the actions alone favour the other graph
+    assert dls[0] < dls[1] and choice[1] < choice[0]
+    assert np.all(choice > np.array(dls))
+    # beyond the tie: not a candidate at all
+    far = choice_lengths(p, [one.labels, two.labels], [dls[0], dls[0] + TIE_NATS + 1.0])
+    assert np.isinf(far[1]) and far[0] == pytest.approx(dls[0])
 
 
-def test_without_trusted_readings_the_margin_is_the_description_length_gap():
-    """No site read at the trust: the margin and the graph it is measured to are those of
-    the description lengths alone (the rule before trusted readings)."""
-    from vggc_cp.solvers.mdl import choice_lengths, choice_margin
+def test_a_graph_the_readings_chose_keeps_the_margin_of_the_actions():
+    """The trusted readings choose among a tie, but the confidence's margin stays in the
+    actions' code: the graph they chose is warned that another size is nearly as probable."""
+    from dataclasses import replace
 
-    seen, truth, half = _read_walk(kappa=0.3)
-    labels = [np.arange(seen.n_obs), half, truth]
-    dls = [description_length(seen, lab) for lab in labels]
-    choice = choice_lengths(seen, labels, dls)
-    k = int(np.argmin(dls))
-    sizes = [len(np.unique(lab)) for lab in labels]
-    gap, other = choice_margin(dls, choice, sizes, k)
-    j = min((j for j in range(3) if sizes[j] != sizes[k]), key=lambda j: dls[j])
-    assert other == j and gap == pytest.approx(dls[j] - dls[k])
+    from vggc_cp.pipeline import runner_up
+    from vggc_cp.solvers.base import Readings, SiteReads
+    from vggc_cp.solvers.merge import ThresholdPath
+
+    held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
+    sites = SiteReads(held, np.zeros((8, 1), bool), np.array([1.0]), np.array([0]))
+    p = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
+                np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
+                np.zeros((4, 4)))
+    p = replace(p, readings=Readings.from_rows(np.zeros((8, 1)), sites))
+    results = [result(np.array([0, 1] * 4)), result(np.array([0, 1, 0, 1, 2, 3, 2, 3]))]
+    k = select_mdl(results, p)
+    assert k == 1                                   # the readings chose
+    dls = [description_length(p, r.labels) for r in results]
+    path = ThresholdPath((0.1, 0.2), tuple(results), k, "mdl", 0.0)
+    other = runner_up(path, dls)
+    assert other == 0
+    margin = (dls[other] - dls[k]) / len(p.act)
+    conf = assess(margin, 5, None, 4.0, transitions=len(p.act))
+    assert margin < 0 and conf.suspect
+    assert any("description-length margin" in r for r in conf.reasons)
 
 
 def test_plateau_length_counts_identical_partitions_in_a_row():
