@@ -503,8 +503,11 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
+    # the mdl rule took a graph the actions alone do not prefer: the readings broke a tie
+    read_choice = options.rule == "mdl" and dls[k] > min(dls) + 1e-9
     conf = assess(margin, plateau, resampled, problem.n_obs / max(best.n_nodes, 1),
-                  options.warning, criterion=options.rule, transitions=n_trans)
+                  options.warning, criterion=options.rule, transitions=n_trans,
+                  read_choice=read_choice)
     return dls, conf
 
 

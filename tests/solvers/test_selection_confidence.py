@@ -206,9 +206,12 @@ def test_a_graph_the_readings_chose_keeps_the_margin_of_the_actions():
     other = runner_up(path, dls)
     assert other == 0
     margin = (dls[other] - dls[k]) / len(p.act)
-    conf = assess(margin, 5, None, 4.0, transitions=len(p.act))
+    conf = assess(margin, 5, None, 4.0, transitions=len(p.act), read_choice=True)
     assert margin < 0 and conf.suspect
-    assert any("description-length margin" in r for r in conf.reasons)
+    (reason,) = [r for r in conf.reasons if "description-length margin" in r]
+    assert "the images read at well-read sites chose this one" in reason
+    plain = assess(margin, 5, None, 4.0, transitions=len(p.act))
+    assert not any("chose this one" in r for r in plain.reasons)
 
 
 def test_plateau_length_counts_identical_partitions_in_a_row():

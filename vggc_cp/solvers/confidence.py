@@ -150,19 +150,27 @@ FIXED_CHECKS = {"min_margin_nats": math.log(20), "min_plateau": 3, "max_contradi
 FORMER_MARGIN = 0.01
 
 
-def fixed_check_reasons(margin_nats: float, plateau: int, heldout, obs_per_node: float
-                        ) -> list[str]:
+def fixed_check_reasons(margin_nats: float, plateau: int, heldout, obs_per_node: float,
+                        read_choice: bool = False) -> list[str]:
     """The reasons the fixed checks (:data:`FIXED_CHECKS`) give, empty when none fails;
-    ``margin_nats`` is the description-length margin over the whole trace."""
+    ``margin_nats`` is the description-length margin over the whole trace. ``read_choice``:
+    the trusted readings chose the graph among a tie of the description length
+    (:func:`vggc_cp.solvers.mdl.choice_lengths`), which the margin reason then says.
+
+    >>> fixed_check_reasons(-0.8, 5, None, 9.0, read_choice=True)[0].split("; ")[1]
+    'the actions alone cannot choose among such graphs, and what the images read at well-read sites chose this one among them'
+    """
     c = FIXED_CHECKS
     out = []
     if plateau < c["min_plateau"]:
         out.append(f"the chosen graph holds for {plateau} threshold(s) only "
                    f"(< {c['min_plateau']}): no stable partition")
     if math.isfinite(margin_nats) and margin_nats < c["min_margin_nats"]:
+        chose = ("; the actions alone cannot choose among such graphs, and what the images "
+                 "read at well-read sites chose this one among them" if read_choice else "")
         out.append(f"description-length margin {margin_nats:.2f} nats (< ln 20 = "
                    f"{c['min_margin_nats']:.2f}): a graph of another size is at least 1/20 as "
-                   f"probable")
+                   f"probable{chose}")
     if heldout is not None:
         if heldout.contradicted > c["max_contradicted"]:
             out.append(f"{100 * heldout.contradicted:.1f} % of held-out transitions "
@@ -613,10 +621,11 @@ def disputed_pairs(labels: np.ndarray, kept: np.ndarray, lab: np.ndarray,
 
 def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_node: float,
            rule: WarningRule | None = None, criterion: str = "mdl",
-           transitions: int | None = None) -> Confidence:
+           transitions: int | None = None, read_choice: bool = False) -> Confidence:
     """The :class:`Confidence`: suspect when the chance of change exceeds
     ``rule.max_change``, or (``rule.fixed_checks``) a fixed check fails. ``margin`` is per
-    transition; the margin check reads it over the ``transitions`` (none: not checked)."""
+    transition; the margin check reads it over the ``transitions`` (none: not checked).
+    ``read_choice``: the trusted readings broke a tie (:func:`fixed_check_reasons`)."""
     rule = rule or WarningRule()
     reasons = []
     p = None if resampled is None else resampled.p_change
@@ -639,7 +648,7 @@ def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_nod
         total = float("inf") if transitions is None else float(margin) * int(transitions)
         reasons += fixed_check_reasons(total, int(plateau),
                                        None if resampled is None else resampled.heldout,
-                                       float(obs_per_node))
+                                       float(obs_per_node), read_choice)
     # alone, a chance of change is a note: it joins the reasons when another check flags
     notes = () if (reasons or rule.change_alone) else tuple(change)
     reasons = ([] if notes else change) + reasons
