@@ -126,14 +126,14 @@ def test_equal_description_lengths_go_to_the_graph_with_fewer_nodes():
     assert select_mdl([together, apart], problem) == 0
 
 
-def _read_walk(kappa, seed=0):
+def _read_walk(kappa):
     """fruit-2x3's walk with one read site: every observation's true state (as a symbol)
     read, nothing stated; and the truth with two pick states merged (``half``)."""
     from dataclasses import replace
 
     from vggc_cp.solvers.base import Readings, SiteReads
 
-    problem, truth, _ = walk_problem("fruit-2x3", 300, seed=seed)
+    problem, truth, _ = walk_problem("fruit-2x3", 300)
     held = (1 + truth)[:, None].astype(np.int64)
     sites = SiteReads(held, np.zeros(held.shape, bool), np.array([kappa]), np.array([0]))
     seen = replace(problem, readings=Readings.from_rows(np.zeros((problem.n_obs, 1)), sites))
@@ -142,14 +142,25 @@ def _read_walk(kappa, seed=0):
     return seen, truth, half
 
 
+def _tie_problem(kappa, stated=False):
+    """Four picks alike to the actions (one node or two cost 0.69 nats apart: a tie), two
+    read holding one colour and two another at one site of agreement ``kappa``; and the
+    graphs with one pick node and with two."""
+    from vggc_cp.solvers.base import Readings, SiteReads
+
+    held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
+    sites = SiteReads(held, np.full((8, 1), stated), np.array([kappa]), np.array([0]))
+    problem = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
+                      np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
+                      np.zeros((4, 4)), readings=Readings.from_rows(np.zeros((8, 1)), sites))
+    return problem, result(np.array([0, 1] * 4)), result(np.array([0, 1, 0, 1, 2, 3, 2, 3]))
+
+
 def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
     """Where the action code leaves two graphs within ln 20 of each other, what a trusted
     site reads chooses: the graph that keeps differently read frames apart. Readings below
     the trust, frames the actions state, and graphs the actions rule out (beyond the tie)
     are left to the actions."""
-    from dataclasses import replace
-
-    from vggc_cp.solvers.base import Readings, SiteReads
     from vggc_cp.solvers.mdl import TIE_NATS, choice_lengths
 
     # beyond the tie: the actions prefer the truth by far, whatever is read
@@ -158,22 +169,14 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
     assert select_mdl([result(half), result(truth)], seen) == 1
 
     # a tie: four picks alike to the actions, two read holding one colour and two another
-    held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
-    base = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
-                   np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
-                   np.zeros((4, 4)))
-    one, two = result(np.array([0, 1] * 4)), result(np.array([0, 1, 0, 1, 2, 3, 2, 3]))
-
-    def problem(kappa, stated=False):
-        sites = SiteReads(held, np.full((8, 1), stated), np.array([kappa]), np.array([0]))
-        return replace(base, readings=Readings.from_rows(np.zeros((8, 1)), sites))
-
     for kappa, chosen in ((0.95, 1), (0.5, 0), (np.nan, 0)):
-        assert select_mdl([one, two], problem(kappa)) == chosen, kappa
-        assert select_mdl([two, one], problem(kappa)) == 1 - chosen, kappa
-    assert select_mdl([one, two], problem(1.0, stated=True)) == 0   # not read again
+        p, one, two = _tie_problem(kappa)
+        assert select_mdl([one, two], p) == chosen, kappa
+        assert select_mdl([two, one], p) == 1 - chosen, kappa
+    p, one, two = _tie_problem(1.0, stated=True)
+    assert select_mdl([one, two], p) == 0                           # not read again
     # the code that chose: the actions' lengths, plus the readings' among the tie
-    p = problem(1.0)
+    p, one, two = _tie_problem(1.0)
     dls = [description_length(p, r.labels) for r in (one, two)]
     choice = choice_lengths(p, [one.labels, two.labels])
     assert dls[0] < dls[1] and choice[1] < choice[0]
@@ -186,19 +189,11 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
 def test_a_graph_the_readings_chose_keeps_the_margin_of_the_actions():
     """The trusted readings choose among a tie, but the confidence's margin stays in the
     actions' code: the graph they chose is warned that another size is nearly as probable."""
-    from dataclasses import replace
-
     from vggc_cp.pipeline import runner_up
-    from vggc_cp.solvers.base import Readings, SiteReads
     from vggc_cp.solvers.merge import ThresholdPath
 
-    held = np.array([[1], [0], [1], [0], [2], [0], [2], [0]])
-    sites = SiteReads(held, np.zeros((8, 1), bool), np.array([1.0]), np.array([0]))
-    p = Problem(np.array([0, 1] * 4), np.array([0, 2, 4, 6]), np.zeros(4, np.int64),
-                np.array([1, 3, 5, 7]), ("pick_a", "place_a"), np.zeros((4, 4)),
-                np.zeros((4, 4)))
-    p = replace(p, readings=Readings.from_rows(np.zeros((8, 1)), sites))
-    results = [result(np.array([0, 1] * 4)), result(np.array([0, 1, 0, 1, 2, 3, 2, 3]))]
+    p, one, two = _tie_problem(1.0)
+    results = [one, two]
     k = select_mdl(results, p)
     assert k == 1                                   # the readings chose
     dls = [description_length(p, r.labels) for r in results]

@@ -72,6 +72,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from vggc_cp.solvers.base import Problem, kept_refusals
+from vggc_cp.solvers.mdl import TIE_NATS
 from vggc_cp.solvers.merge import congruence_merge
 from vggc_cp.solvers.pairs import CodedProblem, coded_merge
 from vggc_cp.trace import PICK, PLACE
@@ -143,7 +144,7 @@ class WarningRule:
 #: The former check took it per transition (below 0.01, :data:`FORMER_MARGIN`), which is lax
 #: on short recordings (0.5 nats, odds of 1.6 to 1, on |D| = 50) and strict on long ones
 #: (fruit-6x8 at |D| = 3,000 was flagged at 0.004 nats a transition: 12 nats, odds of e^12).
-FIXED_CHECKS = {"min_margin_nats": math.log(20), "min_plateau": 3, "max_contradicted": 0.05,
+FIXED_CHECKS = {"min_margin_nats": TIE_NATS, "min_plateau": 3, "max_contradicted": 0.05,
                 "min_predicted": 0.6, "min_obs_per_node": 2.0}
 #: The margin check of the former rule (nats per transition), for comparisons
 #: (:data:`vggc_cp.experiments.calibration.OLD_RULE`).
