@@ -34,20 +34,43 @@ def test_the_sequence_pairs_a_pick_with_the_place_that_refills_its_slot():
     few = np.array([0, 2, 1, 3])
     assert slots.sequence_twins(few, [(0, 4)], wrong, colour, kinds).tolist() == [3, 2, 1, 0]
     # other colours are never candidates: with the true twins in another colour, the only
-    # candidate breaks the rule and the pixels' choice stands
+    # candidate breaks the rule, and it is not taken whatever the pixels say
     two = np.array([0, 1, 1, 0])
-    assert slots.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [3, 2, 1, 0]
+    assert slots.sequence_twins(actions, episodes, wrong, two, kinds).tolist() == [-1] * 4
 
 
 def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
     """Pick 0 once per episode, place 2 twice in a row in another, place 3 never: no
-    neighbours alternate, so the sequence says nothing and the footprints decide (no
-    division by a zero rate)."""
+    neighbours alternate, so no candidate qualifies (no division by a zero rate) and the
+    footprints decide among the candidates the sequence does not rule out. Place 2 twice in
+    a row with no pick between rules out every pick as its twin, and pick 1's pixel twin."""
     kinds = np.array([PICK, PICK, PLACE, PLACE], dtype=np.int8)
     ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
     actions = np.array([0, -1, 2, 2])
-    out = slots.sequence_twins(actions, [(0, 1), (2, 4)], ov, np.zeros(4, dtype=np.int64), kinds)
-    assert out.tolist() == slots.twins(ov, np.zeros(4, dtype=np.int64), kinds).tolist()
+    colour = np.zeros(4, dtype=np.int64)
+    assert slots.twins(ov, colour, kinds).tolist() == [3, 2, 1, 0]
+    out = slots.sequence_twins(actions, [(0, 1), (2, 4)], ov, colour, kinds)
+    assert out.tolist() == [3, 3, -1, 0]
+
+
+def test_the_pixels_twin_the_sequence_rules_out_is_not_taken():
+    """Too few alternations for 20 to 1, but one candidate breaks the rule: the footprints
+    decide among the candidates that never break it (an arm's footprint overlapping the
+    wrong place's most is not the twin), and none is taken where none of those overlaps."""
+    kinds = np.array([PICK, PLACE, PLACE], dtype=np.int8)
+    colour = np.zeros(3, dtype=np.int64)
+    ov = np.array([[1, .07, .37], [.07, 1, 0], [.37, 0, 1]])
+    # 0 and 1 alternate three times; 0 twice with no 2 between, and 2 twice in a row
+    actions = np.array([0, 1, 0, 1, -1, 0, 2, 2])
+    episodes = [(0, 4), (5, 8)]
+    counts = slots.alternations(actions, slots.action_episodes(8, episodes), kinds, 0,
+                                np.array([1, 2]))
+    assert counts.tolist() == [[0, 3], [2, 1]] and not slots.qualifies(counts).any()
+    assert slots.twins(ov, colour, kinds)[0] == 2                 # the pixels alone
+    assert slots.sequence_twins(actions, episodes, ov, colour, kinds)[0] == 1
+    far = ov.copy()
+    far[0, 1] = far[1, 0] = 0.0
+    assert slots.sequence_twins(actions, episodes, far, colour, kinds)[0] == -1
 
 
 def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():

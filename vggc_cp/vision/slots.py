@@ -85,7 +85,8 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     at odds of :data:`TWIN_ODDS` (the warning's bar, 20 to 1). Among those that qualify, the
     one whose footprint overlaps ``a``'s most (then the one seen alternating most often) is
     the twin; where none does, or no candidate ever breaks the rule (nothing to tell them
-    apart), the footprints decide alone (:func:`twins`).
+    apart), the footprints decide (:func:`twins`) among the candidates that never break it
+    (a robot arm's footprint overlapping the wrong place's most is not taken).
 
     Parameters
     ----------
@@ -119,6 +120,11 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
                    for i, b in enumerate(cand) if qualifies(counts)[i]]
         if allowed:
             out[a] = max(allowed)[2]
+        elif out[a] >= 0 and counts[cand == out[a], 0].sum() > 0:
+            # the pixels' choice breaks the sequence: the nearest footprint that never does
+            unbroken = [(float(ov[a, b]), int(b)) for i, b in enumerate(cand)
+                        if counts[i, 0] == 0 and ov[a, b] > 0]
+            out[a] = max(unbroken)[1] if unbroken else -1
     return out
 
 
