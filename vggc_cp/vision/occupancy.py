@@ -353,7 +353,11 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     kappa : ndarray of float64, shape (A,)
         How far the reading that set each site's unstated runs can be trusted
         (:func:`reading_kappa`): its agreement with the stated frames beyond chance; NaN for
-        a site stated everywhere (nothing read) or never acted at.
+        a site stated everywhere (nothing read) or never acted at; at most 0 where all its
+        stated frames lie in one episode (the footprint presence learns its empty look from
+        them, so agreeing with them says nothing of other episodes: a site above another
+        stated only with a block below it reads a bare region as full), and its runs are
+        then trusted as no reading (the object counts decide them).
     """
     seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
@@ -435,6 +439,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         kappa[a] = reading_kappa(used if read else own if guess is None else None, labels)
         own_kappa = max(reading_kappa(own, labels), 0.0) if guess is None else 0.0
         read_kappa = max(reading_kappa(used, labels), 0.0) if read else 0.0
+        if len(np.unique(episode[known])) < 2:
+            # judged on the one episode that taught it: nothing says how it reads the others
+            kappa[a] = min(kappa[a], 0.0)
+            own_kappa = read_kappa = 0.0
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
