@@ -32,16 +32,25 @@ which): an untouched slot under one the actions fill in any frame of the episode
 something, and one above a slot they empty holds nothing (:func:`stack_forced`); the other
 value costs as much as a reading that rules it out.
 
+Objects rest on something: where the trace stacks slots, an episode takes the most likely
+assignment that puts no object above an empty slot in any of its frames (:func:`grounded`,
+ranking the assignments with Murty's method, :func:`ranked_assignments`): a slot above one
+the counts leave full may read full because it sees the object below, and then the object
+stands on the slot below, not in the air (blocks-3 randomized s94: a block read on top of a
+two-block stack made three nodes of their own).
+
 The counts decide only where they do: an episode whose best assignment changes a reading
 but ties with another assignment (two slots read full with equal certainty and one object
-to place: the counts would toss a coin) keeps its readings (:func:`runner_up`). So do an
-episode whose assignment still puts an object on a slot above an empty one in any of its
-frames and one whose counts the stated slots already contradict (fewer objects left than
+to place: the counts would toss a coin) keeps its readings (:func:`runner_up`, or the next
+grounded assignment). So do an episode none of whose first :data:`MAX_RANKED` assignments
+stands and one whose counts the stated slots already contradict (fewer objects left than
 they need, or more than the untouched slots can hold). Nothing reads action names or
 ground-truth states.
 """
 
 from __future__ import annotations
+
+import heapq
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -58,6 +67,9 @@ TIE = 1e-6
 #: The object counts are used only where they are at least 20 times as likely as any count
 #: one object away (the odds the sequence's twins are taken at, :mod:`vggc_cp.vision.slots`).
 COUNT_ODDS = float(np.log(20.0))
+#: Assignments of an episode ranked at most in search of one that puts no object in the air
+#: (:func:`grounded`).
+MAX_RANKED = 64
 
 
 def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np.ndarray,
@@ -239,6 +251,93 @@ def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
             continue
         out = max(out, float(banned[rows, picked].sum()))
     return out
+
+
+def ranked_assignments(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+                       forced: np.ndarray | None = None, limit: int = MAX_RANKED):
+    """The assignments of :func:`episode_assignment` (``need`` met, non-negative and at most
+    one object a slot) from the most likely down, at most ``limit`` of them: yields
+    ``(contents, loglik)``, ``loglik`` never increasing.
+
+    Murty's ranking (Murty 1968) over what each slot holds: the next assignment is the best
+    of the ones not yet given, found by splitting the space left by the last one given (the
+    best with its first ``k`` slots as in it and slot ``k`` not) and solving each part with
+    the Hungarian method. Objects of one colour are interchangeable, so each assignment of
+    contents comes once.
+
+    >>> p, post = np.array([0.9, 0.6, 0.2]), np.ones((3, 1))
+    >>> [c.tolist() for c, _ in ranked_assignments(p, post, np.array([1]))]
+    [[0, -1, -1], [-1, 0, -1], [-1, -1, 0]]
+    """
+    need = np.asarray(need, dtype=np.int64)
+    if (need < 0).any() or need.sum() > len(p_occupied) or not len(p_occupied):
+        return
+    gain, columns = _gains(p_occupied, colour_post, need, forced)
+
+    def solve(rules: tuple) -> tuple[np.ndarray, float] | None:
+        g = gain.copy()
+        for i, value, kept in rules:
+            g[i, (columns != value) if kept else (columns == value)] = -np.inf
+        try:
+            rows, picked = linear_sum_assignment(-g)
+        except ValueError:                       # the rules leave no assignment
+            return None
+        total = float(g[rows, picked].sum())
+        if not np.isfinite(total):
+            return None
+        contents = np.empty(len(p_occupied), dtype=np.int64)
+        contents[rows] = columns[picked]
+        return contents, total
+
+    first = solve(())
+    if first is None:
+        return
+    heap = [(-first[1], 0, first[0], ())]
+    count = 1
+    for _ in range(limit):
+        if not heap:
+            return
+        neg, _, contents, rules = heapq.heappop(heap)
+        yield contents, -neg
+        kept = {i for i, _, k in rules if k}
+        free = [i for i in range(len(contents)) if i not in kept]
+        for k, i in enumerate(free):
+            part = (*rules, *((j, int(contents[j]), True) for j in free[:k]),
+                    (i, int(contents[i]), False))
+            found = solve(part)
+            if found is not None:
+                heapq.heappush(heap, (-found[1], count, found[0], part))
+                count += 1
+
+
+def grounded(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+             forced: np.ndarray | None, floats, limit: int = MAX_RANKED
+             ) -> tuple[np.ndarray | None, float, float]:
+    """The most likely assignment that puts no object above an empty slot (``floats(contents)``
+    False), its log-likelihood and the next such one's (``-inf`` where none is left; where
+    the ranking stops at ``limit`` first, the last assignment ranked bounds it from above).
+    ``(None, -inf, -inf)`` where none of the first ``limit`` stands.
+
+    >>> p, post = np.array([0.9, 0.8, 0.1]), np.ones((3, 1))
+    >>> on_top = lambda c: bool(c[1] >= 0 and c[0] < 0)       # slot 1 stands on slot 0
+    >>> best, ll, next_ll = grounded(p, post, np.array([1]), None, on_top)
+    >>> best.tolist(), bool(ll > next_ll)
+    ([0, -1, -1], True)
+    """
+    found: list[float] = []
+    best, last, ranked = None, -np.inf, 0
+    for contents, loglik in ranked_assignments(p_occupied, colour_post, need, forced, limit):
+        last, ranked = loglik, ranked + 1
+        if floats(contents):
+            continue
+        if best is None:
+            best = contents
+        found.append(loglik)
+        if len(found) == 2:
+            return best, found[0], found[1]
+    if best is None:
+        return None, -np.inf, -np.inf
+    return best, found[0], last if ranked >= limit else -np.inf
 
 
 def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, float]:
@@ -423,16 +522,23 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         need = total - holds
         if not len(loose) or (need < 0).any() or need.sum() > len(loose):
             continue                       # the stated slots already break the counts
-        new, best = episode_assignment(p_loose, post_loose, need, forced)
-        if (new != values[first, loose]).any() and \
-                best - runner_up(p_loose, post_loose, need, new, forced) < TIE:
+        if below:
+            # the most likely assignment with nothing in the air, in any frame of the
+            # episode (the touched slots change, the untouched do not)
+            def floats(contents, frames=values[first:last + 1] >= 0, loose=loose):
+                full = frames.copy()
+                full[:, loose] = contents >= 0
+                return any((full[:, s] & ~full[:, sorted(under)].all(axis=1)).any()
+                           for s, under in below.items())
+
+            new, best, second = grounded(p_loose, post_loose, need, forced, floats)
+            if new is None:
+                continue                   # every assignment leaves an object in the air
+        else:
+            new, best = episode_assignment(p_loose, post_loose, need, forced)
+            second = runner_up(p_loose, post_loose, need, new, forced)
+        if (new != values[first, loose]).any() and best - second < TIE:
             continue                       # another assignment as likely: a coin toss
-        # in every frame of the episode (the touched slots change, the untouched do not)
-        full = values[first:last + 1] >= 0
-        full[:, loose] = new >= 0
-        if any((full[:, s] & ~full[:, sorted(under)].all(axis=1)).any()
-               for s, under in below.items()):
-            continue                       # an object above an empty slot: a stack
         for i, s in enumerate(loose):
             changed += int(new[i] != values[first, s])
             cols = members[s]
