@@ -265,6 +265,11 @@ def ranked_assignments(p_occupied: np.ndarray, colour_post: np.ndarray, need: np
     the Hungarian method. Objects of one colour are interchangeable, so each assignment of
     contents comes once.
 
+    References
+    ----------
+    K. G. Murty, "An algorithm for ranking all the assignments in order of increasing cost",
+    Operations Research 16(3):682-687, 1968.
+
     >>> p, post = np.array([0.9, 0.6, 0.2]), np.ones((3, 1))
     >>> [c.tolist() for c, _ in ranked_assignments(p, post, np.array([1]))]
     [[0, -1, -1], [-1, 0, -1], [-1, -1, 0]]
