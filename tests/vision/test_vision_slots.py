@@ -56,7 +56,8 @@ def test_a_pick_nothing_ever_alternates_with_keeps_the_pixels_twin():
 def test_the_pixels_twin_the_sequence_rules_out_is_not_taken():
     """Too few alternations for 20 to 1, but one candidate breaks the rule: the footprints
     decide among the candidates that never break it (an arm's footprint overlapping the
-    wrong place's most is not the twin), and none is taken where none of those overlaps."""
+    wrong place's most is not the twin); where none of those overlaps, the one candidate
+    the sequence leaves is the twin, and none where it leaves two."""
     kinds = np.array([PICK, PLACE, PLACE], dtype=np.int8)
     colour = np.zeros(3, dtype=np.int64)
     ov = np.array([[1, .07, .37], [.07, 1, 0], [.37, 0, 1]])
@@ -70,7 +71,16 @@ def test_the_pixels_twin_the_sequence_rules_out_is_not_taken():
     assert slots.sequence_twins(actions, episodes, ov, colour, kinds)[0] == 1
     far = ov.copy()
     far[0, 1] = far[1, 0] = 0.0
-    assert slots.sequence_twins(actions, episodes, far, colour, kinds)[0] == -1
+    assert slots.sequence_twins(actions, episodes, far, colour, kinds)[0] == 1
+    # a third place that alternates with 0 as well: two candidates left, none overlapping
+    kinds3 = np.array([PICK, PLACE, PLACE, PLACE], dtype=np.int8)
+    ov3 = np.zeros((4, 4))
+    ov3[0, 2] = ov3[2, 0] = 0.37
+    two = np.array([0, 1, 3, 0, -1, 0, 2, 2])
+    assert slots.alternations(two, slots.action_episodes(8, episodes), kinds3, 0,
+                              np.array([1, 2, 3])).tolist() == [[0, 2], [2, 1], [0, 2]]
+    assert slots.sequence_twins(two, episodes, ov3, np.zeros(4, dtype=np.int64),
+                                kinds3)[0] == -1
 
 
 def test_the_sequence_says_which_action_of_another_colour_shares_a_slot():

@@ -120,11 +120,20 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
                    for i, b in enumerate(cand) if qualifies(counts)[i]]
         if allowed:
             out[a] = max(allowed)[2]
-        elif out[a] >= 0 and counts[cand == out[a], 0].sum() > 0:
-            # the pixels' choice breaks the sequence: the nearest footprint that never does
+        elif out[a] < 0 or counts[cand == out[a], 0].sum() > 0:
+            # none qualifies and the pixels' choice (if any) breaks the sequence: the nearest
+            # footprint that never does; where no footprint near it, the one candidate the
+            # sequence leaves (seen alternating, every other one broken)
             unbroken = [(float(ov[a, b]), int(b)) for i, b in enumerate(cand)
                         if counts[i, 0] == 0 and ov[a, b] > 0]
-            out[a] = max(unbroken)[1] if unbroken else -1
+            alone = [int(b) for i, b in enumerate(cand) if counts[i, 0] == 0]
+            if unbroken:
+                out[a] = max(unbroken)[1]
+            elif len(alone) == 1 and counts[cand == alone[0], 1].sum() > 0 and \
+                    counts[:, 0].sum() > 0:
+                out[a] = alone[0]
+            else:
+                out[a] = -1
     return out
 
 
