@@ -281,13 +281,14 @@ def test_distance_options_are_refused_under_footprints(toy_path, tmp_path, capsy
 
 
 def test_a_note_names_the_commands_for_this_solution_and_is_no_warning(tmp_path, capsys):
-    """multifruit-2x3 robot s9 (|D| = 95): the chance of change alone is a note, printed
-    after "no warning" with the doubts and suggest commands spelled for these files; nothing
-    on stderr."""
+    """blocks-2 randomized s17 (|D| = 95; multifruit-2x3 robot s9 until session 26, whose
+    re-runs no longer change): the chance of change alone is a note, printed after "no
+    warning" with the doubts and suggest commands spelled for these files; nothing on
+    stderr."""
     from vggc_cp.sim.explore import generate
 
     trace = tmp_path / "t.npz"
-    save_trace(generate("multifruit-2x3", 95, 9, look="robot").trace, trace)
+    save_trace(generate("blocks-2", 95, 17, look="randomized").trace, trace)
     out = tmp_path / "s.json"
     assert main(["solve", str(trace), "-o", str(out), "--quiet"]) == 0
     captured = capsys.readouterr()
