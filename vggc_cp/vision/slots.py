@@ -86,7 +86,9 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     one whose footprint overlaps ``a``'s most (then the one seen alternating most often) is
     the twin; where none does, or no candidate ever breaks the rule (nothing to tell them
     apart), the footprints decide (:func:`twins`) among the candidates that never break it
-    (a robot arm's footprint overlapping the wrong place's most is not taken).
+    (a robot arm's footprint overlapping the wrong place's most is not taken); where none of
+    those overlaps ``a``'s footprint, the one candidate the sequence leaves (seen
+    alternating, every other one broken) is the twin, and none where it leaves several.
 
     Parameters
     ----------
@@ -101,14 +103,17 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     --------
     Picks 0, 1 and places 2, 3; the footprints pair 0 with 3 and 1 with 2. In the first
     episode 0 and 2 alternate eleven times, and 0 comes six times with no 3 between: 2 is the
-    twin of 0 (and 0 of 2). 1 and 3 alternate once, too little to overrule the pixels:
+    twin of 0 (and 0 of 2). 1 and 3 alternate once, too little for 20 to 1, but 2 comes six
+    times with no 1 between, so the pixels' pairing of 1 with 2 is ruled out and the
+    footprints choose among what is left: 3 (and 1 for 3, as 0 comes six times with no 3
+    between):
 
     >>> from vggc_cp.trace import PLACE
     >>> kinds = np.array([PICK, PICK, PLACE, PLACE])
     >>> ov = np.array([[1, 0, .1, .5], [0, 1, .5, .1], [.1, .5, 1, 0], [.5, .1, 0, 1]])
     >>> actions = np.array([0, 2] * 6 + [-1, 1, 3])
     >>> sequence_twins(actions, [(0, 12), (13, 15)], ov, np.zeros(4, int), kinds).tolist()
-    [2, 2, 0, 0]
+    [2, 3, 0, 1]
     """
     out = twins(ov, colour, kinds)
     actions = np.asarray(actions)
@@ -116,24 +121,22 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     for a in np.flatnonzero(colour >= 0):
         cand = np.flatnonzero((colour == colour[a]) & (kinds != kinds[a]))
         counts = alternations(actions, episode_of, kinds, int(a), cand)
+        sure = qualifies(counts)
         allowed = [(float(ov[a, b]), int(counts[i, 1]), int(b))
-                   for i, b in enumerate(cand) if qualifies(counts)[i]]
+                   for i, b in enumerate(cand) if sure[i]]
         if allowed:
             out[a] = max(allowed)[2]
-        elif out[a] < 0 or counts[cand == out[a], 0].sum() > 0:
-            # none qualifies and the pixels' choice (if any) breaks the sequence: the nearest
-            # footprint that never does; where no footprint near it, the one candidate the
-            # sequence leaves (seen alternating, every other one broken)
-            unbroken = [(float(ov[a, b]), int(b)) for i, b in enumerate(cand)
-                        if counts[i, 0] == 0 and ov[a, b] > 0]
-            alone = [int(b) for i, b in enumerate(cand) if counts[i, 0] == 0]
-            if unbroken:
-                out[a] = max(unbroken)[1]
-            elif len(alone) == 1 and counts[cand == alone[0], 1].sum() > 0 and \
-                    counts[:, 0].sum() > 0:
-                out[a] = alone[0]
-            else:
-                out[a] = -1
+            continue
+        kept = counts[:, 0] == 0                        # never seen to break the rule
+        if out[a] >= 0 and kept[cand == out[a]].all():
+            continue                                    # the pixels' choice stands
+        near = kept & (ov[a, cand] > 0)
+        if near.any():                                  # the nearest footprint kept
+            out[a] = int(max(zip(ov[a, cand[near]], cand[near]))[1])
+        elif kept.sum() == 1 and len(cand) > 1 and counts[kept, 1].sum() > 0:
+            out[a] = int(cand[kept][0])                 # the one the sequence leaves
+        else:
+            out[a] = -1
     return out
 
 
