@@ -7,7 +7,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from vggc_cp.trace import load_trace
 from vggc_cp.vision.footprints import footprint_distances
@@ -66,20 +65,37 @@ def test_block_sums_in_cache_sized_pieces_are_the_same(monkeypatch):
     assert np.array_equal(working._block_sums(x, 4), whole)
 
 
-@pytest.mark.parametrize("shape,f", [((5, 6, 8, 3), 1), ((4, 7, 5, 3), 1), ((3, 4, 6, 3), 8),
-                                     ((6, 3, 3, 3), 16)])
-def test_channel_medians_are_numpys_median_bit_for_bit(shape, f):
-    from vggc_cp.vision.working import _channel_medians
+def _half_table(n: int = 6) -> np.ndarray:
+    """Frames of a white background over half the image and a brown table over the other
+    half, a dark object moving across the table: each frame's own median sits on one mode or
+    the other as the object covers a little more or less of the table."""
+    obs = np.empty((n, 16, 16, 3), dtype=np.uint8)
+    obs[:, :8] = 255
+    obs[:, 8:] = (144, 109, 74)
+    for t in range(n):
+        obs[t, 8:10 + t % 2, 2 * t:2 * t + 3] = (20, 20, 20)
+        obs[t, 7 - t % 2:8, 0:1] = (144, 109, 74) if t % 2 else 255
+    return obs
 
-    rng = np.random.default_rng(sum(shape) + f)
-    top = 255 * f * f
-    block = rng.integers(0, top + 1, shape).astype(np.uint8 if f == 1 else np.uint32)
-    block[0] = block[0, :1, :1]  # a flat frame: ties everywhere
-    x = block.astype(np.float32) / (255.0 * f * f)
-    want = np.median(x.reshape(len(x), -1, 3), axis=1)
-    got = _channel_medians(block, f)
-    assert got.dtype == want.dtype == np.float32
-    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+def test_a_frame_whose_own_median_jumps_between_modes_is_not_rescaled():
+    obs = _half_table()
+    med = np.median(obs.reshape(len(obs), -1, 3).astype(float), axis=1)[:, 0]
+    assert len(set(med.tolist())) > 1           # a per-frame median would rescale frames
+    x = normalise_frames(obs)
+    table = x[:, 12, 15]                        # a table pixel nothing touches
+    assert np.allclose(table, table[0], atol=1e-6)
+
+
+def test_a_per_frame_gain_and_tint_cancel():
+    obs = _half_table()
+    lit = obs.astype(np.float32)
+    lit[1::2] *= np.array([0.7, 0.8, 0.9], np.float32)   # every other frame dimmer and tinted
+    lit = np.clip(lit.round(), 0, 255).astype(np.uint8)
+    plain, x = normalise_frames(obs), normalise_frames(lit)
+    table = x[:, 12, 15]
+    assert np.allclose(table, table[0], atol=0.02)
+    assert np.allclose(x[:, 8:], plain[:, 8:], atol=0.03)  # what is not clipped reads alike
 
 
 def _wide_view(trace, side: int = 256):

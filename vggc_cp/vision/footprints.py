@@ -3,8 +3,9 @@
 A pick or a place changes the scene in one place, and the trace says which action changed
 what. Everything below is learned from the trace's observations and actions; nothing reads
 ground-truth states and nothing needs weights, so the same code adapts to another table,
-camera, lighting or object set. Frames are first divided by their per-channel median, so a
-per-frame lighting gain and tint cancel, and moved back by their camera shake
+camera, lighting or object set. Frames are first divided by their per-channel gain against
+the recording (:func:`vggc_cp.vision.working.frame_gains`), so a per-frame lighting gain and
+tint cancel, and moved back by their camera shake
 (:mod:`vggc_cp.vision.registration`).
 
 **Footprints.** The mean ``|o_{t+1} - o_t|`` over the transitions of action ``a``, less the

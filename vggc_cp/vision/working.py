@@ -2,7 +2,8 @@
 
 The footprint evidence (:mod:`vggc_cp.vision.footprints`) holds one float copy of every frame
 at a *working resolution*, each frame averaged down by an integer ``factor`` and divided by its
-per-channel median (a per-frame lighting gain and tint cancel). How coarse it may be is a
+per-channel gain against the recording (:func:`frame_gains`: a per-frame lighting gain and
+tint cancel). How coarse it may be is a
 property of the scene, not of the camera: an object must still span a few pixels. Three
 things set it:
 
@@ -132,9 +133,10 @@ def finest_factor(shape) -> int:
 def normalise_frames(observations: np.ndarray, factor: int = 1,
                      chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
     """Frames averaged down by ``factor`` (blocks of ``factor x factor`` pixels; edges that do
-    not fill a block are cropped), each divided by its per-channel median (cancels a
-    per-frame gain and tint). Frames are read in chunks of about ``chunk_bytes`` of float
-    pixels, so only the working-resolution copy of all of them is ever held.
+    not fill a block are cropped; :func:`block_means`), each divided by its per-channel gain
+    against the recording (:func:`cancel_gains`: a per-frame lighting gain and tint cancel).
+    Frames are read in chunks of about ``chunk_bytes`` of float pixels, so only the
+    working-resolution copy of all of them is ever held.
 
     Parameters
     ----------
@@ -146,6 +148,13 @@ def normalise_frames(observations: np.ndarray, factor: int = 1,
     -------
     ndarray of float32, shape (N, H // factor, W // factor, 3)
     """
+    return cancel_gains(block_means(observations, factor, chunk_bytes))
+
+
+def block_means(observations: np.ndarray, factor: int = 1,
+                chunk_bytes: int = CHUNK_BYTES) -> np.ndarray:
+    """Frames averaged down by ``factor`` in ``[0, 1]``, float32 of shape
+    ``(N, H // factor, W // factor, 3)``, read in chunks of about ``chunk_bytes``."""
     n, h, w = observations.shape[:3]
     f = max(1, int(factor))
     hh, ww = h // f, w // f
@@ -155,35 +164,96 @@ def normalise_frames(observations: np.ndarray, factor: int = 1,
         block = np.asarray(observations[s:s + chunk, :hh * f, :ww * f])
         if f > 1:  # block sums in integers (exact), one division: the block means
             block = _block_sums(block, f)
-        x = block.astype(np.float32) / (255.0 * f * f)
-        med = _channel_medians(block, f)
-        out[s:s + chunk] = x / np.maximum(med, 1e-3)[:, None, None, :]
+        out[s:s + chunk] = block.astype(np.float32) / np.float32(255.0 * f * f)
     return out
 
 
-def _channel_medians(block: np.ndarray, f: int) -> np.ndarray:
-    """``np.median(x.reshape(n, -1, 3), axis=1)`` of ``x = block / (255 f^2)`` in float32,
-    bit for bit, at a fraction of its cost: the middle order statistics are chosen on the
-    integers (the conversion is monotonic) along a contiguous axis, and only they are
-    converted and averaged as ``np.median`` averages them.
+#: Frames (evenly spaced over the recording) whose per-pixel median is the reference the
+#: gains are measured against (:func:`frame_gains`).
+REFERENCE_FRAMES = 64
+#: Pixel values (in ``[0, 1]``) outside which a ratio says nothing of the gain: too dark to
+#: measure, or clipped at white (in the reference or in the frame).
+GAIN_RANGE = (8 / 255, 250 / 255)
+#: The gain quantile whose frame sets the common ceiling of :func:`cancel_gains`: the
+#: brightest frames but one in a hundred.
+CEILING_QUANTILE = 0.99
 
-    Parameters
-    ----------
-    block : ndarray of unsigned int, shape (n, h, w, 3)
-        Pixel values or block sums.
-    f : int
-        The block side the sums are of (1: plain pixels).
 
-    Returns
-    -------
-    ndarray of float32, shape (n, 3)
+def frame_gains(x: np.ndarray) -> np.ndarray:
+    """Every frame's per-channel brightness against the recording's, shape (N, 3), float32.
+
+    The reference is the per-pixel median of :data:`REFERENCE_FRAMES` evenly spaced frames;
+    a frame's gain in channel ``c`` is the median of ``x_c / ref_c`` over the pixels that
+    are measurable (:data:`GAIN_RANGE`) in the reference and in the frame, times the median
+    of ``ref_c``: the median-of-ratios estimate of a common scale (Anders and Huber 2010),
+    which the few pixels an action, an arm or a distractor changes do not move, and which a
+    background clipped at white in the brighter frames does not pull down. A frame's own
+    median, its previous divisor, jumps between two modes where half the image is
+    background and half table (random-678 clean: 144 or 214 in red from one frame to the
+    next), and that jump was read as change everywhere.
+
+    >>> x = np.full((3, 4, 4, 3), 0.5, np.float32); x[1] *= 0.8; x[2, :1] = 1.0
+    >>> [round(float(g), 3) for g in frame_gains(x)[:, 0]]   # a quarter of frame 2 changed
+    [0.5, 0.4, 0.5]
     """
-    n = len(block)
-    per_channel = np.ascontiguousarray(block.reshape(n, -1, 3).transpose(0, 2, 1))
-    p = per_channel.shape[-1]
-    kth = [p // 2 - 1, p // 2] if p % 2 == 0 else [p // 2]
-    middle = np.partition(per_channel, kth, axis=-1)[..., kth[0]:kth[-1] + 1]
-    return np.mean(middle.astype(np.float32) / (255.0 * f * f), axis=-1)
+    n, h = x.shape[:2]
+    pick = np.unique(np.linspace(0, n - 1, min(n, REFERENCE_FRAMES)).round().astype(np.int64))
+    # in pieces of a sixteenth of the frames (rows, then frames): the working copy is the
+    # only large array held
+    rows = max(1, h // 16)
+    ref = np.concatenate([np.median(x[pick, i:i + rows], axis=0)
+                          for i in range(0, h, rows)]).reshape(-1, 3)
+    chunk_frames = max(1, n // 16)
+    lo, hi = GAIN_RANGE
+    gains = np.empty((n, 3), dtype=np.float32)
+    for c in range(3):
+        r = ref[:, c]
+        ok = (r > lo) & (r < hi)
+        if not ok.any():  # nothing measurable: every pixel that is not black
+            ok = r > 0
+        if not ok.any():
+            gains[:, c] = 1.0
+            continue
+        level = np.float32(np.median(r))
+        for s in range(0, n, chunk_frames):
+            part = x[s:s + chunk_frames, ..., c].reshape(-1, r.size)[:, ok]
+            gains[s:s + chunk_frames, c] = _median_of_ratios(part, r[ok]) * level
+    return gains
+
+
+def _median_of_ratios(part: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Per row of ``part`` (n, p), the median of ``part / ref`` over its pixels inside
+    :data:`GAIN_RANGE` (all of them where none is), shape (n,)."""
+    lo, hi = GAIN_RANGE
+    ratio = part / ref
+    out = ~((part > lo) & (part < hi))
+    ratio[out] = np.inf                       # sorted past every measurable pixel
+    k = ratio.shape[1] - out.sum(axis=1)
+    ratio.sort(axis=1)
+    none = k == 0
+    if none.any():
+        ratio[none] = np.sort(part[none] / ref, axis=1)
+        k[none] = ratio.shape[1]
+    rows = np.arange(len(ratio))
+    return (ratio[rows, (k - 1) // 2] + ratio[rows, k // 2]) / 2
+
+
+def cancel_gains(x: np.ndarray) -> np.ndarray:
+    """``x`` (float in ``[0, 1]``, shape (N, H, W, 3)) divided in place by
+    :func:`frame_gains` and cut at a common ceiling; returned.
+
+    A pixel clipped at white reads ``1 / g`` once divided by its frame's gain ``g``: brighter
+    frames would read a clipped background darker than dimmer ones, a change everywhere
+    the camera saturates. Every channel is therefore cut at ``1 / g`` of its
+    :data:`CEILING_QUANTILE` gain, the brightest level every frame (but one in a hundred)
+    can still measure: a clipped background reads alike in all of them, and an object put
+    on a white table still changes it.
+    """
+    gains = np.maximum(frame_gains(x), 1e-3)
+    x /= gains[:, None, None, :]
+    ceiling = 1.0 / np.quantile(gains, CEILING_QUANTILE, axis=0)
+    np.minimum(x, ceiling.astype(np.float32), out=x)
+    return x
 
 
 def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
@@ -210,7 +280,7 @@ def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
 
 def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
     observations, factor = item
-    return normalise_frames(observations, factor)
+    return block_means(observations, factor)
 
 
 def check_working_bytes(observations, factor: int, source: str | None = None) -> None:
@@ -234,7 +304,8 @@ def working_frames(observations: np.ndarray, executor=None, block: int | None = 
     """:func:`normalise_frames` at ``factor`` (default: the image-size bound
     :func:`working_factor`); with an ``executor`` (e.g. a dask cluster), blocks of ``block``
     (default :data:`BLOCK_FRAMES`, fewer where that would be more than :data:`BLOCK_BYTES`)
-    frames are converted on its workers (each frame on its own: the same numbers as here).
+    frames are averaged down on its workers (:func:`block_means`, each frame on its own) and
+    their gains cancelled here (:func:`cancel_gains`): the same numbers either way.
     Frames read from the trace file (:class:`vggc_cp.frames.StreamedFrames`) are inflated
     here, in one pass over the file (a deflated member is read from its start), and shipped
     in waves of about :data:`WAVE_BYTES`, so only a wave of full-size frames is held at once.
@@ -260,4 +331,4 @@ def working_frames(observations: np.ndarray, executor=None, block: int | None = 
         del frames
         for i, x in executor.completed(_normalise_block, items):
             out[s + i * block:s + i * block + len(x)] = x
-    return out
+    return cancel_gains(out)
