@@ -51,16 +51,129 @@ def misplaced_share(doubts, labels: np.ndarray) -> float:
     return float((moved / np.maximum(sizes + moved, 1.0)).sum() / n)
 
 
-def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None) -> Confidence:
+def sole_edges(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray, dst: np.ndarray
+               ) -> set[tuple[int, int, int]]:
+    """The edges ``(u, a, v)`` of the graph of ``labels`` that only the doubts' episodes
+    show: every transition behind them starts inside an episode of a doubt
+    (``evidence["episode"]``, its first and last observation). Were those episodes another
+    path, the edges would not be there.
+
+    >>> from vggc_cp.solvers.doubts import Doubt
+    >>> d = Doubt("split", (0,), ((1,), (4,)), {"episode": [4, 5]})
+    >>> labels = np.array([0, 1, 0, 1, 2, 3])
+    >>> sorted(sole_edges([d], labels, np.array([0, 1, 2, 4]), np.array([0, 1, 0, 2]),
+    ...                   np.array([1, 2, 3, 5])))
+    [(2, 2, 3)]
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    src, act, dst = (np.asarray(v, dtype=np.int64) for v in (src, act, dst))
+    inside = np.zeros(len(src), dtype=bool)
+    for d in doubts:
+        span = (d.evidence or {}).get("episode")
+        if isinstance(span, list) and len(span) == 2:
+            inside |= (src >= span[0]) & (src <= span[1])
+    keys = list(zip(labels[src].tolist(), act.tolist(), labels[dst].tolist()))
+    outside = {k for k, i in zip(keys, inside) if not i}
+    return {k for k, i in zip(keys, inside) if i and k not in outside}
+
+
+def plans_through(edges, sole: set, n: int) -> np.ndarray:
+    """For every ordered pair of nodes ``(u, v)``, the share of the shortest plans from ``u``
+    to ``v`` on the graph of ``edges`` (``(u, a, v)`` triples over ``n`` nodes) that take an
+    edge of ``sole``: shape (n, n), 0 where ``v`` is ``u`` or out of reach. A plan is drawn
+    uniformly among the shortest, as Exec draws it (:mod:`vggc_cp.evaluate.metrics`); the
+    counts are the paths of the breadth-first layers, with and without those edges.
+
+    >>> plans_through([(0, 0, 1), (1, 1, 2), (0, 2, 3), (3, 3, 2)], {(0, 2, 3)}, 4)[0].tolist()
+    [0.0, 0.0, 0.5, 1.0]
+    """
+    out_edges: list[list[tuple[int, bool]]] = [[] for _ in range(n)]
+    for u, a, v in set(edges):
+        out_edges[u].append((v, (u, a, v) in sole))
+    share = np.zeros((n, n))
+    for u in range(n):
+        depth = {u: 0}
+        every, clear = {u: 1.0}, {u: 1.0}
+        layer = [u]
+        while layer:
+            nxt: list[int] = []
+            for w in layer:
+                for v, risky in out_edges[w]:
+                    if depth.get(v, depth[w] + 1) != depth[w] + 1:
+                        continue
+                    if v not in depth:
+                        depth[v] = depth[w] + 1
+                        every[v] = clear[v] = 0.0
+                        nxt.append(v)
+                    every[v] += every[w]
+                    clear[v] += 0.0 if risky else clear[w]
+            layer = nxt
+        for v in depth:
+            if v != u:
+                share[u, v] = 1.0 - clear[v] / every[v]
+    return share
+
+
+def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
+              dst: np.ndarray) -> float:
+    """The share of plans between two nodes that fail were the episode doubts right: the
+    plan starts or ends at a misplaced render (:func:`misplaced_share`, per node), or takes
+    an edge only those episodes show (:func:`sole_edges`, :func:`plans_through`); averaged
+    over the ordered pairs of nodes one reaches from the other.
+
+    >>> from vggc_cp.solvers.doubts import Doubt
+    >>> d = Doubt("split", (0,), ((1,), (4,)), {"episode": [4, 5], "moved_path": [2, 3]})
+    >>> labels = np.array([0, 1, 0, 1, 2, 3])
+    >>> src, act, dst = np.array([0, 1, 2, 4]), np.array([0, 1, 0, 2]), np.array([1, 2, 3, 5])
+    >>> round(plan_risk([d], labels, src, act, dst), 3)   # of 0->1, 1->0, 2->3: the last
+    0.333
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    n = int(labels.max()) + 1
+    moved = np.zeros(n)
+    for d in doubts:
+        path = (d.evidence or {}).get("moved_path")
+        if isinstance(path, list):
+            np.add.at(moved, np.asarray(path, dtype=np.int64), 1.0)
+    sizes = np.bincount(labels, minlength=n).astype(np.float64)
+    misplaced = moved / np.maximum(sizes + moved, 1.0)
+    edges = list(zip(labels[src].tolist(), np.asarray(act).tolist(), labels[dst].tolist()))
+    through = plans_through(edges, sole_edges(doubts, labels, src, act, dst), n)
+    fail = 1.0 - (1.0 - misplaced[:, None]) * (1.0 - misplaced[None, :]) * (1.0 - through)
+    pairs = _reached(edges, n)
+    return float(fail[pairs].mean()) if pairs.any() else 0.0
+
+
+def _reached(edges, n: int) -> np.ndarray:
+    """Bool (n, n): ``v`` is reached from ``u != v`` along ``edges``."""
+    out: list[set[int]] = [set() for _ in range(n)]
+    for u, _, v in edges:
+        out[u].add(v)
+    reach = np.zeros((n, n), dtype=bool)
+    for u in range(n):
+        seen, todo = {u}, [u]
+        while todo:
+            w = todo.pop()
+            for v in out[w]:
+                if v not in seen:
+                    seen.add(v)
+                    todo.append(v)
+        reach[u, list(seen - {u})] = True
+    return reach
+
+
+def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
+                   problem=None) -> Confidence:
     """``conf`` flagged when a doubt rests on an untrustworthy reading
     (:func:`vggc_cp.solvers.read_doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
     that nothing the actions state sets apart, told apart only by what the images read at
     sites whose reading agrees with the stated frames less than substantially beyond
     chance; or episodes that only such a reading puts on their path
     (:func:`vggc_cp.solvers.read_doubts.episode_doubts`: its evidence has ``episode``, too)
-    and that, were they misplaced, would misplace the start or the goal of more than
-    :data:`MAX_PLAN_RISK` of the plans between two observations (:func:`misplaced_share`;
-    with ``labels`` only). Fewer, the graph stays usable either way: the episode is a note
+    and that, were they misplaced, would fail more than :data:`MAX_PLAN_RISK` of the plans
+    between two observations (with ``labels`` only): plans that start or end at a misplaced
+    render (:func:`misplaced_share`) or, given the ``problem`` (its transitions), that also
+    take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable either way: the episode is a note
     (it joins the reasons when another check flags). Re-runs and the description length
     cannot see either: both take the reading as given. The reason names the nodes (the
     episode), the sites and what to record.
@@ -81,16 +194,21 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None) -
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]
         more = f" (and {len(moves) - 1} more such episode(s))" if len(moves) > 1 else ""
-        share = 0.0 if labels is None else misplaced_share(moves, labels)
-        risk = 1.0 - (1.0 - share) ** 2
+        if labels is None:
+            risk = 0.0
+        elif problem is None:
+            risk = 1.0 - (1.0 - misplaced_share(moves, labels)) ** 2
+        else:
+            risk = plan_risk(moves, labels, problem.src, problem.act, problem.dst)
+        also = "" if problem is None else " or take a transition only such episodes show"
         reason = (
             f"the episode of observations {first}-{last} might be another path of the graph, "
             f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
             f"actions state it only {ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is "
             f"substantial); if so, {100 * risk:.1f} % of plans between two observations start "
-            f"or end at a misplaced one; record an episode from that episode's start that acts "
-            f"there (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+            f"or end at a misplaced one{also}; record an episode from that episode's start "
+            f"that acts there (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
         conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
                 else conf.noted(reason))
     return conf
