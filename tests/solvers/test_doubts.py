@@ -268,7 +268,7 @@ def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
     assert observation_episodes(problem).tolist() == [0, 0, 1, 2, 2, 2]
 
 
-def _episode_on_a_read(kappa: float, stated_last: bool = False):
+def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | None = None):
     """States 'A' and 'B' (hand empty) and their held states: 'A' -pick_1-> 'HA' -place_1->
     'A', the same from 'B', then a last episode 'A' -pick_1-> 'HA'. Site 0 (pick_1's) is
     stated full, then empty, alike everywhere; site 1 (pick_2's) holds something in 'A' and
@@ -285,7 +285,11 @@ def _episode_on_a_read(kappa: float, stated_last: bool = False):
                      for s in states])
     stated = np.ones_like(held, dtype=bool)
     stated[6:, 1] = stated_last
-    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]))
+    frame_trust = None
+    if trust is not None:                        # the last episode's run took this reading
+        frame_trust = np.where(stated, 1.0, kappa)
+        frame_trust[6:, 1] = trust
+    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]), frame_trust)
     readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
     roles = trace.roles()
     apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
@@ -313,6 +317,17 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     for kappa, stated in ((0.9, False), (0.3, True)):
         problem, path, labels = _episode_on_a_read(kappa, stated)
         assert episode_doubts(problem, path, labels) == ()
+
+
+def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():
+    """Site 1 reads at kappa 0.9 where a pose of the hand reads it, but the last episode's
+    run was read by none (a guess, trust 0; fruit-2x3 robot s102: the arm over region 0 hides
+    regions 1 and 2 for a whole episode): the episode's placement rests on that guess."""
+    problem, path, labels = _episode_on_a_read(0.9, trust=0.0)
+    (d,) = episode_doubts(problem, path, labels)
+    assert d.evidence["episode"] == [6, 7] and d.evidence["read_kappa"] == 0.0
+    problem, path, labels = _episode_on_a_read(0.9, trust=0.9)   # read as well as the site
+    assert episode_doubts(problem, path, labels) == ()
 
 
 def test_an_episode_doubt_flags_the_graph_and_names_the_episode():

@@ -58,16 +58,23 @@ class SiteReads:
         0 no better than saying what most of them hold; NaN: nothing read).
     action : ndarray of int64, shape (S,)
         The action whose footprint is the site (it names the site).
+    trust : ndarray of float64, shape (N, S), or None
+        How far the reading that set each observation's value can be trusted: 1 where
+        stated, else the kappa of the reading its run took, which is less than the site's
+        ``kappa`` where that run fell back to a weaker reading (an arm hid the site in
+        every pose of the run). None: the site's ``kappa`` for every observation.
     """
 
     held: np.ndarray
     stated: np.ndarray
     kappa: np.ndarray
     action: np.ndarray
+    trust: np.ndarray | None = None
 
     def restricted(self, idx: np.ndarray) -> SiteReads:
         """The rows of the observations ``idx``."""
-        return SiteReads(self.held[idx], self.stated[idx], self.kappa, self.action)
+        return SiteReads(self.held[idx], self.stated[idx], self.kappa, self.action,
+                         None if self.trust is None else self.trust[idx])
 
 
 @dataclass(frozen=True, eq=False)

@@ -57,7 +57,9 @@ class _NodeReads:
     (bool, shape ``(n, S, V)``: a value stated by the actions in one of the node's
     observations), ``majority`` (shape ``(n, S)``: the value most of them hold, stated or
     read), ``role`` (shape ``(n,)``), ``trust`` (every site's kappa, NaN as infinity: a
-    site read nowhere is never an untrustworthy reading) and the sites' ``held`` and
+    site read nowhere is never an untrustworthy reading), ``frame_trust`` (shape ``(N, S)``:
+    how far the reading that set each observation can be trusted, infinity where stated;
+    the site's kappa where the readings do not say) and the sites' ``held`` and
     ``stated``, and ``action``, the action naming every site."""
 
     def __init__(self, sites, labels: np.ndarray, roles: np.ndarray):
@@ -66,6 +68,11 @@ class _NodeReads:
         self.held = held = np.asarray(sites.held)
         self.stated = stated = np.asarray(sites.stated, dtype=bool)
         self.trust = np.nan_to_num(np.asarray(sites.kappa, dtype=np.float64), nan=np.inf)
+        # how far the reading that set every observation can be trusted (the site's kappa
+        # where the evidence does not say)
+        own = getattr(sites, "trust", None)
+        self.frame_trust = (np.broadcast_to(self.trust, held.shape) if own is None
+                            else np.where(stated, np.inf, np.asarray(own, dtype=np.float64)))
         n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
         self.role = np.full(n, -1)
         self.role[labels] = roles
@@ -255,7 +262,9 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     * the sites at which its frames differ from what most observations of the other
       path's nodes hold are read at every such frame (not stated), and the best of those
       readings agrees with the stated observations beyond chance by less than
-      ``max_kappa``.
+      ``max_kappa`` -- each site judged by the reading that set it in those frames
+      (:attr:`~vggc_cp.solvers.base.SiteReads.trust`: a run that no pose of the hand reads
+      takes a weaker reading than the site's kappa says, or a guess).
 
     The episode's first node ``N`` is then a split doubt: its observations in that
     episode (side ``Q``) might be the other path's first node ``M``, the rest of ``N``
@@ -312,7 +321,11 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             clash[np.arange(len(chain))[:, None], site_rows, held[chain]] = False
             if ((clash.any(axis=2) | differ) & stated[chain]).any() or not differ.any():
                 continue
-            best = float(nodes.trust[differ.any(axis=0)].max())
+            # the best reading among the sites that set the episode apart, each as far as
+            # the reading that set it in the episode's frames can be trusted
+            sep = differ.any(axis=0)
+            frame = np.where(differ, nodes.frame_trust[chain], np.inf)[:, sep]
+            best = float(min(frame.min(axis=0).max(), nodes.trust[sep].max()))
             if best < max_kappa and (best_move is None or best < best_move[0]):
                 best_move = (best, int(other), moved, differ.any(axis=0))
         if best_move is not None:

@@ -205,6 +205,10 @@ class Footprints:
         How far the reading of every site's unstated observations can be trusted: its
         agreement with the stated ones beyond chance
         (:func:`vggc_cp.vision.occupancy.reading_kappa`); NaN where nothing is read.
+    trust : ndarray of float64, shape (N, A), or None
+        How far the reading that set each observation's presence can be trusted (the
+        ``trust`` of :func:`vggc_cp.vision.occupancy.settle`): 1 where the actions state
+        it, else the kappa of the reading its run took (0 for a guess).
     """
 
     maps: np.ndarray
@@ -218,6 +222,7 @@ class Footprints:
     resolution: WorkingResolution | None = None
     stated: np.ndarray | None = None
     kappa: np.ndarray | None = None
+    trust: np.ndarray | None = None
 
     @property
     def taken(self) -> np.ndarray:
@@ -461,17 +466,16 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
-    presence, posterior, stated, kappa = settle(trace, presence, posterior, ov, colour, counts,
-                                         params.site_overlap, x, params.support,
-                                         params.saturation, twin, mates, params.bandwidth,
-                                         rests=rests)
+    presence, posterior, stated, kappa, trust = settle(
+        trace, presence, posterior, ov, colour, counts, params.site_overlap, x, params.support,
+        params.saturation, twin, mates, params.bandwidth, rests=rests)
     # a stated fact rests on which actions act at one slot; where the site's own reading
     # contradicts it, one of the two is wrong, and it is not offered as a fact
     full = presence >= 0.5
     stated &= ((seen_p >= 0.5) == full) & (~full | (seen_c == posterior.argmax(axis=-1)))
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
-                      resolution, stated, kappa)
+                      resolution, stated, kappa, trust)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
@@ -534,28 +538,29 @@ def site_readings(fp: Footprints) -> np.ndarray:
 
 def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     """What every taken site holds in every observation, stated or read, and how far each
-    site's reading can be trusted: ``(held, stated, kappa, action)`` of shapes (N, S),
-    (N, S), (S,), (S,) (the fields of :class:`~vggc_cp.solvers.base.SiteReads`); None
-    without ``fp.stated``.
+    site's reading can be trusted: ``(held, stated, kappa, action, trust)`` of shapes (N, S),
+    (N, S), (S,), (S,), (N, S) (the fields of :class:`~vggc_cp.solvers.base.SiteReads`;
+    ``trust`` None without ``fp.trust``); None without ``fp.stated``.
 
     ``held`` is 0 where the site is empty and ``1 + c`` where it holds colour ``c``;
     ``stated`` where the actions state it (``fp.stated``); ``kappa`` is ``fp.kappa``;
-    ``action`` the taken action of each site (``fp.taken``).
+    ``action`` the taken action of each site (``fp.taken``); ``trust`` is ``fp.trust``.
 
     >>> fp = Footprints(*[None] * 2, np.array([[1.0, 0.2], [0.0, 0.9]]), None,
     ...                 np.ones((2, 2, 1)), np.zeros(2, np.int64), None, np.array([3, 2]),
     ...                 stated=np.array([[True, False], [True, False]]),
     ...                 kappa=np.array([np.nan, 0.3]))
-    >>> held, stated, kappa, action = site_reads(fp)
-    >>> held.tolist(), stated.tolist(), kappa.tolist()
-    ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3])
+    >>> held, stated, kappa, action, trust = site_reads(fp)
+    >>> held.tolist(), stated.tolist(), kappa.tolist(), trust
+    ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3], None)
     """
     if fp.stated is None:
         return None
     taken = fp.taken
     kappa = (np.full(len(taken), np.nan) if fp.kappa is None
              else np.asarray(fp.kappa, dtype=np.float64)[taken])
-    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64)
+    trust = None if fp.trust is None else np.asarray(fp.trust, dtype=np.float64)[:, taken]
+    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust
 
 
 def _held(fp: Footprints) -> np.ndarray:

@@ -275,7 +275,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
            bandwidth: float = 0.02, rests: bool = False
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -358,6 +358,11 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         them, so agreeing with them says nothing of other episodes: a site above another
         stated only with a block below it reads a bare region as full), and its runs are
         then trusted as no reading (the object counts decide them).
+    trust : ndarray of float64, shape (N, A)
+        How far the reading that set every observation's presence can be trusted: 1 where
+        the actions state it, else the kappa (at least 0) of the reading its run took -- the
+        pose reading, the footprint presence, or 0 for the majority guess -- which may be
+        less than the site's ``kappa`` where some runs no pose reads.
     """
     seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
@@ -464,7 +469,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     # objects are conserved: the counts decide what the readings leave open
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
                                       above)
-    return presence, posterior, stated, kappa
+    return presence, posterior, stated, kappa, trust
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
