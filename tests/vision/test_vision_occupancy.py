@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from vggc_cp.recorded import RecordedFacts
 from vggc_cp.trace import PICK, PLACE, load_trace
@@ -360,6 +361,7 @@ def test_a_robot_trace_whose_footprints_pair_the_wrong_places_is_learned_right()
     assert _same_partition(learn_graph(blind).labels, trace.states)
 
 
+@pytest.mark.slow
 def test_a_run_no_pose_reads_is_trusted_as_the_guess_it_took_and_its_episode_doubted():
     """fruit-2x3 robot, 50 transitions, trace seed 102: in the episode of observations
     41-50 the hand only acts at region 0, and the arm above it hides regions 1 and 2; no pose

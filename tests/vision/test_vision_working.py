@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from vggc_cp.trace import load_trace
 from vggc_cp.vision.footprints import footprint_distances
@@ -162,6 +163,7 @@ def test_frames_scaled_up_whole_keep_the_image_size_bound():
     assert action_footprints(trace).resolution.reason == "image size"
 
 
+@pytest.mark.slow
 def test_a_scene_half_background_is_learned_right_with_its_gains_against_the_recording():
     """random-678 clean (two objects, four scattered regions, 100 transitions): the white
     background fills about half of every frame, so each frame's own median jumped between
