@@ -196,7 +196,7 @@ def test_frames_read_from_the_file_are_converted_on_the_cluster_in_waves(cluster
         with get_task_stream(ex.client) as stream:
             frames = working.working_frames(trace.observations, ex)
         ran = [t["key"] for t in stream.data]
-        assert len(ran) == 7 and all("_normalise_block" in str(k) for k in ran), ran
+        assert len(ran) == 7 and all("_block_means_of" in str(k) for k in ran), ran
         remote = learn_graph(trace, options, executor=ex)
     assert np.array_equal(frames, want)
     assert np.array_equal(local.labels, remote.labels)

@@ -40,6 +40,11 @@ def misplaced_share(doubts, labels: np.ndarray) -> float:
     >>> round(misplaced_share([d], np.array([0, 1, 0, 1, 0, 1, 2, 3, 2, 3])), 4)
     0.1667
     """
+    return float(_misplaced(doubts, labels).mean())
+
+
+def _misplaced(doubts, labels: np.ndarray) -> np.ndarray:
+    """Per node ``v``, ``m_v / (n_v + m_v)`` (:func:`misplaced_share`), shape (n,)."""
     labels = np.asarray(labels, dtype=np.int64)
     n = int(labels.max()) + 1
     moved = np.zeros(n)
@@ -48,7 +53,7 @@ def misplaced_share(doubts, labels: np.ndarray) -> float:
         if isinstance(path, list):
             np.add.at(moved, np.asarray(path, dtype=np.int64), 1.0)
     sizes = np.bincount(labels, minlength=n).astype(np.float64)
-    return float((moved / np.maximum(sizes + moved, 1.0)).sum() / n)
+    return moved / np.maximum(sizes + moved, 1.0)
 
 
 def sole_edges(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray, dst: np.ndarray
@@ -130,13 +135,7 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
     """
     labels = np.asarray(labels, dtype=np.int64)
     n = int(labels.max()) + 1
-    moved = np.zeros(n)
-    for d in doubts:
-        path = (d.evidence or {}).get("moved_path")
-        if isinstance(path, list):
-            np.add.at(moved, np.asarray(path, dtype=np.int64), 1.0)
-    sizes = np.bincount(labels, minlength=n).astype(np.float64)
-    misplaced = moved / np.maximum(sizes + moved, 1.0)
+    misplaced = _misplaced(doubts, labels)
     edges = list(zip(labels[src].tolist(), np.asarray(act).tolist(), labels[dst].tolist()))
     through = plans_through(edges, sole_edges(doubts, labels, src, act, dst), n)
     fail = 1.0 - (1.0 - misplaced[:, None]) * (1.0 - misplaced[None, :]) * (1.0 - through)

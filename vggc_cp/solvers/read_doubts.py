@@ -71,8 +71,10 @@ class _NodeReads:
         # how far the reading that set every observation can be trusted (the site's kappa
         # where the evidence does not say)
         own = getattr(sites, "trust", None)
+        # (a site whose kappa says nothing read, or never settled, stays never untrustworthy)
         self.frame_trust = (np.broadcast_to(self.trust, held.shape) if own is None
-                            else np.where(stated, np.inf, np.asarray(own, dtype=np.float64)))
+                            else np.where(stated | np.isinf(self.trust), np.inf,
+                                          np.asarray(own, dtype=np.float64)))
         n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
         self.role = np.full(n, -1)
         self.role[labels] = roles

@@ -3,9 +3,8 @@
 The footprint evidence (:mod:`vggc_cp.vision.footprints`) holds one float copy of every frame
 at a *working resolution*, each frame averaged down by an integer ``factor`` and divided by its
 per-channel gain against the recording (:func:`frame_gains`: a per-frame lighting gain and
-tint cancel). How coarse it may be is a
-property of the scene, not of the camera: an object must still span a few pixels. Three
-things set it:
+tint cancel). How coarse it may be is a property of the scene, not of the camera: an object
+must still span a few pixels. Three things set it:
 
 * the **image-size bound** :func:`working_factor`: frames are never averaged below about
   ``WORK_SIDE x WORK_SIDE`` pixels (:data:`WORK_SIDE`; as many as the renders the defaults
@@ -278,7 +277,7 @@ def _block_sums(frames: np.ndarray, f: int) -> np.ndarray:
     return out
 
 
-def _normalise_block(item: tuple[np.ndarray, int]) -> np.ndarray:
+def _block_means_of(item: tuple[np.ndarray, int]) -> np.ndarray:
     observations, factor = item
     return block_means(observations, factor)
 
@@ -329,6 +328,6 @@ def working_frames(observations: np.ndarray, executor=None, block: int | None = 
         items = [(np.ascontiguousarray(frames[b:b + block]), factor)
                  for b in range(0, len(frames), block)]
         del frames
-        for i, x in executor.completed(_normalise_block, items):
+        for i, x in executor.completed(_block_means_of, items):
             out[s + i * block:s + i * block + len(x)] = x
     return cancel_gains(out)
