@@ -92,10 +92,16 @@ def plans_through(edges, sole: set, n: int) -> np.ndarray:
     >>> plans_through([(0, 0, 1), (1, 1, 2), (0, 2, 3), (3, 3, 2)], {(0, 2, 3)}, 4)[0].tolist()
     [0.0, 0.0, 0.5, 1.0]
     """
+    return _plan_shares(edges, sole, n)[0]
+
+
+def _plan_shares(edges, sole: set, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`plans_through`'s shares and, bool (n, n), which ``v != u`` each ``u`` reaches."""
     out_edges: list[list[tuple[int, bool]]] = [[] for _ in range(n)]
     for u, a, v in set(edges):
         out_edges[u].append((v, (u, a, v) in sole))
     share = np.zeros((n, n))
+    reached = np.zeros((n, n), dtype=bool)
     for u in range(n):
         depth = {u: 0}
         every, clear = {u: 1.0}, {u: 1.0}
@@ -116,7 +122,8 @@ def plans_through(edges, sole: set, n: int) -> np.ndarray:
         for v in depth:
             if v != u:
                 share[u, v] = 1.0 - clear[v] / every[v]
-    return share
+                reached[u, v] = True
+    return share, reached
 
 
 def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
@@ -137,28 +144,9 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
     n = int(labels.max()) + 1
     misplaced = _misplaced(doubts, labels)
     edges = list(zip(labels[src].tolist(), np.asarray(act).tolist(), labels[dst].tolist()))
-    through = plans_through(edges, sole_edges(doubts, labels, src, act, dst), n)
+    through, pairs = _plan_shares(edges, sole_edges(doubts, labels, src, act, dst), n)
     fail = 1.0 - (1.0 - misplaced[:, None]) * (1.0 - misplaced[None, :]) * (1.0 - through)
-    pairs = _reached(edges, n)
     return float(fail[pairs].mean()) if pairs.any() else 0.0
-
-
-def _reached(edges, n: int) -> np.ndarray:
-    """Bool (n, n): ``v`` is reached from ``u != v`` along ``edges``."""
-    out: list[set[int]] = [set() for _ in range(n)]
-    for u, _, v in edges:
-        out[u].add(v)
-    reach = np.zeros((n, n), dtype=bool)
-    for u in range(n):
-        seen, todo = {u}, [u]
-        while todo:
-            w = todo.pop()
-            for v in out[w]:
-                if v not in seen:
-                    seen.add(v)
-                    todo.append(v)
-        reach[u, list(seen - {u})] = True
-    return reach
 
 
 def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
