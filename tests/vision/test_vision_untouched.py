@@ -97,6 +97,36 @@ def test_a_faint_object_counts_as_present():
 
 
 
+def test_looks_of_one_episode_count_once():
+    """Pose 3 holds two occupied frames, both of one episode and all but equal (its own
+    light, its own shake), and reads the site empty in another episode where an object
+    stands a pixel off (the window misses it). Counted as frames, the pose's spread is
+    nothing and its separation weighs ~10^6, drowning the poses that read the run right;
+    counted once per episode, pose 3 cannot teach a reading and the run is read full."""
+    x, labels, pose, episode, holds = _scene(seed=4)
+    rng = np.random.default_rng(5)
+    frames = np.flatnonzero(labels >= EMPTY)
+    one = [int(i) for i in frames[labels[frames] >= 0][:2]]
+    empty = frames[labels[frames] == EMPTY]
+    first = [int(empty[episode[empty] == e][0]) for e in np.unique(episode[empty])[:3]]
+    assert episode[one[0]] == episode[one[1]] and len(set(episode[first])) == 3
+    target = int(np.flatnonzero((labels == -2) & holds & (pose != 1))[0])
+    base = np.full((12, 12, 3), 0.3, dtype=np.float32)
+    for i in first + one + [target]:
+        x[i] = base + 1e-4 * rng.standard_normal(base.shape).astype(np.float32)
+        pose[i] = 3
+    x[one, SITE[0], SITE[1]] = (0.9, 0.2, 0.2)        # the object; at the target, a pixel off
+    w = un.site_window(x, labels, pose, EMPTY, support=0.2)
+    run = np.flatnonzero(episode == episode[target])
+    loose = run[labels[run] == -2]
+    runs = np.zeros(len(x), dtype=np.int64)
+    frame_wise = un.pose_readings(x, labels, pose, w, EMPTY, 0.5)
+    assert frame_wise[1][target] > 1e4 and frame_wise[0][target] < 0.5
+    assert un.run_presence(*frame_wise, runs, loose)[0] < 0.5
+    per_episode = un.pose_readings(x, labels, pose, w, EMPTY, 0.5, episode)
+    assert per_episode[1][target] == 0.0
+    assert un.run_presence(*per_episode, runs, loose)[0] > 0.5
+
 def test_the_reading_is_judged_on_episodes_it_did_not_learn_from():
     """With the labels of the scene, the pose reading agrees with the labels it did not learn
     from; with labels that say nothing (shuffled), it does not, although judged on the very

@@ -435,7 +435,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                     best = (held, pose, window)
             if best is not None:
                 used, pose, window = best
-                reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+                reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
+                                                  episode)
                 read = run_presence(reading, strength, run, loose)
                 if n_col > 1:
                     chroma = window_chroma(x, labels, pose, window, EMPTY)

@@ -36,7 +36,12 @@ pose's other empty frames, so that it cannot feign a separation. Each frame weig
 ``d_b^2``, the separation of the pose's empty frames from those of the faintest object
 (difference of the means over their pooled standard deviation); a pose whose labelled
 frames do not show a separation at odds of :data:`READ_ODDS` (an arm that hides the site,
-too few frames) weighs nothing. A run of observations between actions at the site holds one
+too few frames) weighs nothing. Looks of one kind count once per episode that shows them
+(:data:`MIN_LOOKS` episodes of each kind): frames of one episode share its light, its shake
+and the rest of its scene, so their spread says nothing of another episode's, and two nearly
+equal frames of one run would feign a separation of hundreds of spreads (random-2 robot:
+the pose that read region 0 empty under a red apple weighed 10^7, the ones that read it
+full about 2). A run of observations between actions at the site holds one
 thing: it takes the weighted mean of its frames' readings (:func:`pose_readings`,
 :func:`run_presence`).
 
@@ -58,7 +63,8 @@ import numpy as np
 
 from vggc_cp.vision.blobs import heaviest_component
 
-#: Fewest labelled frames of each kind a pose needs to teach the reading.
+#: Fewest labelled frames of each kind a pose needs to teach the reading (of separate
+#: episodes, where :func:`pose_readings` is given them).
 MIN_LOOKS = 2
 #: Odds at which a pose's labelled frames must show a separation for the pose to read the
 #: site: ``z^2 / 2 >= ln 20`` for the difference of the means over its standard error, the
@@ -126,12 +132,18 @@ def pose_groups(kinds: np.ndarray, twin: np.ndarray, mates: np.ndarray) -> np.nd
     return np.array([ids[k] for k in keys], dtype=np.int64)
 
 
-def _groups(labels: np.ndarray, pose: np.ndarray, empty: int):
-    """Per pose with enough labelled looks of both kinds: (pose, empty frames, occupied)."""
+def _groups(labels: np.ndarray, pose: np.ndarray, empty: int,
+            episode: np.ndarray | None = None):
+    """Per pose with enough labelled looks of both kinds: (pose, empty frames, occupied).
+    With ``episode``, looks of one kind count once per episode that shows them."""
     for b in np.unique(pose):
         at = pose == b
         e, o = np.flatnonzero(at & (labels == empty)), np.flatnonzero(at & (labels >= 0))
-        if min(len(e), len(o)) >= MIN_LOOKS:
+        if episode is not None:
+            enough = min(len(np.unique(episode[e])), len(np.unique(episode[o]))) >= MIN_LOOKS
+        else:
+            enough = min(len(e), len(o)) >= MIN_LOOKS
+        if enough:
             yield int(b), e, o
 
 
@@ -179,7 +191,8 @@ def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
 
 
 def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: np.ndarray,
-                  empty: int, saturation: float) -> tuple[np.ndarray, np.ndarray]:
+                  empty: int, saturation: float, episode: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Every observation's reading of the site from its pose (module docstring).
 
     Parameters
@@ -191,22 +204,25 @@ def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: n
     saturation : float
         Share of the way from the empty to the faintest object's median at which presence
         is 1.
+    episode : ndarray of int, shape (N,), optional
+        Episode of every observation: a pose then needs labelled frames of each kind from
+        :data:`MIN_LOOKS` separate episodes (without it, :data:`MIN_LOOKS` frames).
 
     Returns
     -------
     reading : ndarray of float64, shape (N,)
         Presence in ``[0, 1]``.
     strength : ndarray of float64, shape (N,)
-        ``d_b^2`` of the observation's pose; 0 where the pose cannot read the site: fewer
-        than :data:`MIN_LOOKS` labelled frames of a kind, or a separation of its labelled
-        frames short of :data:`READ_ODDS`.
+        ``d_b^2`` of the observation's pose; 0 where the pose cannot read the site: too few
+        labelled looks of a kind, or a separation of its labelled frames short of
+        :data:`READ_ODDS`.
     """
     on = window > 0
     weight = window[on]
     pixels = x[:, on]                                                    # (N, P, 3)
     reading = np.zeros(len(x))
     strength = np.zeros(len(x))
-    for b, e, o in _groups(labels, pose, empty):
+    for b, e, o in _groups(labels, pose, empty, episode):
         ref = pixels[e].mean(axis=0)
         dev = lambda idx, ref=ref: np.abs(pixels[idx] - ref).sum(axis=-1) @ weight  # noqa: E731
         # an empty frame is judged on the mean of the others (it would pull its own reference
@@ -304,7 +320,7 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
         window = site_window(x, teach, pose, empty, support)
         if window is None:
             continue
-        reading, strength = pose_readings(x, teach, pose, window, empty, saturation)
+        reading, strength = pose_readings(x, teach, pose, window, empty, saturation, episode)
         held = judged & known
         w = strength[held]
         total += w.sum()
