@@ -400,6 +400,7 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     n_cls = int(classes.max()) + 1 if len(classes) else 0
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
+    episode = trace.episode_index()
     found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
     for a in np.flatnonzero(counts > 0):
         labels = site_labels(trace.actions, episodes,
@@ -410,7 +411,8 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
             continue
         chroma = window_chroma(x, labels, pose, window, EMPTY)
         # only the poses that show the site, and frames in which the object shows
-        reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation)
+        reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
+                                          episode)
         seen = (labels >= 0) & np.isfinite(chroma[:, 0]) & (strength > 0) & (reading > 0.5)
         for k in np.unique(labels[seen]):
             found[k].append(chroma[seen & (labels == k)])
