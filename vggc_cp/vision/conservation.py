@@ -22,10 +22,15 @@ colour (the rest empty) that the readings make most likely is what they hold
 A reading counts as far as it can be trusted: with settled presence ``p`` of a reading whose
 agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen's kappa,
 :func:`vggc_cp.vision.occupancy.reading_kappa`; 0 for a run no reading reaches), the
-probability that the slot holds something is ``1/2 + kappa (p - 1/2)``, and of colour ``c``
-that times the run's colour posterior. A slot nothing can read is decided by the counts and
-the other slots alone; where they cannot decide either (two unread slots, one object), the
-reading's low kappa is what the read doubts report (:mod:`vggc_cp.solvers.read_doubts`).
+probability that the slot holds something is ``m + kappa (p - m)``, and of colour ``c``
+that times the run's colour posterior, with ``m`` what is known of the slot without the
+reading: how often its stated frames hold something (:func:`base_rates`, Laplace's rule of
+succession). A slot nothing can read is decided by the counts, the other slots and ``m``;
+at ``m = 1/2`` it was free room for any object the counts had left over, and a count one
+too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
+held a fourth red in every episode). Where they cannot decide (two unread slots, one
+object), the reading's low kappa is what the read doubts report
+(:mod:`vggc_cp.solvers.read_doubts`).
 
 Stacks are facts too (a block on a block, where the actions state which slot is above
 which): an untouched slot under one the actions fill in any frame of the episode holds
@@ -111,14 +116,32 @@ def slots_below(above: dict[int, list[int]], slot: np.ndarray) -> dict[int, set[
     return out
 
 
-def trusted(presence: np.ndarray, trust: np.ndarray) -> np.ndarray:
+def trusted(presence: np.ndarray, trust: np.ndarray, base: np.ndarray | float = 0.5
+            ) -> np.ndarray:
     """The probability that a site holds something, a reading counted as far as its kappa
-    trusts it: ``1/2 + kappa (p - 1/2)`` (module docstring).
+    trusts it: ``m + kappa (p - m)`` (module docstring), with ``m`` (``base``) what is
+    known without the reading: 1/2, or the share of the site's stated frames in which it
+    holds something (:func:`base_rates`).
 
     >>> trusted(np.array([1.0, 0.0, 1.0]), np.array([1.0, 0.5, 0.0])).tolist()
     [1.0, 0.25, 0.5]
+    >>> trusted(np.array([1.0]), np.array([0.0]), np.array([0.1])).tolist()
+    [0.1]
     """
-    return 0.5 + np.clip(trust, 0.0, 1.0) * (presence - 0.5)
+    return base + np.clip(trust, 0.0, 1.0) * (presence - base)
+
+
+def base_rates(presence: np.ndarray, stated: np.ndarray) -> np.ndarray:
+    """Share of each site's stated frames in which it holds something, shape (A,), shrunk
+    toward 1/2 by one frame of each kind (Laplace's rule of succession); 1/2 where nothing
+    is stated.
+
+    >>> base_rates(np.array([[1.0, 0.0], [0.0, 0.0], [0.0, 1.0]]),
+    ...            np.array([[True, False], [True, False], [True, False]])).round(2).tolist()
+    [0.4, 0.5]
+    """
+    full = (presence * stated).sum(axis=0)
+    return (full + 1.0) / (stated.sum(axis=0) + 2.0)
 
 
 def held_colours(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
@@ -495,7 +518,9 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         return presence, posterior, 0
     n_col = posterior.shape[2]
     members = [np.flatnonzero(slot == s) for s in range(n_slots)]
-    soft = trusted(presence, trust)
+    # an unread slot holds what its stated frames say it usually holds, not a coin toss: a
+    # slot nobody can read would otherwise take any object the counts have left over
+    soft = trusted(presence, trust, base_rates(presence, stated))
     p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
     p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
     post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
