@@ -549,8 +549,9 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float,
     may miss the block below).
 
     An upper slot the recording fills once or twice may be full only in episodes that never
-    act at the slot below it (random-23 clean: level 1 of region 0, filled in one episode,
-    read full in all 120 frames of the others where nothing stands there). With
+    act at the slot below it (random-23 clean: level 1 of region 0, stated in two episodes
+    that never act at level 0, was read full in all 120 frames of the others, 78 of them
+    over a bare region). With
     ``presence`` and ``trust`` (of :func:`settle`), ``a``'s trusted reading (trust at least
     :data:`STACK_TRUST`) then stands in for its labels where the actions leave it unstated
     (:func:`read_labels`), for footprints that overlap: the stack is taken where its odds
