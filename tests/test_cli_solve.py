@@ -281,15 +281,15 @@ def test_distance_options_are_refused_under_footprints(toy_path, tmp_path, capsy
 
 
 def test_a_note_names_the_commands_for_this_solution_and_is_no_warning(tmp_path, capsys):
-    """multifruit-2x3 robot s107 (|D| = 95; blocks-2 randomized s17 until session 27, whose
-    re-runs now change 26 % of the time, under the 30 % of a note): an episode only a poor
+    """multifruit-2x3 robot s103 (|D| = 95; s107 until session 28, blocks-2 randomized s17
+    until session 27): an episode only a poor
     reading puts on its path, whose misplacing would fail few plans, is a note, printed
     after "no warning" with the suggest command spelled for these files; nothing on
     stderr."""
     from vggc_cp.sim.explore import generate
 
     trace = tmp_path / "t.npz"
-    save_trace(generate("multifruit-2x3", 95, 107, look="robot").trace, trace)
+    save_trace(generate("multifruit-2x3", 95, 103, look="robot").trace, trace)
     out = tmp_path / "s.json"
     assert main(["solve", str(trace), "-o", str(out), "--quiet"]) == 0
     captured = capsys.readouterr()
