@@ -9,7 +9,7 @@ from vggc_cp.vision.support import fillings, supported
 #: two sites per slot (a pick and a place), three slots stacked: 0 at the bottom
 SLOT = np.array([0, 0, 1, 1, 2, 2])
 #: the pick at slot 1 and the place at slot 2 stand on the place below them (as
-#: vggc_cp.vision.occupancy.slots_above reports stacks: site -> sites on it)
+#: vggc_cp.vision.stacks.slots_above reports stacks: site -> sites on it)
 ABOVE = {1: [2, 3], 3: [4, 5]}
 
 

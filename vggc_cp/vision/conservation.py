@@ -103,7 +103,7 @@ def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np
 
 def slots_below(above: dict[int, list[int]], slot: np.ndarray) -> dict[int, set[int]]:
     """Slot -> the other slots that must hold something where it does, from the sites stacked
-    on each site (:func:`vggc_cp.vision.occupancy.slots_above`).
+    on each site (:func:`vggc_cp.vision.stacks.slots_above`).
 
     >>> slots_below({0: [2, 3], 2: [4]}, np.array([0, 0, 1, 1, 2]))
     {1: {0}, 2: {1}}
@@ -500,7 +500,7 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         :func:`slot_groups`.
     colour : ndarray of int, shape (A,)
     above : dict, optional
-        Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+        Site -> sites stacked on it (:func:`vggc_cp.vision.stacks.slots_above`).
     odds : float
         The log-likelihood by which the counts must beat every count one object away
         (:func:`best_counts`) to be used; :data:`COUNT_ODDS` (20 to 1) by default.

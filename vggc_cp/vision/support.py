@@ -1,7 +1,7 @@
 """Objects rest on something: a slot above another holds something only where that one does.
 
 Where the actions state that one slot is stacked on another (a block on a block,
-:func:`vggc_cp.vision.occupancy.slots_above`), a reading that puts something on the upper
+:func:`vggc_cp.vision.stacks.slots_above`), a reading that puts something on the upper
 slot while the one below it is read empty is impossible: one of the two readings is wrong.
 Which one is the question the readings themselves answer: every way the slots of a stack can
 be filled that leaves nothing in the air (for a tower of three: heights 0 to 3) is scored by
@@ -67,7 +67,7 @@ def supported(presence: np.ndarray, trust: np.ndarray, stated: np.ndarray, slot:
     slot : ndarray of int, shape (A,)
         Slot of every site (:func:`vggc_cp.vision.conservation.slot_groups`), -1 for none.
     above : dict
-        Site -> sites stacked on it (:func:`vggc_cp.vision.occupancy.slots_above`).
+        Site -> sites stacked on it (:func:`vggc_cp.vision.stacks.slots_above`).
     episodes : list of (first, last), optional
         The trace's episodes. A slot the actions state nowhere in an episode and read alike
         in all its frames is untouched there: it holds one thing all episode, so the
