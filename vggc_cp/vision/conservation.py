@@ -24,8 +24,14 @@ agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen'
 :func:`vggc_cp.vision.occupancy.reading_kappa`; 0 for a run no reading reaches), the
 probability that the slot holds something is ``m + kappa (p - m)``, and of colour ``c``
 that times the run's colour posterior, with ``m`` what is known of the slot without the
-reading: how often its stated frames hold something (:func:`base_rates`, Laplace's rule of
-succession). A slot nothing can read is decided by the counts, the other slots and ``m``;
+reading: how often it holds something when an episode starts, as the first frames of the
+episodes whose actions state it say (:func:`base_rates` of those frames, Laplace's rule of
+succession). An untouched slot holds all episode long what it held at the start, so that
+is its prior: where episodes start alike (a robot reset to one home), an arm that hides a
+place and a weaker reading of an empty one elsewhere no longer move an object between them
+(multifruit-4x6 robot s134: in one episode both places read empty, the count put the missing
+red at the weaker reading of the two, and the episode's three frames made nodes of their
+own). A slot nothing can read is decided by the counts, the other slots and ``m``;
 at ``m = 1/2`` it was free room for any object the counts had left over, and a count one
 too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
 held a fourth red in every episode). Where they cannot decide (two unread slots, one
@@ -121,7 +127,8 @@ def trusted(presence: np.ndarray, trust: np.ndarray, base: np.ndarray | float = 
     """The probability that a site holds something, a reading counted as far as its kappa
     trusts it: ``m + kappa (p - m)`` (module docstring), with ``m`` (``base``) what is
     known without the reading: 1/2, or the share of the site's stated frames in which it
-    holds something (:func:`base_rates`).
+    holds something (:func:`base_rates`; :func:`conserve` gives it the episodes' first
+    frames).
 
     >>> trusted(np.array([1.0, 0.0, 1.0]), np.array([1.0, 0.5, 0.0])).tolist()
     [1.0, 0.25, 0.5]
@@ -518,9 +525,12 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         return presence, posterior, 0
     n_col = posterior.shape[2]
     members = [np.flatnonzero(slot == s) for s in range(n_slots)]
-    # an unread slot holds what its stated frames say it usually holds, not a coin toss: a
-    # slot nobody can read would otherwise take any object the counts have left over
-    soft = trusted(presence, trust, base_rates(presence, stated))
+    # an unread slot holds what the stated first frames of episodes say it usually holds
+    # when an episode starts, not a coin toss: a slot nobody can read would otherwise take
+    # any object the counts have left over, and an untouched slot holds all episode long
+    # what it held at the start
+    firsts = np.array([first for first, _ in trace.episodes()], dtype=np.int64)
+    soft = trusted(presence, trust, base_rates(presence[firsts], stated[firsts]))
     p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
     p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
     post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
