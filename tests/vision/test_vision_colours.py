@@ -10,6 +10,7 @@ from vggc_cp.vision.colours import (
     action_classes,
     colour_classes,
     colour_posteriors,
+    fits_colour,
     pooled,
     twin_colours,
     window_colours,
@@ -132,3 +133,28 @@ def test_an_action_no_place_follows_takes_its_twins_colour():
     alone = np.array([0, 0, 1, 1, 2])
     assert twin_colours(alone, classes, counts, kinds, actions, episodes, near).tolist() \
         == [0, 0, 1, 1, 0]
+
+
+def test_one_look_does_not_contradict_the_twins_colour():
+    """Pick 4, taken once and last (random-725 randomized: pick_green_4 at the end of one
+    episode, right after the place at its slot), has one look of its own: a chroma 2.7
+    kernel widths off its twin's colour is one draw of the noise and light, not a colour of
+    its own (there it made the hand's colour a class of one, and its frame a node of its
+    own, unwarned). Two looks that far off keep their colour."""
+    kinds = np.array([PICK, PLACE, PICK, PLACE, PICK])
+    actions = np.array([2, 3, 0, 1, 4])
+    classes, colour = np.array([0, 0, 1, 1, 2]), np.array([0, 0, 1, 1, 2])
+    counts = np.array([1, 1, 1, 1, 1])
+    near = np.array([[1, .5, 0, 0, .1], [.5, 1, 0, 0, .9], [0, 0, 1, .5, 0],
+                     [0, 0, .5, 1, .1], [.1, .9, 0, .1, 1]])
+    rng = np.random.default_rng(0)
+    green = np.array([0.12, 0.70]) + 0.01 * rng.standard_normal((40, 2))
+    yellow = np.array([0.45, 0.45]) + 0.01 * rng.standard_normal((40, 2))
+    off = np.array([[0.112, 0.755]])
+    points = [green, yellow, off]
+    assert not fits_colour(off, green, 0.02)
+    assert twin_colours(colour, classes, counts, kinds, actions, [(0, 5)], near,
+                        points).tolist() == [0, 0, 1, 1, 0]
+    points[2] = np.concatenate([off, off + 0.002])
+    assert twin_colours(colour, classes, counts, kinds, actions, [(0, 5)], near,
+                        points).tolist() == [0, 0, 1, 1, 2]

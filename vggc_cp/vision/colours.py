@@ -22,7 +22,10 @@ the place at its slot, the action of the other kind that never breaks alternatio
 any episode (as :func:`~vggc_cp.vision.slots.sequence_twins` asks of a twin), is seen
 alternating with it most often, and acts nearest it by the trace's own picture of the places
 (the after-looks where the hand rests at the place it acted on, else the footprints). The
-pixels keep their colour where they clearly contradict the twin's.
+pixels keep their colour where they clearly contradict the twin's, from two looks at least
+(:data:`MIN_CONTRADICTING`): a pick taken once, last in its episode, has one look, one draw
+of the noise and light (random-725 randomized: one look 2.7 kernel widths off green made the
+hand's colour a class of one and the frame after it a node of its own).
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_c
 
 #: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
 MAX_EXAMPLES = 2000
+#: Looks of its own an unlinked action's chroma needs to contradict its twin's colour
+#: (:func:`twin_colours`): one look is one draw of the noise, lighting and hand around it.
+MIN_CONTRADICTING = 2
 
 
 def action_classes(trace: Trace) -> np.ndarray:
@@ -162,8 +168,9 @@ def twin_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     alternating with it most often (:func:`~vggc_cp.vision.slots.alternations`: the place
     that filled the slot a pick empties comes before it wherever both are in an episode),
     then the nearest (``near``, larger: nearer). It keeps its colour where no such action
-    exists, where two are equally near, and where its own chroma contradicts the twin's
-    colour (:func:`fits_colour`: the pixels decide where they are clear). The colours are
+    exists, where two are equally near, and where its own chroma, of
+    :data:`MIN_CONTRADICTING` looks or more, contradicts the twin's colour
+    (:func:`fits_colour`: the pixels decide where they are clear). The colours are
     numbered from 0 again.
 
     Parameters
@@ -222,8 +229,9 @@ def twin_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
             ks = {int(classes[b]) for b in np.flatnonzero(taken & (colour == twin))} - \
                 {int(classes[a])}
             examples = [points[k] for k in sorted(ks) if len(points[k])]
-            if examples and not fits_colour(points[classes[a]], np.concatenate(examples),
-                                            bandwidth, distinct):
+            own = points[classes[a]]
+            if examples and len(own) >= MIN_CONTRADICTING and \
+                    not fits_colour(own, np.concatenate(examples), bandwidth, distinct):
                 continue
         out[a] = twin
     # colours numbered from 0 again (one only an unlinked action had is gone)
