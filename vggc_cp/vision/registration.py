@@ -9,12 +9,16 @@ that view (least mean absolute difference of the brightness, over the pixels tha
 the image). Moving parts (an arm, the objects) cover a minority of the pixels and do not move
 with the shake, so they leave the minimum where the background lies.
 
-**Two passes.** The median of frames that each shake by up to two pixels is a blurred view:
-its edges are as wide as the shake, and a frame one pixel off matches it nearly as well as one
-in place (on the robot look's renders the first pass alone finds 50-80 % of the shifts the
-renderer recorded). So the resting view is drawn again from the frames moved back by the
-first pass's shifts, and every frame matched against that sharp view (every shift right on
-those renders; :data:`PASSES`).
+**Rounds until nothing changes.** The median of frames that each shake by up to two pixels
+is a blurred view: its edges are as wide as the shake, and a frame one pixel off matches it
+nearly as well as one in place (on the robot look's renders one round finds 44-80 % of the
+shifts the renderer recorded). So the resting view is drawn again from the frames moved back
+by the round before, and every frame matched against that sharper view, until no shift
+changes (at most :data:`PASSES` rounds; multifruit-2x3 robot s2 is right from the fifth). The
+shifts are re-centred every round so that their median is none: the resting view is where
+the camera rests most, and a view drifting a pixel a round would push frames past
+:data:`MAX_SHIFT`. Every frame of the tuning split's 51 robot traces is then moved back by
+the shift the renderer gave it.
 
 **A shift is kept only where the frame shows it**: the per-pixel differences from the resting
 view, unshifted less shifted, must have a mean of at least ``z`` standard errors with
@@ -44,17 +48,6 @@ REFERENCE_FRAMES = 256
 
 def _brightness(x: np.ndarray) -> np.ndarray:
     return x.mean(axis=-1, dtype=np.float32)
-
-
-def _moved_back(b: np.ndarray, shifts: np.ndarray) -> np.ndarray:
-    """Brightness frames ``b`` (n, H, W) moved back by ``shifts`` (edge pixels repeated)."""
-    h, w = b.shape[1:]
-    out = b.copy()
-    for i in np.flatnonzero(shifts.any(axis=1)):
-        dy, dx = (int(v) for v in shifts[i])
-        out[i] = b[i][np.clip(np.arange(h) + dy, 0, h - 1)][:, np.clip(np.arange(w) + dx, 0,
-                                                                        w - 1)]
-    return out
 
 
 def _difference(b: np.ndarray, core: np.ndarray, m: int, dy: int, dx: int) -> np.ndarray:
@@ -124,7 +117,7 @@ def shake_shifts(x: np.ndarray, max_shift: int = MAX_SHIFT, odds: float = SHIFT_
         return shifts
     pick = np.unique(np.linspace(0, n - 1, min(n, REFERENCE_FRAMES)).round().astype(int))
     for _ in range(max(1, int(passes))):
-        ref = np.median(_moved_back(_brightness(x[pick]), shifts[pick]), axis=0)
+        ref = np.median(_brightness(undo_shake(x[pick], shifts[pick])), axis=0)
         found = _match(x, ref, m, odds, chunk)
         # the resting view is where the camera rests most: the median shake is none
         found -= np.round(np.median(found, axis=0)).astype(np.int64)
