@@ -25,8 +25,8 @@ agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen'
 probability that the slot holds something is ``m + kappa (p - m)``, and of colour ``c``
 that times the run's colour posterior, with ``m`` what is known of the slot without the
 reading: how often it holds something when an episode starts, as the first frames of the
-episodes whose actions state it say (:func:`base_rates` of those frames, Laplace's rule of
-succession). An untouched slot holds all episode long what it held at the start, so that
+episodes whose actions state it say, shrunk toward how often all its stated frames do by two
+frames (:func:`start_rates`; :func:`base_rates`, Laplace's rule of succession). An untouched slot holds all episode long what it held at the start, so that
 is its prior: where episodes start alike (a robot reset to one home), an arm that hides a
 place and a weaker reading of an empty one elsewhere no longer move an object between them
 (multifruit-4x6 robot s134: in one episode both places read empty, the count put the missing
@@ -149,6 +149,25 @@ def base_rates(presence: np.ndarray, stated: np.ndarray) -> np.ndarray:
     """
     full = (presence * stated).sum(axis=0)
     return (full + 1.0) / (stated.sum(axis=0) + 2.0)
+
+
+def start_rates(presence: np.ndarray, stated: np.ndarray, firsts: np.ndarray,
+                prior: float = 2.0) -> np.ndarray:
+    """Share of the episodes' stated first frames in which each site holds something, shape
+    (A,), shrunk toward the share of all its stated frames (:func:`base_rates`) by ``prior``
+    frames: where few episodes state a site at their start, what its other frames hold is
+    the better guess (a slot stated at the start of one episode, full there, is no 2 to 1
+    bet on being full at every start).
+
+    >>> presence = np.array([[1.0], [0.0], [0.0], [0.0], [1.0]])
+    >>> stated = np.ones((5, 1), dtype=bool)
+    >>> base_rates(presence, stated).round(3).tolist()
+    [0.429]
+    >>> start_rates(presence, stated, np.array([0])).round(3).tolist()
+    [0.619]
+    """
+    full = (presence[firsts] * stated[firsts]).sum(axis=0)
+    return (full + prior * base_rates(presence, stated)) / (stated[firsts].sum(axis=0) + prior)
 
 
 def held_colours(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
@@ -530,7 +549,7 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
     # any object the counts have left over, and an untouched slot holds all episode long
     # what it held at the start
     firsts = np.array([first for first, _ in trace.episodes()], dtype=np.int64)
-    soft = trusted(presence, trust, base_rates(presence[firsts], stated[firsts]))
+    soft = trusted(presence, trust, start_rates(presence, stated, firsts))
     p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
     p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
     post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
