@@ -26,13 +26,13 @@ probability that the slot holds something is ``m + kappa (p - m)``, and of colou
 that times the run's colour posterior, with ``m`` what is known of the slot without the
 reading: how often it holds something when an episode starts, as the first frames of the
 episodes whose actions state it say, shrunk toward how often all its stated frames do by two
-frames (:func:`start_rates`; :func:`base_rates`, Laplace's rule of succession). An untouched slot holds all episode long what it held at the start, so that
-is its prior: where episodes start alike (a robot reset to one home), an arm that hides a
-place and a weaker reading of an empty one elsewhere no longer move an object between them
-(multifruit-4x6 robot s134: in one episode both places read empty, the count put the missing
-red at the weaker reading of the two, and the episode's three frames made nodes of their
-own). A slot nothing can read is decided by the counts, the other slots and ``m``;
-at ``m = 1/2`` it was free room for any object the counts had left over, and a count one
+frames (:func:`start_rates`; :func:`base_rates`, Laplace's rule of succession). An untouched
+slot holds all episode long what it held at the start, so that is its prior: where episodes
+start alike (a robot reset to one home), an arm that hides a place and a weaker reading of
+an empty one elsewhere no longer move an object between them (multifruit-4x6 robot s134: in
+one episode both places read empty, the count put the missing red at the weaker reading of
+the two, and the episode's three frames made nodes of their own). A slot nothing can read
+is decided by the counts, the other slots and ``m``; at ``m = 1/2`` it was free room for any object the counts had left over, and a count one
 too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
 held a fourth red in every episode). Where they cannot decide (two unread slots, one
 object), the reading's low kappa is what the read doubts report
@@ -127,8 +127,7 @@ def trusted(presence: np.ndarray, trust: np.ndarray, base: np.ndarray | float = 
     """The probability that a site holds something, a reading counted as far as its kappa
     trusts it: ``m + kappa (p - m)`` (module docstring), with ``m`` (``base``) what is
     known without the reading: 1/2, or the share of the site's stated frames in which it
-    holds something (:func:`base_rates`; :func:`conserve` gives it the episodes' first
-    frames).
+    holds something (:func:`base_rates`; :func:`conserve` gives it :func:`start_rates`).
 
     >>> trusted(np.array([1.0, 0.0, 1.0]), np.array([1.0, 0.5, 0.0])).tolist()
     [1.0, 0.25, 0.5]
