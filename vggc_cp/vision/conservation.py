@@ -32,8 +32,8 @@ start alike (a robot reset to one home), an arm that hides a place and a weaker 
 an empty one elsewhere no longer move an object between them (multifruit-4x6 robot s134: in
 one episode both places read empty, the count put the missing red at the weaker reading of
 the two, and the episode's three frames made nodes of their own). A slot nothing can read
-is decided by the counts, the other slots and ``m``; at ``m = 1/2`` it was free room for any object the counts had left over, and a count one
-too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
+is decided by the counts, the other slots and ``m``; at ``m = 1/2`` it was free room for
+any object the counts had left over, and a count one too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
 held a fourth red in every episode). Where they cannot decide (two unread slots, one
 object), the reading's low kappa is what the read doubts report
 (:mod:`vggc_cp.solvers.read_doubts`).

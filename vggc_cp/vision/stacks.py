@@ -59,10 +59,7 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float,
         for b, (lb, run_b, _, _) in runs.items():
             if b == a or b in acting:
                 continue
-            both = (la != UNLABELLED) & (lb != UNLABELLED)
-            full_b = both & (lb >= 0)
-            if full_b.any() and (la[full_b] >= 0).all() and \
-                    ((la >= 0) & (lb == EMPTY) & both).any() and \
+            if _full_only_on(la, lb) is not None and \
                     (ov[a, b] >= site_overlap or sequence_stacked(la, lb, run_b)):
                 out.setdefault(a, []).append(b)
             elif read and ov[a, b] >= site_overlap:
@@ -70,6 +67,18 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float,
                 if up > max(stack_odds(read[b], la, run_a), 0.0):
                     out.setdefault(a, []).append(b)
     return out
+
+
+def _full_only_on(la: np.ndarray, lb: np.ndarray) -> np.ndarray | None:
+    """Where labels ``la`` and ``lb`` both state their sites and ``b`` holds something (bool
+    mask), if ``b`` holds something only where ``a`` does and ``a`` holds something with
+    ``b`` empty at least once (a block on a block); else None."""
+    both = (la != UNLABELLED) & (lb != UNLABELLED)
+    full_b = both & (lb >= 0)
+    if not full_b.any() or not (la[full_b] >= 0).all() or \
+            not ((la >= 0) & (lb == EMPTY) & both).any():
+        return None
+    return full_b
 
 
 def read_labels(labels: np.ndarray, presence: np.ndarray, trust: np.ndarray,
@@ -100,10 +109,8 @@ def stack_odds(la: np.ndarray, lb: np.ndarray, run_b: np.ndarray) -> float:
     >>> stack_odds(lb, la, np.arange(4))                  # the reverse: never
     0.0
     """
-    both = (la != UNLABELLED) & (lb != UNLABELLED)
-    full_b = both & (lb >= 0)
-    if not full_b.any() or not (la[full_b] >= 0).all() or \
-            not ((la >= 0) & (lb == EMPTY) & both).any():
+    full_b = _full_only_on(la, lb)
+    if full_b is None:
         return 0.0
     q = float(np.mean(la[la != UNLABELLED] >= 0))
     return len(np.unique(run_b[full_b])) * float(np.log(1.0 / q))
