@@ -256,3 +256,22 @@ def test_tables_by_family_and_look_count_silent_failures():
     md = rob.table_markdown(rows)
     assert "random tasks of task seeds 3" in md and "random tasks of task seeds 101" in md
     assert "By task family and look:" in md
+
+
+def test_drawn_tasks_are_tabled_by_kind():
+    """Where episodes start and whether objects stack: random-9 starts at home states,
+    random-1 anywhere and stacks; the seven are no kind."""
+    base = {"exec": 1.0, "opt_path": 1.0, "any_path": 1.0, "true_states": 10, "nodes": 10,
+            "suspect": False, "seed": 0, "transitions": 100, "split": rob.TUNING}
+    rows = [base | {"benchmark": "random-9", "look": "robot", "nodes": 5, "suspect": True},
+            base | {"benchmark": "random-9", "look": "clean"},
+            base | {"benchmark": "random-1", "look": "robot", "nodes": 5},
+            base | {"benchmark": "fruit-2x3", "look": "robot"}]
+    text = rob.kind_markdown(rows)
+    assert "| home starts | robot | 1 | 0 | 0.0 % | 1 | 0 |" in text
+    assert "| home starts | clean | 1 | 1 | 100.0 % | 0 | 0 |" in text
+    assert "| any start, stacking | robot | 1 | 0 | 0.0 % | 0 | 1 |" in text
+    assert "fruit" not in text
+    assert "Drawn tasks by kind" in rob.table_markdown(rows)
+    assert rob.kind_markdown(rows[3:]) == ""
+    assert "Drawn tasks by kind" not in rob.table_markdown(rows[3:])

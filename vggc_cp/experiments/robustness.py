@@ -51,6 +51,7 @@ from vggc_cp.experiments.table1 import (
 )
 from vggc_cp.sim import benchmark_names, get_spec
 from vggc_cp.sim.looks import LOOKS
+from vggc_cp.sim.specs import TASK
 from vggc_cp.solution import jsonable
 
 CELL_FORMAT = "vggc-robustness-cell/1"
@@ -613,6 +614,46 @@ def family_markdown(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def task_kind(benchmark: str) -> str | None:
+    """What kind of drawn task ``benchmark`` is, by the two parts of its spec that tell most
+    about how hard it is to learn: where its episodes start (``home starts``: at a few home
+    states, so that most states are seen once or twice; ``any start``) and whether objects
+    stack; None for one of the seven (or an unknown name).
+
+    >>> task_kind("random-9"), task_kind("random-1"), task_kind("fruit-2x3")
+    ('home starts', 'any start, stacking', None)
+    """
+    try:
+        spec = get_spec(benchmark)
+    except VggcError:
+        return None
+    if spec.family != TASK:
+        return None
+    start = "home starts" if spec.start_states else "any start"
+    return start + (", stacking" if spec.max_height > 1 else "")
+
+
+def kind_markdown(rows: list[dict]) -> str:
+    """Per kind of drawn task (:func:`task_kind`) x look: runs, passed (share), warned,
+    silent failures, mean Exec; empty when no row is a drawn task."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        kind = task_kind(r["benchmark"])
+        if kind is not None:
+            groups.setdefault((kind, r["look"]), []).append(r)
+    if not groups:
+        return ""
+    lines = ["| kind | look | runs | passed | share | warned | silent | Exec |",
+             "|---|---|---|---|---|---|---|---|"]
+    for (kind, look), g in sorted(groups.items()):
+        ok = sum(passes(r) for r in g)
+        silent = sum(not passes(r) and not r.get("suspect") for r in g)
+        lines.append(f"| {kind} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
+                     f"{sum(bool(r.get('suspect')) for r in g)} | {silent} | "
+                     f"{_pct(_mean(g, 'exec'))} |")
+    return "\n".join(lines) + "\n"
+
+
 def _missed_line(r: dict) -> str:
     sparse = (f" (sparse: {r['obs_per_state']:.1f} observations per state)"
               if _measured(r.get("obs_per_state")) and r["obs_per_state"] < MIN_OBS_PER_STATE
@@ -647,7 +688,10 @@ def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
                       f"and tasks random-S with S >= {HELDOUT_TASK_FROM} are held out).", ""]
             continue
         n_ok = sum(passes(r) for r in sub)
+        kinds = kind_markdown(sub)
         lines += ["By task family and look:", "", family_markdown(sub).rstrip("\n"), "",
+                  *(["Drawn tasks by kind (where episodes start, whether objects stack) and "
+                     "look:", "", kinds.rstrip("\n"), ""] if kinds else []),
                   "By task and look:", "", split_markdown(sub).rstrip("\n"), "",
                   f"Passing: {n_ok} / {len(sub)} runs ({100 * n_ok / len(sub):.1f} %).",
                   calibration_line(calibration(sub)[split]), ""]
