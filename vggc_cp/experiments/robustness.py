@@ -598,20 +598,26 @@ def _family(r: dict) -> str:
         return "?"
 
 
-def family_markdown(rows: list[dict]) -> str:
-    """Per task family x look: runs, passed (share), warned, silent failures, mean Exec."""
-    lines = ["| family | look | runs | passed | share | warned | silent | Exec |",
+def _group_markdown(title: str, groups: dict[tuple[str, str], list[dict]]) -> str:
+    """Per group x look (``groups``: ``(group, look) -> rows``): runs, passed (share),
+    warned, silent failures, mean Exec."""
+    lines = [f"| {title} | look | runs | passed | share | warned | silent | Exec |",
              "|---|---|---|---|---|---|---|---|"]
-    groups: dict[tuple[str, str], list[dict]] = {}
-    for r in rows:
-        groups.setdefault((_family(r), r["look"]), []).append(r)
-    for (fam, look), g in sorted(groups.items()):
+    for (name, look), g in sorted(groups.items()):
         ok = sum(passes(r) for r in g)
         silent = sum(not passes(r) and not r.get("suspect") for r in g)
-        lines.append(f"| {fam} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
+        lines.append(f"| {name} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
                      f"{sum(bool(r.get('suspect')) for r in g)} | {silent} | "
                      f"{_pct(_mean(g, 'exec'))} |")
     return "\n".join(lines) + "\n"
+
+
+def family_markdown(rows: list[dict]) -> str:
+    """Per task family x look: runs, passed (share), warned, silent failures, mean Exec."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((_family(r), r["look"]), []).append(r)
+    return _group_markdown("family", groups)
 
 
 def task_kind(benchmark: str) -> str | None:
@@ -641,17 +647,7 @@ def kind_markdown(rows: list[dict]) -> str:
         kind = task_kind(r["benchmark"])
         if kind is not None:
             groups.setdefault((kind, r["look"]), []).append(r)
-    if not groups:
-        return ""
-    lines = ["| kind | look | runs | passed | share | warned | silent | Exec |",
-             "|---|---|---|---|---|---|---|---|"]
-    for (kind, look), g in sorted(groups.items()):
-        ok = sum(passes(r) for r in g)
-        silent = sum(not passes(r) and not r.get("suspect") for r in g)
-        lines.append(f"| {kind} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
-                     f"{sum(bool(r.get('suspect')) for r in g)} | {silent} | "
-                     f"{_pct(_mean(g, 'exec'))} |")
-    return "\n".join(lines) + "\n"
+    return _group_markdown("kind", groups) if groups else ""
 
 
 def _missed_line(r: dict) -> str:
