@@ -12,6 +12,7 @@ import pytest
 from vggc_cp import plots
 from vggc_cp.cli import main
 from vggc_cp.experiments import robustness as rob
+from vggc_cp.experiments import robustness_tables as rtab
 from vggc_cp.trace import load_trace
 
 D = 50
@@ -68,7 +69,7 @@ def test_two_workers_give_the_same_rows(study, tmp_path):
 
 def test_tables_have_both_splits(study):
     cfg, run = study
-    csv, md = rob.write_tables(run.rows, cfg.out)
+    csv, md = rtab.write_tables(run.rows, cfg.out)
     df = pd.read_csv(csv)
     assert len(df) == 2 and list(df.columns[:4]) == ["benchmark", "family", "look", "seed"]
     assert list(df["split"]) == ["tuning", "held-out"]
@@ -126,7 +127,7 @@ def test_calibration_counts_and_the_silent_failure():
     assert cal["tuning"] == {"passed_quiet": 1, "false_alarm": 1, "caught": 1, "silent": 0}
     assert cal["held-out"] == {"passed_quiet": 1, "false_alarm": 0, "caught": 1, "silent": 1}
     assert cal["all"] == {"passed_quiet": 2, "false_alarm": 1, "caught": 2, "silent": 1}
-    text = rob.table_markdown(rows)
+    text = rtab.table_markdown(rows)
     assert "Passing: 2 / 3 runs (66.7 %)" in text and "Passing: 3 / 6 runs (50.0 %)" in text
     assert "1 missed & quiet (silent failure)" in text
     assert "- b clean seed 0: nodes 4 / 10 outside" in text
@@ -250,10 +251,10 @@ def test_tables_by_family_and_look_count_silent_failures():
                     "nodes": 5},
             base | {"benchmark": "random-101", "look": "robot", "split": rob.HELDOUT,
                     "nodes": 5, "suspect": True}]
-    text = rob.family_markdown(rows)
+    text = rtab.family_markdown(rows)
     assert "| fruit | clean | 1 | 1 | 100.0 % | 0 | 0 |" in text
     assert "| task | robot | 2 | 0 | 0.0 % | 1 | 1 |" in text
-    md = rob.table_markdown(rows)
+    md = rtab.table_markdown(rows)
     assert "random tasks of task seeds 3" in md and "random tasks of task seeds 101" in md
     assert "By task family and look:" in md
 
@@ -267,11 +268,11 @@ def test_drawn_tasks_are_tabled_by_kind():
             base | {"benchmark": "random-9", "look": "clean"},
             base | {"benchmark": "random-1", "look": "robot", "nodes": 5},
             base | {"benchmark": "fruit-2x3", "look": "robot"}]
-    text = rob.kind_markdown(rows)
+    text = rtab.kind_markdown(rows)
     assert "| home starts | robot | 1 | 0 | 0.0 % | 1 | 0 |" in text
     assert "| home starts | clean | 1 | 1 | 100.0 % | 0 | 0 |" in text
     assert "| any start, stacking | robot | 1 | 0 | 0.0 % | 0 | 1 |" in text
     assert "fruit" not in text
-    assert "Drawn tasks by kind" in rob.table_markdown(rows)
-    assert rob.kind_markdown(rows[3:]) == ""
-    assert "Drawn tasks by kind" not in rob.table_markdown(rows[3:])
+    assert "Drawn tasks by kind" in rtab.table_markdown(rows)
+    assert rtab.kind_markdown(rows[3:]) == ""
+    assert "Drawn tasks by kind" not in rtab.table_markdown(rows[3:])

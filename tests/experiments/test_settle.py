@@ -11,6 +11,7 @@ import pytest
 from vggc_cp.cli import main
 from vggc_cp.errors import VggcError
 from vggc_cp.experiments import robustness as rob
+from vggc_cp.experiments import robustness_tables as rtab
 from vggc_cp.experiments import settle as st
 
 Q = 200
@@ -25,7 +26,7 @@ def study(tmp_path_factory):
     out = tmp_path_factory.mktemp("rob")
     cfg = rob.RobustnessConfig(out, (BENCH,), (SEED,), (LOOK,), n_queries=Q, jobs=1, tasks=())
     run = rob.run_robustness(cfg, progress=False)
-    rob.write_tables(run.rows, out)
+    rtab.write_tables(run.rows, out)
     (row,) = run.rows
     assert rob.passes(row) and row["suspect"] and row["doubts"] >= 1, \
         "fruit-2x3 clean seed 28 is no longer a warned pass with a doubt: pick another case"

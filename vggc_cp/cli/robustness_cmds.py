@@ -108,8 +108,8 @@ def cmd_robustness(args) -> int:
         RobustnessConfig,
         looks_available,
         run_robustness,
-        write_tables,
     )
+    from vggc_cp.experiments.robustness_tables import write_tables
     from vggc_cp.safeio import check_output_dir, check_trace_budget
     from vggc_cp.sim import benchmark_names
 
