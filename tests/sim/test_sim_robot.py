@@ -291,3 +291,41 @@ def test_cli_look_robot(tmp_path):
     meta = load_trace(out).meta
     assert meta["look"] == "robot" and meta["look_params"]["arm"] == ARM_MODEL
     assert (tmp_path / "t.novel.npz").exists()
+
+
+def test_armless_is_the_robot_trace_without_its_arm():
+    """The armless look draws everything the robot look draws (the walk, the look, the arm's
+    rest regions, the mug's moves), renders the fixed gripper instead of the arm, and is
+    seeded like the rest."""
+    robot = generate("fruit-2x3", 8, seed=2, size=32, look="robot").trace
+    armless = generate("fruit-2x3", 8, seed=2, size=32, look="armless").trace
+    assert armless.meta["look"] == "armless"
+    assert np.array_equal(robot.actions, armless.actions)
+    assert robot.states.tolist() == armless.states.tolist()
+    pr, pa = robot.meta["look_params"], armless.meta["look_params"]
+    assert pa.pop("arm_hidden") is True and "arm_hidden" not in pr
+    assert pa == pr                                   # the same draws, the arm's included
+    diff = np.abs(robot.observations.astype(int) - armless.observations.astype(int)).sum(-1)
+    assert (diff > 60).mean(axis=(1, 2)).min() > 0.01  # the arm is missing from every frame
+    again = generate("fruit-2x3", 8, seed=2, size=32, look="armless").trace
+    assert np.array_equal(again.observations, armless.observations)
+
+
+def test_armless_frames_do_not_depend_on_where_the_arm_rests():
+    b = get_benchmark("fruit-4x6")
+    looks = {name: make_look(name, b, look_streams(0)[0], 100) for name in ("robot", "armless")}
+    arr = fresh_arrangement(b, "r-rr-r|-", np.random.default_rng(0),
+                            looks["armless"].placement_jitter)
+    for name, look in looks.items():
+        with Scene(b, 32, calm(look)) as scene:
+            imgs = [scene.render(replace(arr, last_region=r)).astype(int) for r in (0, 5)]
+        moved = np.abs(imgs[0] - imgs[1]).sum()
+        assert (moved > 0) == (name == "robot"), name
+
+
+def test_the_suite_asks_for_armless_by_name(tmp_path):
+    from vggc_cp.experiments.robustness import RobustnessConfig, suite_looks
+
+    assert suite_looks() == ("clean", "randomized", "robot")
+    cfg = RobustnessConfig(tmp_path, ("blocks-2",), (0,), ("robot", "armless"))
+    assert cfg.looks == ("robot", "armless")

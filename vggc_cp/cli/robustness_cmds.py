@@ -32,7 +32,8 @@ def register(sub) -> None:
                         "--benchmarks (ranges A:B and integers, comma-separated), or none")
     p.add_argument("--task-seeds", default="0", help="trace seeds of the random tasks")
     p.add_argument("--looks", default="all",
-                   help="comma-separated looks, or all (clean, randomized, robot)")
+                   help="comma-separated looks, or all (clean, randomized, robot); armless "
+                        "(the robot look with its arm hidden) by name")
     p.add_argument("--transitions", type=int, default=None,
                    help="|D| of every trace; None: the paper's per benchmark")
     p.add_argument("--queries", "-Q", type=int, default=1500, help="evaluation queries")
@@ -106,8 +107,8 @@ def cmd_robustness(args) -> int:
     from vggc_cp.cli.options import parse_seeds
     from vggc_cp.experiments.robustness import (
         RobustnessConfig,
-        looks_available,
         run_robustness,
+        suite_looks,
     )
     from vggc_cp.experiments.robustness_tables import write_tables
     from vggc_cp.safeio import check_output_dir, check_trace_budget
@@ -120,7 +121,7 @@ def cmd_robustness(args) -> int:
                else () if args.benchmarks == "none" else tuple(_split(args.benchmarks)))
     tasks = () if args.tasks == "none" else tuple(
         s for part in _split(args.tasks) for s in parse_seeds(part, "--tasks"))
-    looks = looks_available() if args.looks == "all" else tuple(_split(args.looks))
+    looks = suite_looks() if args.looks == "all" else tuple(_split(args.looks))
     cfg = RobustnessConfig(Path(args.out), benches, parse_seeds(args.seeds), looks,
                            args.transitions, tasks=tasks,
                            task_seeds=parse_seeds(args.task_seeds, "--task-seeds"),

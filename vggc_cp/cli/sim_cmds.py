@@ -45,7 +45,9 @@ def register(sub) -> None:
                         "sizes and shades drawn per trace, lighting gain, tint and sensor noise "
                         "per frame, all from --seed; robot: randomized plus a Panda arm resting "
                         "above the region it last acted on, a camera shake of up to 2 px, a slow "
-                        "lighting drift and a mug that moves between some frames")
+                        "lighting drift and a mug that moves between some frames; armless: "
+                        "the robot look with its arm hidden (the same draws; what the arm "
+                        "costs)")
     p.add_argument("--episodes", default=None, metavar="JSON",
                    help="with --append: record exactly these episodes (vggc-episodes/1, e.g. "
                         "from `vggc-cp suggest`), each from the true state of its start "

@@ -75,7 +75,6 @@ DEFAULT_TASK_SEEDS = (0,)
 TUNING, HELDOUT = "tuning", "held-out"
 SPLITS = (TUNING, HELDOUT)
 CLEAN, RANDOMIZED, ROBOT = "clean", "randomized", "robot"
-#: The looks of the default study (those this checkout's renderer has).
 DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 #: Runs with fewer observations per true state than this are marked sparse in the tables.
 MIN_OBS_PER_STATE = 2.0
@@ -98,7 +97,10 @@ ROW_FIELDS = ("benchmark", "family", "look", "seed", "split", "transitions", "ob
 I2P_FIELDS = ("localization", "i2p", "exec_i2p", "seconds_localizer")
 
 
-def _default_looks() -> tuple[str, ...]:
+def suite_looks() -> tuple[str, ...]:
+    """The looks of the default study, those this checkout's renderer has: clean, randomized
+    and robot (``armless``, the robot look with its arm hidden, is an ablation asked for by
+    name)."""
     return tuple(look for look in (CLEAN, RANDOMIZED, ROBOT) if look in looks_available())
 
 
@@ -156,7 +158,7 @@ class RobustnessConfig:
     out: Path
     benchmarks: tuple[str, ...] = field(default_factory=lambda: tuple(benchmark_names()))
     seeds: tuple[int, ...] = DEFAULT_SEEDS
-    looks: tuple[str, ...] = field(default_factory=lambda: _default_looks())
+    looks: tuple[str, ...] = field(default_factory=lambda: suite_looks())
     transitions: int | None = None
     size: int = 64
     n_queries: int = 1500

@@ -185,7 +185,8 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0,
         ``"clean"`` (the renderer the defaults were tuned on), ``"randomized"`` (table,
         camera, light and objects drawn per trace, gain, tint and noise per frame) or
         ``"robot"`` (randomized plus an arm resting above the region it last acted on, a
-        lighting drift, a camera shake and a distractor that moves between some frames);
+        lighting drift, a camera shake and a distractor that moves between some frames) or
+        ``"armless"`` (the robot look with its arm hidden: the same trace but the arm);
         see :mod:`vggc_cp.sim.looks`. The novel renders share the trace's look and draw
         their own per-frame effects (each: the arm above a random region, the distractor
         on a fresh spot, the drift at its index among the novel renders).

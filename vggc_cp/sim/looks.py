@@ -32,6 +32,12 @@ scenes they were not tuned on:
   :data:`ROBOT_TABLE_EXTRA`), moved to a new random spot before a frame with probability
   :data:`DISTRACTOR_MOVE` (drawn from the trace's per-frame stream).
 
+``armless`` is the robot look with its arm hidden (:attr:`Look.arm_hidden`): the same
+seed draws the same walk, look, drift, shake, mug and even the arm's rest regions, but the
+renderer leaves the arm out and shows the fixed gripper instead, so a robot trace and its
+armless twin differ only by the arm: what the arm costs a method is the difference of the
+two (``vggc-cp robustness --looks robot,armless``).
+
 Ground-truth states stay by class: an apple and a strawberry swapped are the same state.
 Nothing here needs PyBullet.
 """
@@ -52,6 +58,7 @@ from vggc_cp.sim.dynamics import Benchmark
 CLEAN = "clean"
 RANDOMIZED = "randomized"
 ROBOT = "robot"
+ARMLESS = "armless"
 #: Known looks (``vggc-cp generate --look``).
 LOOKS = {CLEAN: "the renderer the defaults were tuned on (fixed colours, camera, light; "
                 "no noise)",
@@ -59,7 +66,9 @@ LOOKS = {CLEAN: "the renderer the defaults were tuned on (fixed colours, camera,
                      "and shades drawn per trace; gain, tint and sensor noise per frame",
          ROBOT: "randomized, plus a Franka Panda arm resting above the region it last acted "
                 "on (holding the held object), a slow lighting drift, a camera shake of up "
-                "to 2 px per frame and a mug that moves between some frames"}
+                "to 2 px per frame and a mug that moves between some frames",
+         ARMLESS: "the robot look with its arm hidden: the same draws, drift, shake and mug, "
+                  "the fixed gripper showing what is held (what the arm costs)"}
 
 # ------------------------------------------------------------------ clean appearance
 TABLE_RGBA = (0.62, 0.47, 0.32, 1.0)
@@ -237,6 +246,9 @@ class Look:
     arm : str or None
         The arm's URDF under ``pybullet_data`` (:data:`ARM_MODEL`), or None (the old fixed
         gripper).
+    arm_hidden : bool
+        The arm is drawn (where it rests, from the same streams) but not rendered: the
+        fixed gripper stands in for it (the ``armless`` look).
     drift : tuple of float
         Lighting drift ``(amplitude, period in frames, phase in radians)``
         (:meth:`drift_gain`).
@@ -261,6 +273,7 @@ class Look:
     frame_tint: float
     noise_sigma: float
     arm: str | None = None
+    arm_hidden: bool = False
     drift: tuple[float, float, float] = (0.0, 1.0, 0.0)
     shake_px: int = 0
     distractor: Distractor | None = None
@@ -303,11 +316,11 @@ class Look:
     def _robot_meta(self) -> dict:
         r = lambda v: round(float(v), 4)  # noqa: E731
         d = self.distractor
-        out = {"arm": self.arm,
-               "drift": {"amplitude": r(self.drift[0]), "period_frames": r(self.drift[1]),
-                         "phase": r(self.drift[2])},
-               "shake_px": int(self.shake_px),
-               "table_extra_m": r(self.table_extra)}
+        out = {"arm": self.arm} | ({"arm_hidden": True} if self.arm_hidden else {}) | {
+            "drift": {"amplitude": r(self.drift[0]), "period_frames": r(self.drift[1]),
+                      "phase": r(self.drift[2])},
+            "shake_px": int(self.shake_px),
+            "table_extra_m": r(self.table_extra)}
         if d is not None:
             out["distractor"] = {"kind": "mug", "colour": d.colour,
                                  "rgb": [r(c) for c in d.rgba[:3]], "radius_m": r(d.radius),
@@ -406,14 +419,16 @@ def sample_robot_look(rng: np.random.Generator, bench: Benchmark, n_frames: int)
 
 def make_look(name: str, bench: Benchmark, rng: np.random.Generator,
               n_frames: int = 1) -> Look:
-    """The look called ``name`` for ``bench`` (``rng`` is used by ``randomized`` and
-    ``robot``; ``n_frames``, the trace's number of observations, by ``robot`` only: the
+    """The look called ``name`` for ``bench`` (``rng`` is used by ``randomized``, ``robot``
+    and ``armless``; ``n_frames``, the trace's number of observations, by the last two: the
     drift's period is a multiple of it)."""
     check_look(name)
     if name == CLEAN:
         return clean_look(bench)
     if name == ROBOT:
         return sample_robot_look(rng, bench, n_frames)
+    if name == ARMLESS:
+        return replace(sample_robot_look(rng, bench, n_frames), name=ARMLESS, arm_hidden=True)
     return sample_look(rng, bench)
 
 

@@ -446,7 +446,7 @@ class Scene:
                 body, rest = make(obj.kind, obj.rgba, obj.scale)
                 self._bodies.append(body)
                 self._rest.append(rest)
-        self._arm = -1 if look.arm is None else self._load_arm(look.arm)
+        self._arm = -1 if look.arm is None or look.arm_hidden else self._load_arm(look.arm)
         self._mug = -1
         #: Where the distractor stands: ``(x, y, yaw)``, or None (no distractor, or not yet
         #: placed: it starts out of sight).
