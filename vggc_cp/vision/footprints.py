@@ -16,7 +16,10 @@ times their largest one; an arm that rests above the place it last acted on chan
 place's pixels most under that place's actions, so it is not removed there), and what it holds varies only while holding (pixels whose spread over the
 place-role observations exceeds ``held`` times their spread over the hand-empty pick-role
 observations, plus the typical such spread), with a fringe of ``fringe`` of the image size.
-The faint floor that sensor noise leaves
+The edges a shaking camera moved out of view in some frame go too
+(:func:`~vggc_cp.vision.registration.unseen_margin`): moved back, a frame repeats its edge
+there, so those pixels change with the shake, and an action taken once or twice would take
+that change for its footprint. The faint floor that sensor noise leaves
 everywhere (``support`` of the peak) goes too, and an action keeps only its heaviest connected
 component: it acts in one place.
 
@@ -231,16 +234,21 @@ class Footprints:
 
 
 def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.ndarray,
-                   dst: np.ndarray, n_actions: int, params: FootprintConfig) -> np.ndarray:
+                   dst: np.ndarray, n_actions: int, params: FootprintConfig,
+                   margin: tuple[int, int] = (0, 0)) -> np.ndarray:
     """``F_a`` of every action (module docstring), shape ``(A, H, W)``.
 
     Parameters
     ----------
     x : ndarray of float32, shape (N, H, W, 3)
-        Normalised frames (:func:`normalise_frames`).
+        Normalised frames (:func:`normalise_frames`), their shake undone.
     roles : ndarray, shape (N,)
     src, act, dst : ndarray of int, shape (T,)
         The transitions.
+    params : FootprintConfig
+    margin : (int, int)
+        Rows and columns at each edge that some frame's camera shake moved out of view
+        (:func:`~vggc_cp.vision.registration.unseen_margin`): no footprint there.
     """
     h, w = x.shape[1:3]
     maps = np.zeros((n_actions, h, w), dtype=np.float32)
@@ -261,6 +269,14 @@ def footprint_maps(x: np.ndarray, roles: np.ndarray, src: np.ndarray, act: np.nd
         gripper = ndimage.binary_dilation(gripper, iterations=fringe)
     maps = np.maximum(maps - shared, 0.0)
     maps[:, gripper] = 0.0
+    # the edges a shaking camera moved out of view repeat the frame's edge: not the scene's
+    rows, cols = margin
+    if rows:
+        maps[:, :rows] = 0.0
+        maps[:, h - rows:] = 0.0
+    if cols:
+        maps[:, :, :cols] = 0.0
+        maps[:, :, w - cols:] = 0.0
     maps[~taken] = 0.0
     maps = np.maximum(maps - params.support * maps.max(axis=(1, 2), keepdims=True), 0.0)
     for a in np.flatnonzero(taken):
@@ -382,8 +398,9 @@ def working_footprints(trace: Trace, params: FootprintConfig, executor=None
     factor, reason = bound, "image size"
     while True:
         # a shaking camera held still
-        x = steady(working_frames(obs, executor, source=trace.source, factor=factor))
-        maps = footprint_maps(x, trace.roles(), src, act, dst, trace.n_actions, params)
+        x, margin = steady(working_frames(obs, executor, source=trace.source, factor=factor))
+        maps = footprint_maps(x, trace.roles(), src, act, dst, trace.n_actions, params,
+                              margin)
         if not maps.any():
             raise EvidenceNotApplicable("no action changes the images in one place of its own "
                                         "(every pixel changes alike): action footprints do "

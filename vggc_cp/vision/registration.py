@@ -20,6 +20,12 @@ the camera rests most, and a view drifting a pixel a round would push frames pas
 :data:`MAX_SHIFT`. Every frame of the tuning split's 51 robot traces is then moved back by
 the shift the renderer gave it.
 
+**What the shake hides.** A frame moved back by ``(dy, dx)`` has no pixels of its own in the
+``|dy|`` rows and ``|dx|`` columns at the edge it came from; they repeat the edge. So the
+margin the largest shift reaches (:func:`unseen_margin`) is not seen in every frame, and what
+changes there changes with the shake: the footprints take nothing from it
+(:func:`vggc_cp.vision.footprints.footprint_maps`).
+
 **A shift is kept only where the frame shows it**: the per-pixel differences from the resting
 view, unshifted less shifted, must have a mean of at least ``z`` standard errors with
 ``z^2 / 2 >= ln SHIFT_ODDS`` (a paired test, the odds the footprints' readings are held to).
@@ -140,6 +146,26 @@ def undo_shake(x: np.ndarray, shifts: np.ndarray) -> np.ndarray:
     return out
 
 
-def steady(x: np.ndarray) -> np.ndarray:
-    """``x`` with its camera shake undone (:func:`shake_shifts`, :func:`undo_shake`)."""
-    return undo_shake(x, shake_shifts(x))
+def unseen_margin(shifts: np.ndarray) -> tuple[int, int]:
+    """Rows and columns at each edge of the image that some frame's shake moved out of view:
+    the largest ``|dy|`` and ``|dx|`` of ``shifts`` (shape (N, 2)). Moved back, such a frame
+    repeats its edge there (:func:`undo_shake`), so those pixels change wherever the shake
+    does, whatever the scene does; ``(0, 0)`` for a camera that does not shake.
+
+    >>> unseen_margin(np.array([[0, 0], [1, -2], [-1, 1]]))
+    (1, 2)
+    >>> unseen_margin(np.zeros((0, 2), dtype=int))
+    (0, 0)
+    """
+    shifts = np.asarray(shifts, dtype=np.int64).reshape(-1, 2)
+    if not len(shifts):
+        return 0, 0
+    dy, dx = np.abs(shifts).max(axis=0)
+    return int(dy), int(dx)
+
+
+def steady(x: np.ndarray) -> tuple[np.ndarray, tuple[int, int]]:
+    """``x`` with its camera shake undone (:func:`shake_shifts`, :func:`undo_shake`), and the
+    margin the shake moved out of view in some frame (:func:`unseen_margin`)."""
+    shifts = shake_shifts(x)
+    return undo_shake(x, shifts), unseen_margin(shifts)
