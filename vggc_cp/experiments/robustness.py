@@ -483,31 +483,33 @@ def run_robustness(cfg: RobustnessConfig, progress: bool = True) -> RobustnessRu
 # ---------------------------------------------------------------- pass rule and calibration
 
 
-def _measured(x) -> bool:
+def measured(x) -> bool:
+    """Whether a metric was measured (not None, not NaN)."""
     return x is not None and not (isinstance(x, float) and math.isnan(x))
 
 
-def _pct(x) -> str:
-    return "–" if not _measured(x) else f"{100 * float(x):.1f}"
+def percent(x) -> str:
+    """A share as a percentage with one decimal, ``–`` where not measured."""
+    return "–" if not measured(x) else f"{100 * float(x):.1f}"
 
 
 def failures(row: dict) -> list[str]:
     """Each condition of the pass rule that ``row`` misses, as a short phrase (empty: passed)."""
     out = []
     ex, op, ap = row.get("exec"), row.get("opt_path"), row.get("any_path")
-    if not _measured(ex) or ex < MIN_EXEC - TOLERANCE:
-        out.append(f"Exec {_pct(ex)} % < {_pct(MIN_EXEC)} %")
+    if not measured(ex) or ex < MIN_EXEC - TOLERANCE:
+        out.append(f"Exec {percent(ex)} % < {percent(MIN_EXEC)} %")
     nodes, true = row.get("nodes"), row.get("true_states")
-    if (not _measured(nodes) or not true or not
+    if (not measured(nodes) or not true or not
             NODES_LOW * true - TOLERANCE <= nodes <= NODES_HIGH * true + TOLERANCE):
         out.append(f"nodes {nodes} / {true} outside [{NODES_LOW}, {NODES_HIGH}] x |V*|")
-    if not _measured(op) or op < MIN_OPT_PATH - TOLERANCE:
-        out.append(f"OptPath {_pct(op)} % < {_pct(MIN_OPT_PATH)} %")
-    if not _measured(ap) or ap < MIN_ANY_PATH - TOLERANCE:
-        out.append(f"AnyPath {_pct(ap)} % < {_pct(MIN_ANY_PATH)} %")
+    if not measured(op) or op < MIN_OPT_PATH - TOLERANCE:
+        out.append(f"OptPath {percent(op)} % < {percent(MIN_OPT_PATH)} %")
+    if not measured(ap) or ap < MIN_ANY_PATH - TOLERANCE:
+        out.append(f"AnyPath {percent(ap)} % < {percent(MIN_ANY_PATH)} %")
     i2p = row.get("i2p")
-    if _measured(i2p) and i2p < MIN_I2P - TOLERANCE:
-        out.append(f"I2P {_pct(i2p)} % < {_pct(MIN_I2P)} %")
+    if measured(i2p) and i2p < MIN_I2P - TOLERANCE:
+        out.append(f"I2P {percent(i2p)} % < {percent(MIN_I2P)} %")
     return out
 
 

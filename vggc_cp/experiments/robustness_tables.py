@@ -5,6 +5,7 @@ passing, the warning's calibration and the missed runs), from the rows of
 
 from __future__ import annotations
 
+from functools import cache
 from pathlib import Path
 
 from vggc_cp.atomic import write_text
@@ -25,11 +26,11 @@ from vggc_cp.experiments.robustness import (
     ROW_FIELDS,
     SPLITS,
     TUNING,
-    _measured,
-    _pct,
     calibration,
     failures,
+    measured,
     passes,
+    percent,
     task_seed,
 )
 from vggc_cp.sim import get_spec
@@ -39,7 +40,6 @@ from vggc_cp.sim.specs import TASK
 def calibration_line(counts: dict[str, int]) -> str:
     return "Calibration: " + ", ".join(f"{counts[k]} {CALIBRATION_TITLES[k]}"
                                        for k in CALIBRATION) + "."
-
 
 
 def _ranges(values: list[int]) -> str:
@@ -54,7 +54,7 @@ def _ranges(values: list[int]) -> str:
 
 
 def _mean(rows: list[dict], key: str):
-    vals = [float(r[key]) for r in rows if _measured(r.get(key))]
+    vals = [float(r[key]) for r in rows if measured(r.get(key))]
     return sum(vals) / len(vals) if vals else None
 
 
@@ -69,7 +69,7 @@ def _ratio_range(rows: list[dict]) -> str:
 def split_markdown(rows: list[dict]) -> str:
     """One split's table: per benchmark x look, runs, passed, mean Exec / OptPath / AnyPath
     (%), the range of nodes / |V*|, warned runs (and mean I2P where measured)."""
-    i2p = any(_measured(r.get("i2p")) for r in rows)
+    i2p = any(measured(r.get("i2p")) for r in rows)
     head = ("| benchmark | look | \\|D\\| | runs | passed | Exec | OptPath | AnyPath "
             "| nodes / \\|V*\\| | warned |" + (" I2P |" if i2p else ""))
     lines = [head, "|" + "---|" * (10 + i2p)]
@@ -79,10 +79,11 @@ def split_markdown(rows: list[dict]) -> str:
     for (bench, look), g in groups.items():
         d = "/".join(str(x) for x in dict.fromkeys(r["transitions"] for r in g))
         cells = [bench, look, d, str(len(g)), str(sum(passes(r) for r in g)),
-                 _pct(_mean(g, "exec")), _pct(_mean(g, "opt_path")), _pct(_mean(g, "any_path")),
+                 percent(_mean(g, "exec")), percent(_mean(g, "opt_path")),
+                 percent(_mean(g, "any_path")),
                  _ratio_range(g), str(sum(bool(r.get("suspect")) for r in g))]
         if i2p:
-            cells.append(_pct(_mean(g, "i2p")))
+            cells.append(percent(_mean(g, "i2p")))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -107,7 +108,7 @@ def _group_markdown(title: str, groups: dict[tuple[str, str], list[dict]]) -> st
         silent = sum(not passes(r) and not r.get("suspect") for r in g)
         lines.append(f"| {name} | {look} | {len(g)} | {ok} | {100 * ok / len(g):.1f} % | "
                      f"{sum(bool(r.get('suspect')) for r in g)} | {silent} | "
-                     f"{_pct(_mean(g, 'exec'))} |")
+                     f"{percent(_mean(g, 'exec'))} |")
     return "\n".join(lines) + "\n"
 
 
@@ -119,11 +120,14 @@ def family_markdown(rows: list[dict]) -> str:
     return _group_markdown("family", groups)
 
 
+@cache
 def task_kind(benchmark: str) -> str | None:
     """What kind of drawn task ``benchmark`` is, by the two parts of its spec that tell most
     about how hard it is to learn: where its episodes start (``home starts``: at a few home
     states, so that most states are seen once or twice; ``any start``) and whether objects
-    stack; None for one of the seven (or an unknown name).
+    stack; None for one of the seven (or an unknown name). Cached per name: a drawn task's
+    spec is drawn again from its seed on every call (tens of milliseconds), and a report
+    asks once per row.
 
     >>> task_kind("random-9"), task_kind("random-1"), task_kind("fruit-2x3")
     ('home starts', 'any start, stacking', None)
@@ -151,7 +155,7 @@ def kind_markdown(rows: list[dict]) -> str:
 
 def _missed_line(r: dict) -> str:
     sparse = (f" (sparse: {r['obs_per_state']:.1f} observations per state)"
-              if _measured(r.get("obs_per_state")) and r["obs_per_state"] < MIN_OBS_PER_STATE
+              if measured(r.get("obs_per_state")) and r["obs_per_state"] < MIN_OBS_PER_STATE
               else "")
     warn = (f"warned: {r.get('reasons') or 'suspect'}" if r.get("suspect")
             else "**no warning (silent failure)**")
@@ -166,10 +170,10 @@ def table_markdown(rows: list[dict], wall_seconds: float | None = None) -> str:
     tasks = {s: sorted({task_seed(r["benchmark"]) for r in rows if r.get("split") == s}
                        - {None}) for s in SPLITS}
     lines = ["# Robustness of the default `vggc-cp solve`", "",
-             f"A run passes with Exec >= {_pct(MIN_EXEC)} %, nodes within [{NODES_LOW}, "
-             f"{NODES_HIGH}] x |V*|, OptPath >= {_pct(MIN_OPT_PATH)} %, AnyPath "
-             f"{_pct(MIN_ANY_PATH)} %",
-             f"and I2P >= {_pct(MIN_I2P)} % where measured. Metrics in % (means over seeds); "
+             f"A run passes with Exec >= {percent(MIN_EXEC)} %, nodes within [{NODES_LOW}, "
+             f"{NODES_HIGH}] x |V*|, OptPath >= {percent(MIN_OPT_PATH)} %, AnyPath "
+             f"{percent(MIN_ANY_PATH)} %",
+             f"and I2P >= {percent(MIN_I2P)} % where measured. Metrics in % (means over seeds); "
              "'warned': runs the solver flagged suspect.", ""]
     for split in SPLITS:
         sub = [r for r in rows if r.get("split") == split]
