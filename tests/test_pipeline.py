@@ -278,7 +278,7 @@ def test_nodes_an_arm_hidden_reading_splits_are_warned_and_a_right_graph_is_not(
     assert learned.confidence.suspect
     read = [d for d in learned.doubts if "read_kappa" in d.evidence]
     assert read and read == list(learned.doubts[:len(read)])
-    assert all(d.evidence["read_kappa"] < 0.6 for d in read)
+    assert all(d.evidence["read_kappa_low"] < 0.6 for d in read)
     assert any("beyond chance" in r and "red_2" in r for r in learned.confidence.reasons)
     right = learn_graph(generate("fruit-2x3", 50, 34, look="robot").trace.without_states())
     assert right.graph.n_nodes == 6 and not right.confidence.suspect

@@ -243,7 +243,8 @@ def _read_apart(kappa: float, stated_both: bool = False):
 def test_nodes_only_an_untrusted_reading_sets_apart_are_a_doubt():
     """Joining the two '1' nodes forces the two 'H' nodes together; nothing stated stops it,
     and only place_2's site, read at kappa 0.2, tells them apart: one merge doubt per pair,
-    naming the site. Read at kappa 0.9, or stated apart, it settles them: no doubt."""
+    naming the site. Read at kappa 0.9 (taken as it is), or stated apart, it settles them: no
+    doubt."""
     problem, path, labels = _read_apart(0.2)
     doubts = read_doubts(problem, path, labels)
     assert len(doubts) == 2
@@ -254,7 +255,17 @@ def test_nodes_only_an_untrusted_reading_sets_apart_are_a_doubt():
         assert d.evidence["forced"] == 1 and d.closeness < 0
     for kappa, stated in ((0.9, False), (0.2, True)):
         problem, path, labels = _read_apart(kappa, stated)
-        assert read_doubts(problem, path, labels) == ()
+        assert read_doubts(problem, path, labels, z=0.0) == ()
+
+
+def test_a_kappa_is_trusted_as_far_as_its_stated_frames_show_it():
+    """The lower bound rises to the kappa as the stated frames grow, and never passes it."""
+    from vggc_cp.solvers.read_doubts import kappa_lower
+
+    lows = [float(kappa_lower(0.8, 0.6, n)) for n in (5, 50, 500, 5000)]
+    assert lows == sorted(lows) and lows[0] < 0.0 < lows[1] < 0.6 < lows[2] < lows[3] < 0.8
+    assert float(kappa_lower(0.8, 0.6, 50, z=0.0)) == 0.8
+    assert np.isnan(kappa_lower(np.nan, 0.5, 10)) and float(kappa_lower(-0.2, 0.5, 10)) < -0.2
 
 
 def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
@@ -316,7 +327,13 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     assert read_doubts(problem, path, labels) == ()   # no pair of nodes is in question
     for kappa, stated in ((0.9, False), (0.3, True)):
         problem, path, labels = _episode_on_a_read(kappa, stated)
-        assert episode_doubts(problem, path, labels) == ()
+        assert episode_doubts(problem, path, labels, z=0.0) == ()
+    # a kappa of 0.9 from the 4 frames that state site 1 shows too little to settle it,
+    # where the same reading, stated in the last episode too, needs no kappa
+    assert episode_doubts(*_episode_on_a_read(0.3, True)) == ()
+    (d,) = episode_doubts(*_episode_on_a_read(0.9))
+    assert d.evidence["read_kappa"] == 0.9 and d.evidence["read_kappa_low"] < 0.6
+    assert "kappa 0.90, >= " in format_doubts([d])[1]
 
 
 def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():
@@ -327,7 +344,7 @@ def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():
     (d,) = episode_doubts(problem, path, labels)
     assert d.evidence["episode"] == [6, 7] and d.evidence["read_kappa"] == 0.0
     problem, path, labels = _episode_on_a_read(0.9, trust=0.9)   # read as well as the site
-    assert episode_doubts(problem, path, labels) == ()
+    assert episode_doubts(problem, path, labels, z=0.0) == ()
 
 
 def test_an_episode_doubt_flags_the_graph_and_names_the_episode():

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
+from vggc_cp.solvers.read_doubts import READ_KAPPA
 
 #: The share of plans between two observations that may fail before a graph stops being usable:
 #: the robustness study's bar, Exec >= 90 % (:data:`vggc_cp.evaluate.metrics.MIN_EXEC`).
@@ -174,8 +175,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         conf = conf.flagged(
             f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
-            f"actions state it only {ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is "
-            f"substantial); record episodes that act there from both nodes (`vggc-cp suggest "
+            f"actions state it {_agreement(ev)}; record episodes that act there from both nodes (`vggc-cp suggest "
             f"SOLUTION TRACE -o next.json`)")
     if moves:
         d, ev = moves[0], moves[0].evidence
@@ -192,8 +192,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"the episode of observations {first}-{last} might be another path of the graph, "
             f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
-            f"actions state it only {ev['read_kappa']:.2f} beyond chance (kappa; 0.6 is "
-            f"substantial); if so, {100 * risk:.1f} % of plans between two observations start "
+            f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between two observations start "
             f"or end at a misplaced one{also}; record an episode from that episode's start "
             f"that acts there (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
         conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
@@ -203,6 +202,22 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
 
 def _sites(evidence: dict) -> str:
     return ", ".join(evidence.get("read_sites", [])) or "some site"
+
+
+def _agreement(evidence: dict) -> str:
+    """How far a read doubt's reading agrees with the stated frames, in words: its kappa,
+    and where that alone would have settled it, the lower bound that did not.
+
+    >>> _agreement({"read_kappa": 0.3})
+    'only 0.30 beyond chance (kappa; 0.6 is substantial)'
+    >>> _agreement({"read_kappa": 0.65, "read_kappa_low": 0.33})
+    '0.65 beyond chance (kappa), but the stated frames show only 0.33 for sure (95 % lower bound; 0.6 is substantial)'
+    """
+    kappa, low = evidence["read_kappa"], evidence.get("read_kappa_low")
+    if low is None or kappa < READ_KAPPA:
+        return f"only {kappa:.2f} beyond chance (kappa; 0.6 is substantial)"
+    return (f"{kappa:.2f} beyond chance (kappa), but the stated frames show only {low:.2f} "
+            f"for sure (95 % lower bound; 0.6 is substantial)")
 
 
 #: A node of at most this many observations is one render or two: what keeps it apart from

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt  # noqa: F401  (SPLIT: doctests)
+from vggc_cp.solvers.read_doubts import READ_KAPPA
 
 
 def broken_fact_note(d: Doubt) -> str:
@@ -45,7 +46,7 @@ def doubt_caption(k: int, d: Doubt) -> str:
                      if ev["forbidden"] == "refused" else "Exactly-One forbids the join")
     if isinstance(ev.get("read_kappa"), (int, float)):
         parts.append(f"only the reading at {', '.join(ev.get('read_sites', []))} sets them "
-                     f"apart (kappa {ev['read_kappa']:.2f})")
+                     f"apart (kappa {_kappa(ev)})")
     if broken_fact_note(d):
         parts.append("the graph breaks what the recording states: " + broken_fact_note(d))
     return "; ".join(parts)
@@ -75,11 +76,11 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
                 if ev.get("contradicted") else
                 "the runner-up graph decides it the other way" if ev.get("runner_up") else
                 f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "
-                f"{ev.get('moved_to')}, kappa {ev['read_kappa']:.2f}: "
+                f"{ev.get('moved_to')}, kappa {_kappa(ev)}: "
                 f"{', '.join(ev.get('read_sites', []))}"
                 if isinstance(ev.get("episode"), list) and ev["episode"]
                 and isinstance(ev.get("read_kappa"), (int, float)) else
-                f"only read apart, kappa {ev['read_kappa']:.2f}: {', '.join(ev.get('read_sites', []))}"
+                f"only read apart, kappa {_kappa(ev)}: {', '.join(ev.get('read_sites', []))}"
                 if isinstance(ev.get("read_kappa"), (int, float)) else "")
         lines.append(f"{k:>3}  {d.kind:<5}  {nodes:<9}  {obs[:24]:<24}  {ratio:>7.2f}  "
                      f"{'-' if steps is None else f'{steps:+.2f}':>6}  "
@@ -87,3 +88,16 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
                      f"{ev.get('thresholds_apart', 0):>4}/{ev.get('thresholds_together', 0):<4}  "
                      f"{note}".rstrip())
     return lines
+
+
+def _kappa(ev: dict) -> str:
+    """A read doubt's kappa, with its 95 % lower bound where the bound, not the kappa, made
+    the doubt.
+
+    >>> _kappa({"read_kappa": 0.3, "read_kappa_low": 0.1}), _kappa({"read_kappa": 0.65, "read_kappa_low": 0.33})
+    ('0.30', '0.65, >= 0.33')
+    """
+    low = ev.get("read_kappa_low")
+    if isinstance(low, (int, float)) and ev["read_kappa"] >= READ_KAPPA:
+        return f"{ev['read_kappa']:.2f}, >= {low:.2f}"
+    return f"{ev['read_kappa']:.2f}"

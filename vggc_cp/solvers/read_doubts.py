@@ -7,7 +7,10 @@ into two nodes that the re-runs and the description length both take as given. E
 reading carries its agreement with the stated frames beyond chance
 (:attr:`~vggc_cp.solvers.base.SiteReads.kappa`); :func:`read_doubts` lists the node pairs that
 only such readings, below :data:`READ_KAPPA`, tell apart, as merge doubts of
-:mod:`vggc_cp.solvers.doubts`.
+:mod:`vggc_cp.solvers.doubts`. A kappa is an estimate from the frames whose actions state the
+site -- a few dozen in a small recording -- so it counts only as far as it can be shown to
+(:func:`kappa_lower`, 95 % one-sided): fruit-2x3 robot s170, a site read at kappa 0.65 from 43
+stated frames (at least 0.29) misread a whole episode, and the graph was quiet.
 
 The same misreading can also put a whole episode on the wrong path of a right-sized graph:
 its untouched sites read as another state's, every node it visits is a node of the graph, and
@@ -29,6 +32,36 @@ from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
 #: two nodes are two states: below 0.6 is "moderate" agreement at best (Landis and Koch 1977).
 READ_KAPPA = 0.6
+
+#: How sure a reading's agreement must be before it settles anything: the one-sided normal
+#: quantile of the lower confidence bound taken on its kappa (1.645: 95 %).
+READ_Z = 1.645
+
+
+def kappa_lower(kappa, majority, n, z: float = READ_Z):
+    """A lower confidence bound on a reading's kappa, from the number of frames ``n`` it was
+    judged on.
+
+    ``kappa = (p - m) / (1 - m)`` for agreement ``p`` with ``n`` stated frames of which the
+    most common presence takes the share ``m``; the bound is that of ``p`` (Wilson's score
+    interval, one-sided at the normal quantile ``z``) carried through. Infinite and NaN
+    kappas (a site stated everywhere, or never) stay as they are; ``z = 0`` gives ``kappa``.
+
+    >>> round(float(kappa_lower(0.647, 0.72, 43)), 3)
+    0.289
+    >>> float(kappa_lower(np.inf, 0.5, 10))
+    inf
+    """
+    kappa, m, n = (np.asarray(v, dtype=np.float64) for v in (kappa, majority, n))
+    if z <= 0:
+        return kappa
+    finite = np.isfinite(kappa) & (n > 0) & (m < 1.0)
+    m_ = np.where(finite, m, 0.0)
+    p = np.clip(m_ + np.where(finite, kappa, 0.0) * (1.0 - m_), 0.0, 1.0)
+    n_ = np.maximum(n, 1.0)
+    z2 = z * z
+    lo = (p + z2 / (2 * n_) - z * np.sqrt(p * (1 - p) / n_ + z2 / (4 * n_ * n_))) / (1 + z2 / n_)
+    return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
 
 
 def observation_episodes(problem: Problem) -> np.ndarray:
@@ -60,9 +93,11 @@ class _NodeReads:
     site read nowhere is never an untrustworthy reading), ``frame_trust`` (shape ``(N, S)``:
     how far the reading that set each observation can be trusted, infinity where stated;
     the site's kappa where the readings do not say) and the sites' ``held`` and
-    ``stated``, and ``action``, the action naming every site."""
+    ``stated``, and ``action``, the action naming every site; ``trust_low`` and
+    ``frame_trust_low``, the same carried to their lower confidence bounds at ``z``
+    (:func:`kappa_lower`, over each site's stated frames): what decides."""
 
-    def __init__(self, sites, labels: np.ndarray, roles: np.ndarray):
+    def __init__(self, sites, labels: np.ndarray, roles: np.ndarray, z: float = READ_Z):
         self.labels, self.action = labels, np.asarray(sites.action)
         self.n = n = int(labels.max()) + 1
         self.held = held = np.asarray(sites.held)
@@ -75,6 +110,13 @@ class _NodeReads:
         self.frame_trust = (np.broadcast_to(self.trust, held.shape) if own is None
                             else np.where(stated | np.isinf(self.trust), np.inf,
                                           np.asarray(own, dtype=np.float64)))
+        # a kappa judged on few stated frames is trusted only as far as its lower bound
+        n_stated = stated.sum(axis=0)
+        full = np.where(stated, held > 0, False).sum(axis=0) / np.maximum(n_stated, 1)
+        share = np.maximum(full, 1.0 - full)
+        self.trust_low = kappa_lower(self.trust, share, n_stated, z)
+        self.frame_trust_low = kappa_lower(self.frame_trust, share[None, :],
+                                           n_stated[None, :], z)
         n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
         self.role = np.full(n, -1)
         self.role[labels] = roles
@@ -87,19 +129,19 @@ class _NodeReads:
         self.majority = counts.argmax(axis=2)
 
     @classmethod
-    def of(cls, problem: Problem, path: ThresholdPath, labels: np.ndarray, rule: DoubtRule
-           ) -> _NodeReads | None:
+    def of(cls, problem: Problem, path: ThresholdPath, labels: np.ndarray, rule: DoubtRule,
+           z: float = READ_Z) -> _NodeReads | None:
         """None where nothing is read (no sites, no chosen threshold, no transition)."""
         readings = getattr(problem, "readings", None)
         sites = None if readings is None else readings.sites
         if sites is None or path.selected is None or len(problem.act) == 0 or rule.limit == 0:
             return None
-        return cls(sites, np.asarray(labels, dtype=np.int64), np.asarray(problem.roles))
+        return cls(sites, np.asarray(labels, dtype=np.int64), np.asarray(problem.roles), z)
 
 
 def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
-                rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA
-                ) -> tuple[Doubt, ...]:
+                rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA,
+                z: float = READ_Z) -> tuple[Doubt, ...]:
     """Merge doubts that only an untrustworthy reading of the images settles.
 
     Two nodes ``A`` and ``B`` of one role are such a doubt when
@@ -112,7 +154,9 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     * the sites at which most of ``A``'s and most of ``B``'s observations hold different
       things are each read from the images on one side at least (not stated on both), and
       the best of those readings agrees with the stated observations beyond chance by less
-      than ``max_kappa`` (:attr:`~vggc_cp.solvers.base.SiteReads.kappa`; Cohen's kappa).
+      than ``max_kappa`` (:attr:`~vggc_cp.solvers.base.SiteReads.kappa`; Cohen's kappa) --
+      less, that is, than it can be shown to at ``z`` (:func:`kappa_lower`: a kappa judged
+      on a few dozen stated frames is known to within about 0.2).
 
     Then the two might be one state seen through a reading that errs (an arm over the site,
     a shaking camera): only acting at those sites from both nodes settles it. A right graph
@@ -120,7 +164,8 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     stated frames (kappa near 1: two states that differ only where no action of theirs
     acts). Evidence: that of :func:`find_doubts` for the closure's join, plus
     ``read_sites`` (the separating sites' actions), ``read_kappa`` (the best of their
-    kappas) and ``forced``. Ranked by ``read_kappa - max_kappa`` (all negative); at most
+    kappas), ``read_kappa_low`` (the best of their lower bounds, which decided) and
+    ``forced``. Ranked by ``read_kappa_low - max_kappa`` (all negative); at most
     ``rule.limit``.
 
     Parameters
@@ -135,16 +180,19 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     rule : DoubtRule, optional
     max_kappa : float
         The least agreement beyond chance that settles a separation (:data:`READ_KAPPA`).
+    z : float
+        How sure that agreement must be: the normal quantile of the lower bound
+        (:data:`READ_Z`; 0 takes the kappas as they are).
 
     Returns
     -------
     tuple of Doubt
     """
     rule = rule or DoubtRule()
-    nodes = _NodeReads.of(problem, path, labels, rule)
+    nodes = _NodeReads.of(problem, path, labels, rule, z)
     if nodes is None:
         return ()
-    n, role, trust = nodes.n, nodes.role, nodes.trust
+    n, role, trust, low = nodes.n, nodes.role, nodes.trust, nodes.trust_low
     facts, majority = nodes.facts, nodes.majority
     told_any = facts.any(axis=2)
     labels = nodes.labels
@@ -160,7 +208,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         told_both = told_any[v] & told_any[u]
         ok = sep.any(axis=1) & ~(sep & told_both).any(axis=1)
         for w, s in zip(v[ok], sep[ok]):
-            best = float(trust[s].max())
+            best = float(low[s].max())
             if best < max_kappa:
                 candidates.append((best, u, int(w), np.flatnonzero(s)))
     if not candidates:
@@ -181,7 +229,8 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             MERGE, (u, w), np.flatnonzero(labels == u), np.flatnonzero(labels == w), flipped,
             rule.typical, lambda steps, ev, b=best: round(b - max_kappa, 4),
             read_sites=sorted(problem.action_names[int(nodes.action[k])] for k in sep),
-            read_kappa=round(best, 4), forced=sum(len(g) - 1 for g in groups) - 1))
+            read_kappa=round(float(trust[sep].max()), 4), read_kappa_low=round(best, 4),
+            forced=sum(len(g) - 1 for g in groups) - 1))
         if len(found) == rule.limit:
             break
     return tuple(found)
@@ -246,8 +295,8 @@ class _Graph:
 
 
 def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
-                   rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA
-                   ) -> tuple[Doubt, ...]:
+                   rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA,
+                   z: float = READ_Z) -> tuple[Doubt, ...]:
     """Episodes that only an untrustworthy reading of the images puts on their path.
 
     An episode's actions, walked on the learned graph from another node of its first
@@ -266,7 +315,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
       readings agrees with the stated observations beyond chance by less than
       ``max_kappa`` -- each site judged by the reading that set it in those frames
       (:attr:`~vggc_cp.solvers.base.SiteReads.trust`: a run that no pose of the hand reads
-      takes a weaker reading than the site's kappa says, or a guess).
+      takes a weaker reading than the site's kappa says, or a guess), and taken at its
+      lower bound at ``z`` as in :func:`read_doubts`.
 
     The episode's first node ``N`` is then a split doubt: its observations in that
     episode (side ``Q``) might be the other path's first node ``M``, the rest of ``N``
@@ -275,9 +325,9 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     :func:`~vggc_cp.solvers.doubts.find_doubts` for moving the whole episode onto the other
     path, plus ``episode`` (its first and last observation), ``moved_to`` (``M``),
     ``moved_path`` (the other path's nodes, one per observation of the episode),
-    ``read_sites``, ``read_kappa`` as for :func:`read_doubts`. Ranked by ``read_kappa -
-    max_kappa``; the episode with the least trustworthy reading first, one doubt per
-    episode, at most ``rule.limit``.
+    ``read_sites``, ``read_kappa``, ``read_kappa_low`` as for :func:`read_doubts`. Ranked
+    by ``read_kappa_low - max_kappa``; the episode with the least trustworthy reading
+    first, one doubt per episode, at most ``rule.limit``.
 
     Parameters
     ----------
@@ -290,13 +340,15 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     rule : DoubtRule, optional
     max_kappa : float
         The least agreement beyond chance that settles a placement (:data:`READ_KAPPA`).
+    z : float
+        As for :func:`read_doubts`.
 
     Returns
     -------
     tuple of Doubt
     """
     rule = rule or DoubtRule()
-    nodes = _NodeReads.of(problem, path, labels, rule)
+    nodes = _NodeReads.of(problem, path, labels, rule, z)
     if nodes is None:
         return ()
     labels = nodes.labels
@@ -326,10 +378,13 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             # the best reading among the sites that set the episode apart, each as far as
             # the reading that set it in the episode's frames can be trusted
             sep = differ.any(axis=0)
-            frame = np.where(differ, nodes.frame_trust[chain], np.inf)[:, sep]
-            best = float(min(frame.min(axis=0).max(), nodes.trust[sep].max()))
+            best, point = (
+                float(min(np.where(differ, frames[chain], np.inf)[:, sep].min(axis=0).max(),
+                          sites[sep].max()))
+                for frames, sites in ((nodes.frame_trust_low, nodes.trust_low),
+                                      (nodes.frame_trust, nodes.trust)))
             if best < max_kappa and (best_move is None or best < best_move[0]):
-                best_move = (best, int(other), moved, differ.any(axis=0))
+                best_move = (best, int(other), moved, sep, point)
         if best_move is not None:
             candidates.append((best_move[0], int(chain[0]), chain, *best_move[1:]))
     if not candidates:
@@ -338,7 +393,7 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     problem = _dense(problem)
     flips = Flips(problem, path, labels)
     found = []
-    for best, _first, chain, other, moved, sep in candidates[:rule.limit]:
+    for best, _first, chain, other, moved, sep, point in candidates[:rule.limit]:
         u = int(labels[chain[0]])
         mine = chain[labels[chain] == u]
         rest = np.setdiff1d(np.flatnonzero(labels == u), mine)
@@ -350,5 +405,5 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             episode=[int(chain[0]), int(chain[-1])], moved_to=other,
             moved_path=[int(v) for v in moved],
             read_sites=sorted(problem.action_names[int(a)] for a in nodes.action[sep]),
-            read_kappa=round(best, 4)))
+            read_kappa=round(point, 4), read_kappa_low=round(best, 4)))
     return tuple(found)
