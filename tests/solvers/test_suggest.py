@@ -137,3 +137,35 @@ def test_an_episode_a_reading_placed_is_probed_from_its_start():
         held = _legal(bench, state, p.actions)[-1]
         slot = int(p.actions[0].rsplit("_", 1)[1])
         assert held == (state.split("|")[0][slot] != "-")
+
+
+def test_a_node_never_seen_to_act_is_probed_with_its_role_s_actions():
+    """A split doubt of a node whose every observation ends an episode (blocks-2 robot s179:
+    node 7, two episode ends; the suggestions were none, and nothing was recorded): the node
+    is entered as the trace entered it, then probed with the actions of its role, the most
+    taken first; the plan and the entry execute from the true start."""
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    ends = np.array([last for _, last in trace.episodes()])
+    # a fresh node for the last observation of two episodes that end in one state
+    states, counts = np.unique(trace.states[ends], return_counts=True)
+    state = states[np.argmax(counts)]
+    pair = ends[trace.states[ends] == state][:2]
+    assert len(pair) == 2
+    u = int(labels.max()) + 1
+    labels[pair] = u
+    doubt = Doubt(SPLIT, (u,), ((int(pair[0]),), (int(pair[1]),)),
+                  {"only_a": [], "only_b": []})
+    proposals = suggest_episodes(trace.without_states(), labels, [doubt])
+    assert proposals and all(p.probe_node == u for p in proposals)
+    role = int(trace.roles()[pair[0]])
+    kinds = {n: k for n, k in zip(trace.action_names, trace.action_kinds())}
+    taken = np.bincount(trace.actions[trace.actions >= 0], minlength=len(trace.action_names))
+    probes = [p.actions[-1] for p in proposals]
+    assert all(kinds[n] == role for n in probes)
+    assert max(taken[list(trace.action_names).index(n)] for n in probes) == max(
+        taken[k] for k, n in enumerate(trace.action_names) if kinds[n] == role)
+    for p in proposals:      # everything but the probe is what the trace did
+        assert all(_legal(bench, trace.states[p.start_observation], p.actions[:-1])), p
+        assert "no action sets the sides apart" in p.why

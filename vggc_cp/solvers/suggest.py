@@ -30,7 +30,12 @@ proposes episodes a robot can run:
   - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
     a typical observation of one side (the same predecessor node and action, or the same
     episode start), then an action taken from the other side only is tried, and (the
-    confirming probe) one taken from this side only.
+    confirming probe) one taken from this side only. Where no action sets the sides apart,
+    the node's own actions are tried from each side.
+
+A node never seen to act (its observations end episodes) affords nothing the graph knows; it is
+probed with the actions of its role, the ones the trace takes most often first, legal or not
+(blocks-2 robot s179: a split doubt of two episode ends had no probe, and nothing was recorded).
 
 Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
 settle per transition (``1 / len(actions)``), then by the doubt's rank, then by start
@@ -192,7 +197,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                 yield x, (None, y, (), y, name,
                           f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
-        if not only_a and not only_b:
+        if not only_a and not only_b and acts_a:
             # both afford the same actions: repeat them from each (those whose outcomes
             # differ first): more renders of both and of where they lead
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
@@ -201,6 +206,14 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                     yield x, (None, x, (), x, name,
                               f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
+        elif not only_a and not only_b:
+            # neither was seen to act (episodes ended there): what they afford is unknown;
+            # the role's most common actions from each, legal or not, tell
+            for name in _role_actions(graph, trace, a)[:per_doubt]:
+                for x in (a, b):
+                    yield x, (None, x, (), x, name,
+                              f"merge doubt {a}+{b}: no action was taken from either; {name} "
+                              f"from {x}: do they afford alike, and lead to one node?")
         return
     (u,) = doubt.nodes
     sides = [tuple(side) for side in doubt.observations]
@@ -233,14 +246,25 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                     seen.add(trace.action_names[int(trace.actions[o])])
             side_acts.append(seen)
         only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
-    if not only[0] and not only[1]:
-        shared = sorted(_actions_of(graph, u))[:per_doubt]  # the node's actions
-        only = (shared, shared)
+    alike = not only[0] and not only[1]
+    if alike:
+        # the node's actions; where it was never seen to act (episodes ended there), its
+        # role's most common ones, legal or not
+        shared = (sorted(_actions_of(graph, u))
+                  or _role_actions(graph, trace, u))[:per_doubt]
+        only = (shared, [])
     for s in (0, 1):
         entry = _entry(trace, labels, sides[s], start_set)
         if entry is None:
             continue
         start, target, tail, o = entry
+        if alike:
+            for name in only[0]:
+                yield s, (start, target, tail, u, name,
+                          f"split doubt {u}: node {u} entered as the trace entered observation "
+                          f"{o} (one side), then {name}; no action sets the sides apart in the "
+                          f"trace: does it do here what it does from the other side?")
+            continue
         for name in only[s][:per_doubt]:
             yield s, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
@@ -251,6 +275,17 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
+
+
+def _role_actions(graph: TaskGraph, trace, node: int) -> list[str]:
+    """The actions ``node``'s role can take (picks from a node whose hand is empty, places
+    from one that holds something), the ones the trace takes most often first (ties by
+    name): probes for a node never seen to act."""
+    role = graph.node_role.get(node)
+    taken = np.bincount(trace.actions[trace.actions >= 0], minlength=len(trace.action_names))
+    fits = [k for k, n in enumerate(trace.action_names) if action_kind(n) == role]
+    return [trace.action_names[k] for k in sorted(fits, key=lambda k: (-taken[k],
+                                                                       trace.action_names[k]))]
 
 
 def _read_probes(graph: TaskGraph, doubt, node: int) -> list[str]:
