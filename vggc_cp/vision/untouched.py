@@ -41,8 +41,13 @@ too few frames) weighs nothing. Looks of one kind count once per episode that sh
 and the rest of its scene, so their spread says nothing of another episode's, and two nearly
 equal frames of one run would feign a separation of hundreds of spreads (random-2 robot:
 the pose that read region 0 empty under a red apple weighed 10^7, the ones that read it
-full about 2). A run of observations between actions at the site holds one
-thing: it takes the weighted mean of its frames' readings (:func:`pose_readings`,
+full about 2). Two looks of a kind still tell a spread poorly (the variance of two falls
+below a tenth of the true one one time in four: chi-square of one degree of freedom), so no
+pose's looks are taken to vary less than the median over the site's poses says they do, as
+the window floors its standard error (random-782 robot: a pose with four labelled frames,
+two episodes of each kind, weighed 2600 and read a tomato one region off for a whole
+episode; floored, 25). A run of observations between actions at the site holds one thing:
+it takes the weighted mean of its frames' readings (:func:`pose_readings`,
 :func:`run_presence`).
 
 **Which reading.** Where the footprints already describe the site (a scene without an arm),
@@ -215,13 +220,16 @@ def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: n
     strength : ndarray of float64, shape (N,)
         ``d_b^2`` of the observation's pose; 0 where the pose cannot read the site: too few
         labelled looks of a kind, or a separation of its labelled frames short of
-        :data:`READ_ODDS`.
+        :data:`READ_ODDS`. Each pose's variances (of its empty and of its occupied looks)
+        are at least the median over the poses of their pooled variance, in ``d_b`` and in
+        the odds alike.
     """
     on = window > 0
     weight = window[on]
     pixels = x[:, on]                                                    # (N, P, 3)
     reading = np.zeros(len(x))
     strength = np.zeros(len(x))
+    taught = []
     for b, e, o in _groups(labels, pose, empty, episode):
         ref = pixels[e].mean(axis=0)
         dev = lambda idx, ref=ref: np.abs(pixels[idx] - ref).sum(axis=-1) @ weight  # noqa: E731
@@ -233,9 +241,17 @@ def pose_readings(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, window: n
         looks = [dev(o[labels[o] == c]) for c in np.unique(labels[o])
                  if (labels[o] == c).sum() >= MIN_LOOKS] or [dev(o)]
         do = min(looks, key=np.median)
+        taught.append((b, de, do, dev))
+    # a spread told by a few looks may be far too small (two nearly alike frames feign a
+    # separation of thousands of spreads): no pose's looks vary less than the poses'
+    # median says the site's looks vary
+    floor = float(np.median([0.5 * (de.var() + do.var()) for _, de, do, _ in taught])) \
+        if taught else 0.0
+    for b, de, do, dev in taught:
+        var_e, var_o = max(de.var(), floor), max(do.var(), floor)
         lo, hi = np.median(de), np.median(do)
-        spread = np.sqrt(0.5 * (de.var() + do.var()))
-        error = np.sqrt(de.var() / len(de) + do.var() / len(do))
+        spread = np.sqrt(0.5 * (var_e + var_o))
+        error = np.sqrt(var_e / len(de) + var_o / len(do))
         z = (do.mean() - de.mean()) / error if error > 0 else 0.0
         if not hi > lo or spread == 0 or z <= 0 or z * z / 2 < math.log(READ_ODDS):
             continue                   # the arm hides the site, or too few frames to tell
