@@ -66,12 +66,17 @@ def test_a_refused_action_states_what_the_site_holds_only_where_one_value_is_lef
     wrong_role = RecordedFacts(refusals=((0, 1),))
     lab = occ.site_labels(actions, episodes, acting, kinds, colour, wrong_role, refusals=True)
     assert lab[:3].tolist() == [occ.UNLABELLED] * 3
-    # a place at s refused at o1 (a place role): s is taken, and only red acts there
+    # a red place at s refused at o1 (a place role) with a yellow in hand (o0 -2-> o1
+    # lifted it): the hand's colour explains it, nothing ruled out
     taken = RecordedFacts(refusals=((1, 1),))
     lab = occ.site_labels(actions, episodes, acting, kinds, colour, taken, refusals=True)
+    assert lab[:3].tolist() == [occ.UNLABELLED] * 3
+    # with a red in hand: s is taken, and only red acts there
+    red = np.array([0, 0, 0, 0])
+    lab = occ.site_labels(actions, episodes, acting, kinds, red, taken, refusals=True)
     assert lab[:3].tolist() == [0, 0, 0]
     # the caller decides whether refusals count (a site in a stack: they do not)
-    lab = occ.site_labels(actions, episodes, acting, kinds, colour, taken)
+    lab = occ.site_labels(actions, episodes, acting, kinds, red, taken)
     assert lab[:3].tolist() == [occ.UNLABELLED] * 3
     # a refused red pick at o5 leaves empty (episode 3 only), not at a site it does not act at
     lab = occ.site_labels(actions, episodes, acting, kinds, colour,

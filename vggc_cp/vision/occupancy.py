@@ -85,7 +85,8 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     over every reset to episodes without an action at the site
     (:func:`vggc_cp.vision.resets.reset_labels`).
     With ``refusals`` too, a refused action at the site rules out what it needs there (a
-    pick: the class's colour, where no other pick at the site shares it; a place: nothing):
+    pick: the class's colour, where no other pick at the site shares it; a place: nothing,
+    where the hand holds the place's colour -- holding another explains the refusal):
     where one value is left, that is what the site holds. A refusal says that only where the
     site is in no stack (a block on top forbids a pick below it, an empty slot below a place
     above it), which the caller knows.

@@ -4,7 +4,8 @@ A reset (:mod:`vggc_cp.recorded`) says that an episode's first observation shows
 an earlier one. At one site, the episodes that no action acts at hold one thing throughout,
 so a reset makes such episodes hold the same thing, and carries to them what the actions
 state at the other end (:func:`reset_labels`). A refused action rules out what it needs at
-its site; where one value is left, that is what the site holds. Unstated runs of observations
+its site (a place: a free place, where the hand holds its colour); where one value is left,
+that is what the site holds. Unstated runs of observations
 that a reset joins hold one thing too, and are read as one (:func:`joined_runs`).
 
 Groups are the connected components of the reset pairs (as
@@ -18,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from vggc_cp.recorded import RecordedFacts
-from vggc_cp.trace import PICK, roles_of
+from vggc_cp.trace import PICK, hand_colours_along, roles_of
 from vggc_cp.vision.slots import EMPTY, UNLABELLED
 
 
@@ -62,12 +63,17 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         # (two shapes of one colour: the other may be what the site holds)
         picks = np.flatnonzero(is_acting & (kinds == PICK))
         shared = {int(c) for c in colour[picks] if np.sum(colour[picks] == c) > 1}
-        # the hand's reason rules nothing out: a refusal counts in the role it was met in
+        # the hand's reason rules nothing out: a refusal counts in the role it was met in,
+        # and a place only where the hand holds its colour (holding another, the hand is
+        # reason enough: `vggc-cp suggest` probes a red place from a node that may hold a
+        # yellow, multifruit-2x3 robot s175, and the refusal says what the hand holds)
         role = roles_of(actions, kinds)
+        hand = _hands(actions, kinds, colour)
         options: dict[int, set[int]] = {}
         for o, k in facts.refusals:
             if not (is_acting[k] and untouched[episode[o]]) or role[o] != kinds[k] or \
-                    (kinds[k] == PICK and int(colour[k]) in shared):
+                    (kinds[k] == PICK and int(colour[k]) in shared) or \
+                    (kinds[k] != PICK and (colour[k] < 0 or hand[o] != colour[k])):
                 continue
             options.setdefault(int(group[episode[o]]), {EMPTY, *acted}).discard(
                 int(colour[k]) if kinds[k] == PICK else EMPTY)
@@ -79,6 +85,19 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         if len(held) == 1:
             first, last = episodes[e]
             labels[first:last + 1] = next(iter(held))
+
+
+def _hands(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """Colour of what the hand holds at every observation as the actions next to it state
+    it (the pick into it, the place out of it), -1 where they state nothing.
+
+    >>> _hands(np.array([0, 1, -1, 1]), np.array([PICK, 1]), np.array([3, 3])).tolist()
+    [-1, 3, -1, 3, -1]
+    """
+    t = np.flatnonzero(actions >= 0)
+    a = actions[t]
+    return hand_colours_along(len(actions) + 1, t, a, t + 1, kinds[a] == PICK,
+                              kinds[a] != PICK, colour)
 
 
 def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:
