@@ -279,13 +279,16 @@ def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
     assert observation_episodes(problem).tolist() == [0, 0, 1, 2, 2, 2]
 
 
-def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | None = None):
+def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | None = None,
+                       low: float | None = None):
     """States 'A' and 'B' (hand empty) and their held states: 'A' -pick_1-> 'HA' -place_1->
     'A', the same from 'B', then a last episode 'A' -pick_1-> 'HA'. Site 0 (pick_1's) is
     stated full, then empty, alike everywhere; site 1 (pick_2's) holds something in 'A' and
     'HA' only, stated by the actions in the first two episodes and only read in the last
     (agreement ``kappa`` beyond chance), unless ``stated_last``. The images put every state
-    apart. Returns the problem, its merge path and the labels (the true partition)."""
+    apart. With ``low``, the evidence bounds the last episode's reading of site 1 itself
+    (``SiteReads.trust_low``: the poses that read it). Returns the problem, its merge path
+    and the labels (the true partition)."""
     from vggc_cp.solvers.base import Readings, SiteReads
 
     trace = make_trace([["A", "pick_1", "HA", "place_1", "A"],
@@ -300,7 +303,12 @@ def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | N
     if trust is not None:                        # the last episode's run took this reading
         frame_trust = np.where(stated, 1.0, kappa)
         frame_trust[6:, 1] = trust
-    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]), frame_trust)
+    trust_low = None
+    if low is not None:
+        trust_low = np.full(held.shape, np.nan)
+        trust_low[6:, 1] = low
+    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]), frame_trust,
+                      trust_low)
     readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
     roles = trace.roles()
     apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
@@ -345,6 +353,22 @@ def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():
     assert d.evidence["episode"] == [6, 7] and d.evidence["read_kappa"] == 0.0
     problem, path, labels = _episode_on_a_read(0.9, trust=0.9)   # read as well as the site
     assert episode_doubts(problem, path, labels, z=0.0) == ()
+
+
+def test_an_episode_read_by_poses_few_frames_show_is_a_doubt():
+    """Site 1 reads at kappa 0.99, which (at a lenient z) settles the last episode; but the
+    poses that read its run were seen in so few stated frames that the reading is sure of
+    only 0.1 (random-782 robot: one frame of a pose seen in nine stated frames read yellow
+    one region off): the episode's placement rests on them. Without that bound, or with a
+    sure one, it is settled."""
+    z = 0.1
+    assert episode_doubts(*_episode_on_a_read(0.99), z=z) == ()
+    assert episode_doubts(*_episode_on_a_read(0.99, low=0.9), z=z) == ()
+    (d,) = episode_doubts(*_episode_on_a_read(0.99, low=0.1), z=z)
+    assert d.evidence["episode"] == [6, 7] and d.evidence["read_kappa"] == 0.99
+    assert d.evidence["read_kappa_low"] == 0.1
+    # a point estimate (z = 0) takes no bound, the evidence's or its own
+    assert episode_doubts(*_episode_on_a_read(0.99, low=0.1), z=0.0) == ()
 
 
 def test_an_episode_doubt_flags_the_graph_and_names_the_episode():

@@ -166,6 +166,11 @@ def test_the_reading_is_judged_on_episodes_it_did_not_learn_from():
     frames that taught it, it would look better than chance."""
     x, labels, pose, episode, _ = _scene(seed=2, n_episodes=60)
     assert un.held_out_agreement(x, labels, pose, episode, EMPTY, 0.2, 0.5) > 0.97
+    # frame by frame: labelled frames only, the pooled agreement their weighted mean
+    right, weight = un.held_out_frames(x, labels, pose, episode, EMPTY, 0.2, 0.5)
+    assert not weight[labels == -2].any() and weight[pose == 1].max() < weight.max()
+    assert np.isclose(np.average(right, weights=weight),
+                      un.held_out_agreement(x, labels, pose, episode, EMPTY, 0.2, 0.5))
     rng = np.random.default_rng(0)
     noise = labels.copy()
     known = np.flatnonzero(labels >= EMPTY)

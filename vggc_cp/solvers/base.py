@@ -63,6 +63,10 @@ class SiteReads:
         stated, else the kappa of the reading its run took, which is less than the site's
         ``kappa`` where that run fell back to a weaker reading (an arm hid the site in
         every pose of the run). None: the site's ``kappa`` for every observation.
+    trust_low : ndarray of float64, shape (N, S), or None
+        Where the evidence can say it, how far each observation's reading can be trusted
+        for sure (a lower confidence bound, e.g. from the few stated frames of the poses
+        that read it); NaN or None elsewhere.
     """
 
     held: np.ndarray
@@ -70,11 +74,13 @@ class SiteReads:
     kappa: np.ndarray
     action: np.ndarray
     trust: np.ndarray | None = None
+    trust_low: np.ndarray | None = None
 
     def restricted(self, idx: np.ndarray) -> SiteReads:
         """The rows of the observations ``idx``."""
         return SiteReads(self.held[idx], self.stated[idx], self.kappa, self.action,
-                         None if self.trust is None else self.trust[idx])
+                         None if self.trust is None else self.trust[idx],
+                         None if self.trust_low is None else self.trust_low[idx])
 
 
 @dataclass(frozen=True, eq=False)

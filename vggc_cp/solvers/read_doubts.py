@@ -10,7 +10,12 @@ only such readings, below :data:`READ_KAPPA`, tell apart, as merge doubts of
 :mod:`vggc_cp.solvers.doubts`. A kappa is an estimate from the frames whose actions state the
 site -- a few dozen in a small recording -- so it counts only as far as it can be shown to
 (:func:`kappa_lower`, 95 % one-sided): fruit-2x3 robot s170, a site read at kappa 0.65 from 43
-stated frames (at least 0.29) misread a whole episode, and the graph was quiet.
+stated frames (at least 0.29) misread a whole episode, and the graph was quiet. Where a pose
+of the hand read the run, the evidence bounds it by that pose's own stated frames
+(``SiteReads.trust_low``, :func:`vggc_cp.vision.occupancy.pose_bounds`), and the lower of
+the two bounds decides: a pose seen in a few stated frames shows little, however well the
+site's other poses read (random-782 robot: one frame of such a pose read a yellow one region
+off for a whole episode, the site's kappa 0.98).
 
 The same misreading can also put a whole episode on the wrong path of a right-sized graph:
 its untouched sites read as another state's, every node it visits is a node of the graph, and
@@ -28,41 +33,11 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
+from vggc_cp.vision.occupancy import READ_Z, kappa_lower  # noqa: F401  (re-exported)
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
 #: two nodes are two states: below 0.6 is "moderate" agreement at best (Landis and Koch 1977).
 READ_KAPPA = 0.6
-
-#: How sure a reading's agreement must be before it settles anything: the one-sided normal
-#: quantile of the lower confidence bound taken on its kappa (1.645: 95 %).
-READ_Z = 1.645
-
-
-def kappa_lower(kappa, majority, n, z: float = READ_Z):
-    """A lower confidence bound on a reading's kappa, from the number of frames ``n`` it was
-    judged on.
-
-    ``kappa = (p - m) / (1 - m)`` for agreement ``p`` with ``n`` stated frames of which the
-    most common presence takes the share ``m``; the bound is that of ``p`` (Wilson's score
-    interval, one-sided at the normal quantile ``z``) carried through. Infinite and NaN
-    kappas (a site stated everywhere, or never) stay as they are; ``z = 0`` gives ``kappa``.
-
-    >>> round(float(kappa_lower(0.647, 0.72, 43)), 3)
-    0.289
-    >>> float(kappa_lower(np.inf, 0.5, 10))
-    inf
-    """
-    kappa, m, n = (np.asarray(v, dtype=np.float64) for v in (kappa, majority, n))
-    if z <= 0:
-        return kappa
-    finite = np.isfinite(kappa) & (n > 0) & (m < 1.0)
-    m_ = np.where(finite, m, 0.0)
-    p = np.clip(m_ + np.where(finite, kappa, 0.0) * (1.0 - m_), 0.0, 1.0)
-    n_ = np.maximum(n, 1.0)
-    z2 = z * z
-    lo = (p + z2 / (2 * n_) - z * np.sqrt(p * (1 - p) / n_ + z2 / (4 * n_ * n_))) / (1 + z2 / n_)
-    return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
-
 
 def observation_episodes(problem: Problem) -> np.ndarray:
     """The episode of every observation: the chains its transitions link (an observation no
@@ -117,6 +92,13 @@ class _NodeReads:
         self.trust_low = kappa_lower(self.trust, share, n_stated, z)
         self.frame_trust_low = kappa_lower(self.frame_trust, share[None, :],
                                            n_stated[None, :], z)
+        # and where the evidence bounds a reading itself (the poses that read it), no higher
+        told = getattr(sites, "trust_low", None)
+        if told is not None and z > 0:
+            told = np.asarray(told, dtype=np.float64)
+            self.frame_trust_low = np.where(np.isfinite(self.frame_trust) & ~np.isnan(told),
+                                            np.minimum(self.frame_trust_low, told),
+                                            self.frame_trust_low)
         n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
         self.role = np.full(n, -1)
         self.role[labels] = roles

@@ -212,6 +212,10 @@ class Footprints:
         How far the reading that set each observation's presence can be trusted (the
         ``trust`` of :func:`vggc_cp.vision.occupancy.settle`): 1 where the actions state
         it, else the kappa of the reading its run took (0 for a guess).
+    trust_low : ndarray of float64, shape (N, A), or None
+        Where a pose reading set the run, how far it can be trusted for sure, as the poses
+        of its frames show (``trust_low`` of :func:`vggc_cp.vision.occupancy.settle`); NaN
+        elsewhere.
     """
 
     maps: np.ndarray
@@ -226,6 +230,7 @@ class Footprints:
     stated: np.ndarray | None = None
     kappa: np.ndarray | None = None
     trust: np.ndarray | None = None
+    trust_low: np.ndarray | None = None
 
     @property
     def taken(self) -> np.ndarray:
@@ -483,7 +488,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
-    presence, posterior, stated, kappa, trust = settle(
+    presence, posterior, stated, kappa, trust, trust_low = settle(
         trace, presence, posterior, ov, colour, counts, params.site_overlap, x, params.support,
         params.saturation, twin, mates, params.bandwidth, rests=rests)
     # a stated fact rests on which actions act at one slot; where the site's own reading
@@ -492,7 +497,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     stated &= ((seen_p >= 0.5) == full) & (~full | (seen_c == posterior.argmax(axis=-1)))
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
-                      resolution, stated, kappa, trust)
+                      resolution, stated, kappa, trust, trust_low)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
@@ -555,9 +560,10 @@ def site_readings(fp: Footprints) -> np.ndarray:
 
 def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     """What every taken site holds in every observation, stated or read, and how far each
-    site's reading can be trusted: ``(held, stated, kappa, action, trust)`` of shapes (N, S),
-    (N, S), (S,), (S,), (N, S) (the fields of :class:`~vggc_cp.solvers.base.SiteReads`;
-    ``trust`` None without ``fp.trust``); None without ``fp.stated``.
+    site's reading can be trusted: ``(held, stated, kappa, action, trust, trust_low)`` of
+    shapes (N, S), (N, S), (S,), (S,), (N, S), (N, S) (the fields of
+    :class:`~vggc_cp.solvers.base.SiteReads`; ``trust`` None without ``fp.trust``,
+    ``trust_low`` without ``fp.trust_low``); None without ``fp.stated``.
 
     ``held`` is 0 where the site is empty and ``1 + c`` where it holds colour ``c``;
     ``stated`` where the actions state it (``fp.stated``); ``kappa`` is ``fp.kappa``;
@@ -567,7 +573,7 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     ...                 np.ones((2, 2, 1)), np.zeros(2, np.int64), None, np.array([3, 2]),
     ...                 stated=np.array([[True, False], [True, False]]),
     ...                 kappa=np.array([np.nan, 0.3]))
-    >>> held, stated, kappa, action, trust = site_reads(fp)
+    >>> held, stated, kappa, action, trust, trust_low = site_reads(fp)
     >>> held.tolist(), stated.tolist(), kappa.tolist(), trust
     ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3], None)
     """
@@ -577,7 +583,9 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     kappa = (np.full(len(taken), np.nan) if fp.kappa is None
              else np.asarray(fp.kappa, dtype=np.float64)[taken])
     trust = None if fp.trust is None else np.asarray(fp.trust, dtype=np.float64)[:, taken]
-    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust
+    low = (None if fp.trust_low is None
+           else np.asarray(fp.trust_low, dtype=np.float64)[:, taken])
+    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust, low
 
 
 def _held(fp: Footprints) -> np.ndarray:

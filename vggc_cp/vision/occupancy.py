@@ -61,6 +61,7 @@ from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_agreement,
+    held_out_frames,
     placed_starts,
     pose_groups,
     pose_readings,
@@ -72,6 +73,37 @@ from vggc_cp.vision.untouched import (
 
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
+
+
+#: How sure a reading's agreement must be before it settles anything: the one-sided normal
+#: quantile of the lower confidence bound taken on its kappa (1.645: 95 %).
+READ_Z = 1.645
+
+
+def kappa_lower(kappa, majority, n, z: float = READ_Z):
+    """A lower confidence bound on a reading's kappa, from the number of frames ``n`` it was
+    judged on.
+
+    ``kappa = (p - m) / (1 - m)`` for agreement ``p`` with ``n`` stated frames of which the
+    most common presence takes the share ``m``; the bound is that of ``p`` (Wilson's score
+    interval, one-sided at the normal quantile ``z``) carried through. Infinite and NaN
+    kappas (a site stated everywhere, or never) stay as they are; ``z = 0`` gives ``kappa``.
+
+    >>> round(float(kappa_lower(0.647, 0.72, 43)), 3)
+    0.289
+    >>> float(kappa_lower(np.inf, 0.5, 10))
+    inf
+    """
+    kappa, m, n = (np.asarray(v, dtype=np.float64) for v in (kappa, majority, n))
+    if z <= 0:
+        return kappa
+    finite = np.isfinite(kappa) & (n > 0) & (m < 1.0)
+    m_ = np.where(finite, m, 0.0)
+    p = np.clip(m_ + np.where(finite, kappa, 0.0) * (1.0 - m_), 0.0, 1.0)
+    n_ = np.maximum(n, 1.0)
+    z2 = z * z
+    lo = (p + z2 / (2 * n_) - z * np.sqrt(p * (1 - p) / n_ + z2 / (4 * n_ * n_))) / (1 + z2 / n_)
+    return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
 
 
 def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np.ndarray,
@@ -276,8 +308,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
-           bandwidth: float = 0.02, rests: bool = False
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           bandwidth: float = 0.02, rests: bool = False, z: float = READ_Z
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
     Between two actions at one place nothing changes there (module docstring), so:
@@ -365,12 +397,22 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         the actions state it, else the kappa (at least 0) of the reading its run took -- the
         pose reading, the footprint presence, or 0 for the majority guess -- which may be
         less than the site's ``kappa`` where some runs no pose reads.
+    trust_low : ndarray of float64, shape (N, A)
+        Where a pose reading set the run, how far it can be trusted for sure: the mean over
+        the run's frames, weighted by their strength, of the lower confidence bound at ``z``
+        (:func:`kappa_lower`) of the kappa of the frame's pose, judged on that pose's
+        held-out frames alone (:func:`pose_bounds`) -- a pose that few stated frames show
+        reading right counts for little, however well the site's other poses read; NaN
+        elsewhere. (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine
+        stated frames read full took the site's kappa, 0.98, and outweighed the right
+        reading of yellow_2 where the object counts decide.)
     """
     seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
     stated = np.zeros(presence.shape, dtype=bool)
     kappa = np.full(presence.shape[1], np.nan)
     trust = np.zeros(presence.shape)
+    trust_low = np.full(presence.shape, np.nan)
     kinds = trace.action_kinds()
     twin = action_twins(trace, ov, colour) if twin is None else twin
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
@@ -419,6 +461,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         if not len(loose):
             continue
         read = {}
+        bounds: dict[int, float] = {}
         own = agreement(raw, np.ones(len(raw)), labels, EMPTY)
         used = own                                   # agreement of the reading the runs take
         # a footprint presence that agrees with every label cannot be bettered: not read again
@@ -436,6 +479,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
                                                   episode)
                 read = run_presence(reading, strength, run, loose)
+                right, weight = held_out_frames(x, labels, pose, episode, EMPTY, support,
+                                                saturation)
+                bounds = pose_bounds(right, weight, labels, pose, strength, run, loose, z)
                 if n_col > 1:
                     chroma = window_chroma(x, labels, pose, window, EMPTY)
                     shows = (strength > 0) & (reading > 0.5) & np.isfinite(chroma[:, 0])
@@ -457,6 +503,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             fallback = np.median(presence[members, a]) if guess is None else guess
             presence[members, a] = read.get(int(ids[k]), fallback)
             trust[members, a] = read_kappa if int(ids[k]) in read else own_kappa
+            if int(ids[k]) in bounds:
+                trust_low[members, a] = min(bounds[int(ids[k])], read_kappa)
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)
@@ -472,7 +520,50 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     # objects are conserved: the counts decide what the readings leave open
     presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
                                       above)
-    return presence, posterior, stated, kappa, trust
+    return presence, posterior, stated, kappa, trust, trust_low
+
+
+def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose: np.ndarray,
+                strength: np.ndarray, run: np.ndarray, loose: np.ndarray,
+                z: float = READ_Z) -> dict[int, float]:
+    """How far each run a pose reading sets can be trusted for sure (``trust_low`` of
+    :func:`settle`): per pose ``b``, the kappa of its held-out frames' agreement ``p_b``
+    (:func:`~vggc_cp.vision.untouched.held_out_frames`, weighted by strength) against the
+    site's majority share ``m``, ``(p_b - m) / (1 - m)``, carried to its lower bound over the
+    ``n_b`` held-out frames the pose read (:func:`kappa_lower`; 0 where it read none), at
+    least 0; per run of the unlabelled observations ``loose``, the mean of its frames' bounds
+    weighted by their ``strength``.
+
+    >>> labels = np.array([0, 0, -1, -1, -2, -2])
+    >>> right = np.array([True, True, True, True, False, False])
+    >>> weight = np.array([1.0, 1.0, 1.0, 1.0, 0.0, 0.0])
+    >>> pose = np.array([0, 0, 0, 0, 0, 1])
+    >>> b = pose_bounds(right, weight, labels, pose, np.ones(6), np.array([0, 0, 0, 0, 1, 1]),
+    ...                 np.array([4, 5]))
+    >>> round(b[1], 2)      # pose 0 right on its 4 frames: kappa 1, at least 0.19; pose 1: 0
+    0.1
+    """
+    known = labels != UNLABELLED
+    if not known.any():
+        return {}
+    full = float(np.mean(labels[known] >= 0))
+    m = max(full, 1.0 - full)
+    low = {}
+    for b in np.unique(pose[loose]):
+        at = (pose == b) & (weight > 0)
+        n_b = int(at.sum())
+        if n_b == 0 or m >= 1.0:
+            low[int(b)] = 0.0
+            continue
+        p_b = float(np.average(right[at], weights=weight[at]))
+        low[int(b)] = max(float(kappa_lower((p_b - m) / (1.0 - m), m, n_b, z)), 0.0)
+    out = {}
+    for r in np.unique(run[loose]):
+        members = loose[run[loose] == r]
+        w = strength[members]
+        if w.sum() > 0:
+            out[int(r)] = float(np.average([low[int(b)] for b in pose[members]], weights=w))
+    return out
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,

@@ -314,8 +314,8 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
     """:func:`agreement` of the pose reading on labelled frames it did not learn from: the
     episodes with labels are split in two (alternately, in order), each half is read with
     the window and looks the other half teaches, and the two are pooled (0 when nothing can
-    be read). A reading judged on the frames that taught it would flatter itself against
-    the footprint presence.
+    be read; :func:`held_out_frames`). A reading judged on the frames that taught it would
+    flatter itself against the footprint presence.
 
     Parameters
     ----------
@@ -324,12 +324,31 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
     episode : ndarray of int, shape (N,)
         Episode of every observation.
     """
+    right, weight = held_out_frames(x, labels, pose, episode, empty, support, saturation)
+    total = weight.sum()
+    return float((weight * right).sum() / total) if total > 0 else 0.0
+
+
+def held_out_frames(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
+                    episode: np.ndarray, empty: int, support: float, saturation: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Every labelled frame judged by the reading the other half of the episodes teaches
+    (:func:`held_out_agreement`): whether it reads what the label says, and the strength
+    it reads with.
+
+    Returns
+    -------
+    right : ndarray of bool, shape (N,)
+    weight : ndarray of float64, shape (N,)
+        ``strength`` of the held-out reading; 0 where unlabelled or not read.
+    """
     known = (labels == empty) | (labels >= 0)
     # the episodes with labels, alternately in one half and the other
     taught = np.unique(episode[known])
     half_of = np.full(int(episode.max()) + 1 if len(episode) else 0, -1)
     half_of[taught] = np.arange(len(taught)) % 2
-    right = total = 0.0
+    right = np.zeros(len(labels), dtype=bool)
+    weight = np.zeros(len(labels))
     for half in (0, 1):
         judged = half_of[episode] == half
         teach = np.where(judged, empty - 1, labels)      # neither empty nor a colour
@@ -338,10 +357,9 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
             continue
         reading, strength = pose_readings(x, teach, pose, window, empty, saturation, episode)
         held = judged & known
-        w = strength[held]
-        total += w.sum()
-        right += (w * ((reading[held] > 0.5) == (labels[held] >= 0))).sum()
-    return float(right / total) if total > 0 else 0.0
+        right[held] = (reading[held] > 0.5) == (labels[held] >= 0)
+        weight[held] = strength[held]
+    return right, weight
 
 
 def run_presence(reading: np.ndarray, strength: np.ndarray, runs: np.ndarray,
