@@ -60,7 +60,6 @@ from vggc_cp.vision.stacks import slots_above
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.untouched import (
     agreement,
-    held_out_agreement,
     held_out_frames,
     placed_starts,
     pose_groups,
@@ -471,16 +470,18 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                 window = site_window(x, labels, pose, EMPTY, support)
                 if window is None:
                     continue
-                held = held_out_agreement(x, labels, pose, episode, EMPTY, support, saturation)
+                # the held-out agreement (held_out_agreement), frame by frame for the bounds
+                right, weight = held_out_frames(x, labels, pose, episode, EMPTY, support,
+                                                saturation)
+                total = weight.sum()
+                held = float((weight * right).sum() / total) if total > 0 else 0.0
                 if held > (own if best is None else best[0]):
-                    best = (held, pose, window)
+                    best = (held, pose, window, right, weight)
             if best is not None:
-                used, pose, window = best
+                used, pose, window, right, weight = best
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
                                                   episode)
                 read = run_presence(reading, strength, run, loose)
-                right, weight = held_out_frames(x, labels, pose, episode, EMPTY, support,
-                                                saturation)
                 bounds = pose_bounds(right, weight, labels, pose, strength, run, loose, z)
                 if n_col > 1:
                     chroma = window_chroma(x, labels, pose, window, EMPTY)
