@@ -33,7 +33,7 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
-from vggc_cp.vision.occupancy import READ_Z, kappa_lower  # noqa: F401  (re-exported)
+from vggc_cp.vision.occupancy import READ_Z, kappa_lower
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
 #: two nodes are two states: below 0.6 is "moderate" agreement at best (Landis and Koch 1977).
