@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.read_doubts import READ_KAPPA
+from vggc_cp.solvers.read_doubts import bound_decided
 
 #: The share of plans between two observations that may fail before a graph stops being usable:
 #: the robustness study's bar, Exec >= 90 % (:data:`vggc_cp.evaluate.metrics.MIN_EXEC`).
@@ -175,8 +175,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         conf = conf.flagged(
             f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
-            f"actions state it {_agreement(ev)}; record episodes that act there from both nodes (`vggc-cp suggest "
-            f"SOLUTION TRACE -o next.json`)")
+            f"actions state it {_agreement(ev)}; record episodes that act there from both "
+            f"nodes (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
     if moves:
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]
@@ -192,9 +192,10 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"the episode of observations {first}-{last} might be another path of the graph, "
             f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
-            f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between two observations start "
-            f"or end at a misplaced one{also}; record an episode from that episode's start "
-            f"that acts there (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+            f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between "
+            f"two observations start or end at a misplaced one{also}; record an episode from "
+            f"that episode's start that acts there (`vggc-cp suggest SOLUTION TRACE -o "
+            f"next.json`)")
         conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
                 else conf.noted(reason))
     return conf
@@ -213,11 +214,11 @@ def _agreement(evidence: dict) -> str:
     >>> _agreement({"read_kappa": 0.65, "read_kappa_low": 0.33})
     '0.65 beyond chance (kappa), but the stated frames show only 0.33 for sure (95 % lower bound; 0.6 is substantial)'
     """
-    kappa, low = evidence["read_kappa"], evidence.get("read_kappa_low")
-    if low is None or kappa < READ_KAPPA:
+    kappa = evidence["read_kappa"]
+    if not bound_decided(evidence):
         return f"only {kappa:.2f} beyond chance (kappa; 0.6 is substantial)"
-    return (f"{kappa:.2f} beyond chance (kappa), but the stated frames show only {low:.2f} "
-            f"for sure (95 % lower bound; 0.6 is substantial)")
+    return (f"{kappa:.2f} beyond chance (kappa), but the stated frames show only "
+            f"{evidence['read_kappa_low']:.2f} for sure (95 % lower bound; 0.6 is substantial)")
 
 
 #: A node of at most this many observations is one render or two: what keeps it apart from

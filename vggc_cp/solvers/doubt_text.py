@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt  # noqa: F401  (SPLIT: doctests)
-from vggc_cp.solvers.read_doubts import READ_KAPPA
+from vggc_cp.solvers.read_doubts import bound_decided
 
 
 def broken_fact_note(d: Doubt) -> str:
@@ -97,7 +97,6 @@ def _kappa(ev: dict) -> str:
     >>> _kappa({"read_kappa": 0.3, "read_kappa_low": 0.1}), _kappa({"read_kappa": 0.65, "read_kappa_low": 0.33})
     ('0.30', '0.65, >= 0.33')
     """
-    low = ev.get("read_kappa_low")
-    if isinstance(low, (int, float)) and ev["read_kappa"] >= READ_KAPPA:
-        return f"{ev['read_kappa']:.2f}, >= {low:.2f}"
+    if bound_decided(ev):
+        return f"{ev['read_kappa']:.2f}, >= {ev['read_kappa_low']:.2f}"
     return f"{ev['read_kappa']:.2f}"

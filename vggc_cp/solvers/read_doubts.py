@@ -12,7 +12,7 @@ site -- a few dozen in a small recording -- so it counts only as far as it can b
 (:func:`kappa_lower`, 95 % one-sided): fruit-2x3 robot s170, a site read at kappa 0.65 from 43
 stated frames (at least 0.29) misread a whole episode, and the graph was quiet. Where a pose
 of the hand read the run, the evidence bounds it by that pose's own stated frames
-(``SiteReads.trust_low``, :func:`vggc_cp.vision.occupancy.pose_bounds`), and the lower of
+(``SiteReads.trust_low``, :func:`vggc_cp.vision.trust.pose_bounds`), and the lower of
 the two bounds decides: a pose seen in a few stated frames shows little, however well the
 site's other poses read (random-782 robot: one frame of such a pose read a yellow one region
 off for a whole episode, the site's kappa 0.98).
@@ -33,11 +33,24 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
-from vggc_cp.vision.occupancy import READ_Z, kappa_lower
+from vggc_cp.vision.trust import READ_Z, kappa_lower
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
 #: two nodes are two states: below 0.6 is "moderate" agreement at best (Landis and Koch 1977).
 READ_KAPPA = 0.6
+
+def bound_decided(evidence: dict) -> bool:
+    """Whether a read doubt's kappa alone would have settled it, so that its lower bound
+    (``read_kappa_low``) made the doubt: what its message must say.
+
+    >>> bound_decided({"read_kappa": 0.65, "read_kappa_low": 0.33})
+    True
+    >>> bound_decided({"read_kappa": 0.3, "read_kappa_low": 0.1}), bound_decided({"read_kappa": 0.9})
+    (False, False)
+    """
+    return (isinstance(evidence.get("read_kappa_low"), (int, float))
+            and evidence["read_kappa"] >= READ_KAPPA)
+
 
 def observation_episodes(problem: Problem) -> np.ndarray:
     """The episode of every observation: the chains its transitions link (an observation no

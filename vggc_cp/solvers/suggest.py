@@ -197,7 +197,9 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                 yield x, (None, y, (), y, name,
                           f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
-        if not only_a and not only_b and acts_a:
+        if only_a or only_b:
+            return
+        if acts_a:
             # both afford the same actions: repeat them from each (those whose outcomes
             # differ first): more renders of both and of where they lead
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
@@ -206,14 +208,14 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
                     yield x, (None, x, (), x, name,
                               f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
-        elif not only_a and not only_b:
-            # neither was seen to act (episodes ended there): what they afford is unknown;
-            # the role's most common actions from each, legal or not, tell
-            for name in _role_actions(graph, trace, a)[:per_doubt]:
-                for x in (a, b):
-                    yield x, (None, x, (), x, name,
-                              f"merge doubt {a}+{b}: no action was taken from either; {name} "
-                              f"from {x}: do they afford alike, and lead to one node?")
+            return
+        # neither was seen to act (episodes ended there): what they afford is unknown; the
+        # role's most common actions from each, legal or not, tell
+        for name in _role_actions(graph, trace, a)[:per_doubt]:
+            for x in (a, b):
+                yield x, (None, x, (), x, name,
+                          f"merge doubt {a}+{b}: no action was taken from either; {name} "
+                          f"from {x}: do they afford alike, and lead to one node?")
         return
     (u,) = doubt.nodes
     sides = [tuple(side) for side in doubt.observations]
@@ -247,19 +249,17 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             side_acts.append(seen)
         only = (sorted(side_acts[1] - side_acts[0]), sorted(side_acts[0] - side_acts[1]))
     alike = not only[0] and not only[1]
-    if alike:
-        # the node's actions; where it was never seen to act (episodes ended there), its
-        # role's most common ones, legal or not
-        shared = (sorted(_actions_of(graph, u))
-                  or _role_actions(graph, trace, u))[:per_doubt]
-        only = (shared, [])
+    # where no action sets the sides apart: the node's actions, or where it was never seen
+    # to act (episodes ended there), its role's most common ones, legal or not
+    shared = ((sorted(_actions_of(graph, u)) or _role_actions(graph, trace, u))[:per_doubt]
+              if alike else [])
     for s in (0, 1):
         entry = _entry(trace, labels, sides[s], start_set)
         if entry is None:
             continue
         start, target, tail, o = entry
         if alike:
-            for name in only[0]:
+            for name in shared:
                 yield s, (start, target, tail, u, name,
                           f"split doubt {u}: node {u} entered as the trace entered observation "
                           f"{o} (one side), then {name}; no action sets the sides apart in the "

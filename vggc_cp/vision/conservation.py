@@ -21,7 +21,7 @@ colour (the rest empty) that the readings make most likely is what they hold
 
 A reading counts as far as it can be trusted: with settled presence ``p`` of a reading whose
 agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen's kappa,
-:func:`vggc_cp.vision.occupancy.reading_kappa`; 0 for a run no reading reaches), the
+:func:`vggc_cp.vision.trust.reading_kappa`; 0 for a run no reading reaches), the
 probability that the slot holds something is ``m + kappa (p - m)``, and of colour ``c``
 that times the run's colour posterior, with ``m`` what is known of the slot without the
 reading: how often it holds something when an episode starts, as the first frames of the

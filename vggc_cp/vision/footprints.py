@@ -207,7 +207,7 @@ class Footprints:
     kappa : ndarray of float64, shape (A,), or None
         How far the reading of every site's unstated observations can be trusted: its
         agreement with the stated ones beyond chance
-        (:func:`vggc_cp.vision.occupancy.reading_kappa`); NaN where nothing is read.
+        (:func:`vggc_cp.vision.trust.reading_kappa`); NaN where nothing is read.
     trust : ndarray of float64, shape (N, A), or None
         How far the reading that set each observation's presence can be trusted (the
         ``trust`` of :func:`vggc_cp.vision.occupancy.settle`): 1 where the actions state

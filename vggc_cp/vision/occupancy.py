@@ -58,6 +58,7 @@ from vggc_cp.vision.slots import (
 )
 from vggc_cp.vision.stacks import slots_above
 from vggc_cp.vision.support import supported
+from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_frames,
@@ -66,43 +67,13 @@ from vggc_cp.vision.untouched import (
     pose_readings,
     poses,
     run_presence,
+    share_right,
     site_window,
     window_chroma,
 )
 
 #: Nearest looks averaged in ``D_e`` and ``D_o``.
 NEAREST = 3
-
-
-#: How sure a reading's agreement must be before it settles anything: the one-sided normal
-#: quantile of the lower confidence bound taken on its kappa (1.645: 95 %).
-READ_Z = 1.645
-
-
-def kappa_lower(kappa, majority, n, z: float = READ_Z):
-    """A lower confidence bound on a reading's kappa, from the number of frames ``n`` it was
-    judged on.
-
-    ``kappa = (p - m) / (1 - m)`` for agreement ``p`` with ``n`` stated frames of which the
-    most common presence takes the share ``m``; the bound is that of ``p`` (Wilson's score
-    interval, one-sided at the normal quantile ``z``) carried through. Infinite and NaN
-    kappas (a site stated everywhere, or never) stay as they are; ``z = 0`` gives ``kappa``.
-
-    >>> round(float(kappa_lower(0.647, 0.72, 43)), 3)
-    0.289
-    >>> float(kappa_lower(np.inf, 0.5, 10))
-    inf
-    """
-    kappa, m, n = (np.asarray(v, dtype=np.float64) for v in (kappa, majority, n))
-    if z <= 0:
-        return kappa
-    finite = np.isfinite(kappa) & (n > 0) & (m < 1.0)
-    m_ = np.where(finite, m, 0.0)
-    p = np.clip(m_ + np.where(finite, kappa, 0.0) * (1.0 - m_), 0.0, 1.0)
-    n_ = np.maximum(n, 1.0)
-    z2 = z * z
-    lo = (p + z2 / (2 * n_) - z * np.sqrt(p * (1 - p) / n_ + z2 / (4 * n_ * n_))) / (1 + z2 / n_)
-    return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
 
 
 def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np.ndarray,
@@ -385,8 +356,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         settled presence and colour are facts, not readings.
     kappa : ndarray of float64, shape (A,)
         How far the reading that set each site's unstated runs can be trusted
-        (:func:`reading_kappa`): its agreement with the stated frames beyond chance; NaN for
-        a site stated everywhere (nothing read) or never acted at; at most 0 where all its
+        (:func:`~vggc_cp.vision.trust.reading_kappa`): its agreement with the stated frames
+        beyond chance; NaN for a site stated everywhere (nothing read) or never acted at; at most 0 where all its
         stated frames lie in one episode (the footprint presence learns its empty look from
         them, so agreeing with them says nothing of other episodes: a site above another
         stated only with a block below it reads a bare region as full), and its runs are
@@ -399,9 +370,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     trust_low : ndarray of float64, shape (N, A)
         Where a pose reading set the run, how far it can be trusted for sure: the mean over
         the run's frames, weighted by their strength, of the lower confidence bound at ``z``
-        (:func:`kappa_lower`) of the kappa of the frame's pose, judged on that pose's
-        held-out frames alone (:func:`pose_bounds`) -- a pose that few stated frames show
-        reading right counts for little, however well the site's other poses read; NaN
+        (:func:`~vggc_cp.vision.trust.kappa_lower`) of the kappa of the frame's pose, judged
+        on that pose's held-out frames alone (:func:`~vggc_cp.vision.trust.pose_bounds`) -- a
+        pose that few stated frames show reading right counts for little, however well the site's other poses read; NaN
         elsewhere. (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine
         stated frames read full took the site's kappa, 0.98, and outweighed the right
         reading of yellow_2 where the object counts decide.)
@@ -473,8 +444,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                 # the held-out agreement (held_out_agreement), frame by frame for the bounds
                 right, weight = held_out_frames(x, labels, pose, episode, EMPTY, support,
                                                 saturation)
-                total = weight.sum()
-                held = float((weight * right).sum() / total) if total > 0 else 0.0
+                held = share_right(right, weight)
                 if held > (own if best is None else best[0]):
                     best = (held, pose, window, right, weight)
             if best is not None:
@@ -524,49 +494,6 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     return presence, posterior, stated, kappa, trust, trust_low
 
 
-def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose: np.ndarray,
-                strength: np.ndarray, run: np.ndarray, loose: np.ndarray,
-                z: float = READ_Z) -> dict[int, float]:
-    """How far each run a pose reading sets can be trusted for sure (``trust_low`` of
-    :func:`settle`): per pose ``b``, the kappa of its held-out frames' agreement ``p_b``
-    (:func:`~vggc_cp.vision.untouched.held_out_frames`, weighted by strength) against the
-    site's majority share ``m``, ``(p_b - m) / (1 - m)``, carried to its lower bound over the
-    ``n_b`` held-out frames the pose read (:func:`kappa_lower`; 0 where it read none), at
-    least 0; per run of the unlabelled observations ``loose``, the mean of its frames' bounds
-    weighted by their ``strength``.
-
-    >>> labels = np.array([0, 0, -1, -1, -2, -2])
-    >>> right = np.array([True, True, True, True, False, False])
-    >>> weight = np.array([1.0, 1.0, 1.0, 1.0, 0.0, 0.0])
-    >>> pose = np.array([0, 0, 0, 0, 0, 1])
-    >>> b = pose_bounds(right, weight, labels, pose, np.ones(6), np.array([0, 0, 0, 0, 1, 1]),
-    ...                 np.array([4, 5]))
-    >>> round(b[1], 2)      # pose 0 right on its 4 frames: kappa 1, at least 0.19; pose 1: 0
-    0.1
-    """
-    known = labels != UNLABELLED
-    if not known.any():
-        return {}
-    full = float(np.mean(labels[known] >= 0))
-    m = max(full, 1.0 - full)
-    low = {}
-    for b in np.unique(pose[loose]):
-        at = (pose == b) & (weight > 0)
-        n_b = int(at.sum())
-        if n_b == 0 or m >= 1.0:
-            low[int(b)] = 0.0
-            continue
-        p_b = float(np.average(right[at], weights=weight[at]))
-        low[int(b)] = max(float(kappa_lower((p_b - m) / (1.0 - m), m, n_b, z)), 0.0)
-    out = {}
-    for r in np.unique(run[loose]):
-        members = loose[run[loose] == r]
-        w = strength[members]
-        if w.sum() > 0:
-            out[int(r)] = float(np.average([low[int(b)] for b in pose[members]], weights=w))
-    return out
-
-
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
                     episodes: list[tuple[int, int]], kinds: np.ndarray, colour: np.ndarray,
                     presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
@@ -597,34 +524,6 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
         full = new[now[new] >= 0]
         if n_col > 1 and len(full):
             posterior[full, a] = np.eye(n_col)[now[full]]
-
-
-def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
-    """Agreement of a site's reading with its stated frames beyond chance (Cohen's kappa
-    against saying what most stated frames hold).
-
-    ``(p - m) / (1 - m)``, with ``p`` the share of stated frames the reading agrees with
-    (:func:`agreement`, held out for a pose reading) and ``m`` the share of the most common
-    presence among them: 1 for a reading that is always right, 0 for one no better than the
-    majority, negative below it. 0 when the site's unread runs take the majority
-    (``agreement_`` None: no reading) or when every stated frame holds one presence (a
-    reading never seen to tell the two apart); NaN when nothing is stated. A node that only
-    such readings set apart from another (Landis and Koch 1977 call kappa below 0.6
-    moderate agreement at best) is a doubt, :func:`vggc_cp.solvers.read_doubts.read_doubts`.
-
-    >>> round(reading_kappa(0.8, np.array([0, 0, 0, -1, -2])), 3)   # majority 3/4
-    0.2
-    >>> reading_kappa(None, np.array([0, -1]))
-    0.0
-    """
-    known = labels != UNLABELLED
-    if not known.any():
-        return float("nan")
-    full = float(np.mean(labels[known] >= 0))
-    majority = max(full, 1.0 - full)
-    if agreement_ is None or majority >= 1.0:
-        return 0.0
-    return float((agreement_ - majority) / (1.0 - majority))
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,

@@ -19,7 +19,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from vggc_cp.recorded import RecordedFacts
-from vggc_cp.trace import PICK, hand_colours_along, roles_of
+from vggc_cp.trace import PICK, roles_of
+from vggc_cp.vision.conservation import held_colours
 from vggc_cp.vision.slots import EMPTY, UNLABELLED
 
 
@@ -68,7 +69,7 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         # reason enough: `vggc-cp suggest` probes a red place from a node that may hold a
         # yellow, multifruit-2x3 robot s175, and the refusal says what the hand holds)
         role = roles_of(actions, kinds)
-        hand = _hands(actions, kinds, colour)
+        hand = held_colours(actions, kinds, colour)
         options: dict[int, set[int]] = {}
         for o, k in facts.refusals:
             if not (is_acting[k] and untouched[episode[o]]) or role[o] != kinds[k] or \
@@ -85,19 +86,6 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         if len(held) == 1:
             first, last = episodes[e]
             labels[first:last + 1] = next(iter(held))
-
-
-def _hands(actions: np.ndarray, kinds: np.ndarray, colour: np.ndarray) -> np.ndarray:
-    """Colour of what the hand holds at every observation as the actions next to it state
-    it (the pick into it, the place out of it), -1 where they state nothing.
-
-    >>> _hands(np.array([0, 1, -1, 1]), np.array([PICK, 1]), np.array([3, 3])).tolist()
-    [-1, 3, -1, 3, -1]
-    """
-    t = np.flatnonzero(actions >= 0)
-    a = actions[t]
-    return hand_colours_along(len(actions) + 1, t, a, t + 1, kinds[a] == PICK,
-                              kinds[a] != PICK, colour)
 
 
 def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:

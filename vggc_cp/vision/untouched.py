@@ -324,7 +324,15 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
     episode : ndarray of int, shape (N,)
         Episode of every observation.
     """
-    right, weight = held_out_frames(x, labels, pose, episode, empty, support, saturation)
+    return share_right(*held_out_frames(x, labels, pose, episode, empty, support, saturation))
+
+
+def share_right(right: np.ndarray, weight: np.ndarray) -> float:
+    """The ``weight``-weighted share of frames read ``right``; 0 when nothing weighs.
+
+    >>> share_right(np.array([True, False, True]), np.array([1.0, 1.0, 0.0]))
+    0.5
+    """
     total = weight.sum()
     return float((weight * right).sum() / total) if total > 0 else 0.0
 

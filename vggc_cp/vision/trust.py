@@ -1,0 +1,126 @@
+"""How far a site's reading can be trusted (beyond the paper).
+
+Where the actions of an episode do not state what a site holds, the images read it
+(:func:`vggc_cp.vision.occupancy.settle`). Every such reading is judged against the frames
+whose actions do state it: its agreement beyond chance (Cohen's kappa against saying what
+most stated frames hold, :func:`reading_kappa`), and, because a kappa judged on a few dozen
+frames is itself uncertain, the lower confidence bound of that kappa (:func:`kappa_lower`).
+A run that a reading per pose of the hand set is bounded by the stated frames of the poses
+that read it (:func:`pose_bounds`). The doubts (:mod:`vggc_cp.solvers.read_doubts`) decide
+on these bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.vision.slots import UNLABELLED
+from vggc_cp.vision.untouched import share_right
+
+#: How sure a reading's agreement must be before it settles anything: the one-sided normal
+#: quantile of the lower confidence bound taken on its kappa (1.645: 95 %).
+READ_Z = 1.645
+
+
+def kappa_lower(kappa, majority, n, z: float = READ_Z):
+    """A lower confidence bound on a reading's kappa, from the number of frames ``n`` it was
+    judged on.
+
+    ``kappa = (p - m) / (1 - m)`` for agreement ``p`` with ``n`` stated frames of which the
+    most common presence takes the share ``m``; the bound is that of ``p`` (Wilson's score
+    interval, one-sided at the normal quantile ``z``) carried through. Infinite and NaN
+    kappas (a site stated everywhere, or never) stay as they are; ``z = 0`` gives ``kappa``.
+
+    >>> round(float(kappa_lower(0.647, 0.72, 43)), 3)
+    0.289
+    >>> float(kappa_lower(np.inf, 0.5, 10))
+    inf
+    """
+    kappa, m, n = (np.asarray(v, dtype=np.float64) for v in (kappa, majority, n))
+    if z <= 0:
+        return kappa
+    finite = np.isfinite(kappa) & (n > 0) & (m < 1.0)
+    m_ = np.where(finite, m, 0.0)
+    p = np.clip(m_ + np.where(finite, kappa, 0.0) * (1.0 - m_), 0.0, 1.0)
+    n_ = np.maximum(n, 1.0)
+    z2 = z * z
+    lo = (p + z2 / (2 * n_) - z * np.sqrt(p * (1 - p) / n_ + z2 / (4 * n_ * n_))) / (1 + z2 / n_)
+    return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
+
+
+def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
+    """Agreement of a site's reading with its stated frames beyond chance (Cohen's kappa
+    against saying what most stated frames hold).
+
+    ``(p - m) / (1 - m)``, with ``p`` the share of stated frames the reading agrees with
+    (:func:`~vggc_cp.vision.untouched.agreement`, held out for a pose reading) and ``m`` the share of the most common
+    presence among them: 1 for a reading that is always right, 0 for one no better than the
+    majority, negative below it. 0 when the site's unread runs take the majority
+    (``agreement_`` None: no reading) or when every stated frame holds one presence (a
+    reading never seen to tell the two apart); NaN when nothing is stated. A node that only
+    such readings set apart from another (Landis and Koch 1977 call kappa below 0.6
+    moderate agreement at best) is a doubt, :func:`vggc_cp.solvers.read_doubts.read_doubts`.
+
+    >>> round(reading_kappa(0.8, np.array([0, 0, 0, -1, -2])), 3)   # majority 3/4
+    0.2
+    >>> reading_kappa(None, np.array([0, -1]))
+    0.0
+    """
+    majority = majority_share(labels)
+    if majority is None:
+        return float("nan")
+    if agreement_ is None or majority >= 1.0:
+        return 0.0
+    return float((agreement_ - majority) / (1.0 - majority))
+
+
+def majority_share(labels: np.ndarray) -> float | None:
+    """The share of a site's stated frames that hold its most common presence (empty or
+    occupied); None where nothing is stated.
+
+    >>> majority_share(np.array([0, 0, 0, -1, -2])), majority_share(np.array([-2]))
+    (0.75, None)
+    """
+    known = labels != UNLABELLED
+    if not known.any():
+        return None
+    full = float(np.mean(labels[known] >= 0))
+    return max(full, 1.0 - full)
+
+
+def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose: np.ndarray,
+                strength: np.ndarray, run: np.ndarray, loose: np.ndarray,
+                z: float = READ_Z) -> dict[int, float]:
+    """How far each run a pose reading sets can be trusted for sure (``trust_low`` of
+    :func:`~vggc_cp.vision.occupancy.settle`): per pose ``b``, the kappa
+    (:func:`reading_kappa`) of its held-out frames' agreement ``p_b``
+    (:func:`~vggc_cp.vision.untouched.held_out_frames`, weighted by strength), carried to its
+    lower bound over the ``n_b`` held-out frames the pose read (:func:`kappa_lower`; 0 where
+    it read none), at least 0; per run of the unlabelled observations ``loose``, the mean of
+    its frames' bounds weighted by their ``strength``.
+
+    >>> labels = np.array([0, 0, -1, -1, -2, -2])
+    >>> right = np.array([True, True, True, True, False, False])
+    >>> weight = np.array([1.0, 1.0, 1.0, 1.0, 0.0, 0.0])
+    >>> pose = np.array([0, 0, 0, 0, 0, 1])
+    >>> b = pose_bounds(right, weight, labels, pose, np.ones(6), np.array([0, 0, 0, 0, 1, 1]),
+    ...                 np.array([4, 5]))
+    >>> round(b[1], 2)      # pose 0 right on its 4 frames: kappa 1, at least 0.19; pose 1: 0
+    0.1
+    """
+    m = majority_share(labels)
+    if m is None:
+        return {}
+    low = {}
+    for b in np.unique(pose[loose]):
+        at = (pose == b) & (weight > 0)
+        n_b = int(at.sum())
+        low[int(b)] = 0.0 if n_b == 0 else max(float(kappa_lower(
+            reading_kappa(share_right(right[at], weight[at]), labels), m, n_b, z)), 0.0)
+    out = {}
+    for r in np.unique(run[loose]):
+        members = loose[run[loose] == r]
+        w = strength[members]
+        if w.sum() > 0:
+            out[int(r)] = float(np.average([low[int(b)] for b in pose[members]], weights=w))
+    return out
