@@ -8,9 +8,11 @@ import numpy as np
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.colours import (
     action_classes,
+    apart_at_sites,
     colour_classes,
     colour_posteriors,
     fits_colour,
+    pool_sites,
     pooled,
     twin_colours,
     window_colours,
@@ -96,6 +98,36 @@ def test_classes_pooled_by_grey_footprints_are_read_again_in_the_windows():
     # the windows see one colour too: one colour
     same = [red, red + 0.001, np.zeros((0, 2)), np.zeros((0, 2))]
     assert window_colours(one, classes, counts, grey, same, 0.02).tolist() == [0] * 5 + [-1]
+
+
+def test_one_window_on_the_objects_tells_apart_what_windows_on_the_arm_pool():
+    """multifruit-2x3 robot s190 after a suggested round: the windows of two of the three
+    regions lay on the arm and showed red and yellow alike grey; pooled over the sites, the
+    grey made the two classes one colour, and the graph lost its colours (11 nodes for 12).
+    The third region showed red and yellow apart: two colours. A site that shows only one
+    class, or too few looks of one, tells nothing apart."""
+    rng = np.random.default_rng(1)
+
+    def looks(centre, n, spread=0.004):
+        return np.asarray(centre) + spread * rng.standard_normal((n, 2))
+
+    grey = (0.34, 0.3)
+    sites = [{0: looks(grey, 30), 1: looks(grey, 30)},
+             {1: looks(grey, 40)},
+             {0: looks((0.84, 0.08), 8), 1: looks((0.47, 0.4), 8)}]
+    classes, counts = np.array([0, 0, 1, 1]), np.ones(4, dtype=np.int64)
+    one = np.zeros(4, dtype=np.int64)
+    footprint = [looks(grey, 10), looks(grey, 10)]
+    window = pool_sites(sites, 2)
+    # pooled over the sites the grey wins: one colour
+    assert window_colours(one, classes, counts, footprint, window, 0.02).tolist() == [0] * 4
+    apart = apart_at_sites(sites, 0.02)
+    assert apart == {(0, 1)}
+    assert window_colours(one, classes, counts, footprint, window, 0.02,
+                          apart).tolist() == [0, 0, 1, 1]
+    # two looks of a class at the telling site are too few; grey sites tell nothing apart
+    assert apart_at_sites([sites[0], sites[1], {0: sites[2][0], 1: sites[2][1][:2]}],
+                          0.02) == set()
 
 
 def test_an_action_no_place_follows_takes_its_twins_colour():

@@ -11,7 +11,9 @@ kernel density (:mod:`vggc_cp.vision.density`) than under another's (:func:`colo
 The footprints give each class its examples (:func:`class_points`, :func:`action_colours`);
 where they pool classes (on a robot's camera every footprint may read the arm's grey), the
 windows the actions' labels teach read them again and may split what the footprints pooled
-(:func:`window_colours`). A site's colour is the posterior of each colour given the chroma it
+(:func:`window_colours`); two classes that one site's window shows in clearly different
+colours are two, whatever windows lying on the arm show elsewhere (:func:`apart_at_sites`).
+A site's colour is the posterior of each colour given the chroma it
 shows (:func:`colour_posteriors`).
 
 **Actions the sequence does not link.** A pick that ends every episode it is in (the hand
@@ -44,6 +46,9 @@ MAX_EXAMPLES = 2000
 #: Looks of its own an unlinked action's chroma needs to contradict its twin's colour
 #: (:func:`twin_colours`): one look is one draw of the noise, lighting and hand around it.
 MIN_CONTRADICTING = 2
+#: Looks of each of two classes one site needs before it can tell their colours apart
+#: (:func:`apart_at_sites`).
+MIN_SITE_LOOKS = 3
 
 
 def action_classes(trace: Trace) -> np.ndarray:
@@ -299,7 +304,8 @@ def pooled(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray) -> bool:
 
 def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
                    footprint_points: list[np.ndarray], window_points: list[np.ndarray],
-                   bandwidth: float) -> np.ndarray:
+                   bandwidth: float, apart: set[tuple[int, int]] | None = None
+                   ) -> np.ndarray:
     """Colours split again where the footprints pooled task classes, shape (A,).
 
     Pooling says two classes look alike; a footprint that lies on a robot arm says so of
@@ -321,6 +327,11 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     footprint_points, window_points : list of ndarray, shape (n_k, 2)
         Chroma of each task class (indexed by class) in its footprints and in the windows.
     bandwidth : float
+    apart : set of (int, int), optional
+        Pairs of classes one site's window shows in different colours
+        (:func:`apart_at_sites`): they are two colours even where the windows pooled over
+        every site call them one (some windows lie on the arm), the class seen first
+        keeping the colour.
 
     Examples
     --------
@@ -345,6 +356,7 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     first = {k: int(colour[(classes == k) & taken][0]) for k in known}
     seen = dict(zip(readable, colour_classes([window_points[k] for k in readable],
                                              bandwidth).tolist()))
+    seen = _split_apart(seen, apart or set())
     for k in known:
         if k in seen:
             continue
@@ -357,6 +369,32 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     out = np.full(len(colour), -1, dtype=np.int64)
     for k in known:
         out[(classes == k) & taken] = ids.index(key[k])
+    return out
+
+
+def _split_apart(group: dict[int, int], apart: set[tuple[int, int]]) -> dict[int, int]:
+    """``group`` (class -> colour) with every colour that holds a pair of ``apart`` split:
+    each class, in order, joins the first part of its colour that holds no class it is apart
+    from, else starts a part of its own.
+
+    >>> _split_apart({0: 0, 1: 0, 2: 0, 3: 1}, {(0, 2)})
+    {0: 0, 1: 0, 2: 1, 3: 2}
+    """
+    parts: dict[int, list[list[int]]] = {}
+    for k in sorted(group):
+        mine = parts.setdefault(group[k], [])
+        for part in mine:
+            if not any((min(k, j), max(k, j)) in apart for j in part):
+                part.append(k)
+                break
+        else:
+            mine.append([k])
+    out, next_id = {}, 0
+    for g in sorted(parts):
+        for part in parts[g]:
+            for k in part:
+                out[k] = next_id
+            next_id += 1
     return out
 
 
@@ -404,12 +442,22 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     site_overlap, support, saturation : float
         Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.
     """
-    colour = np.where(counts > 0, classes, -1)
     n_cls = int(classes.max()) + 1 if len(classes) else 0
+    return pool_sites(window_site_chroma(trace, x, ov, classes, counts, site_overlap, support,
+                                         saturation), n_cls)
+
+
+def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
+                       counts: np.ndarray, site_overlap: float, support: float,
+                       saturation: float) -> list[dict[int, np.ndarray]]:
+    """The chroma :func:`window_class_chroma` pools, site by site: for every taken action
+    whose site has a window, the chroma (n, 2) of each class its labelled frames show there,
+    keyed by class. Parameters as for :func:`window_class_chroma`."""
+    colour = np.where(counts > 0, classes, -1)
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
     episode = trace.episode_index()
-    found: list[list[np.ndarray]] = [[] for _ in range(n_cls)]
+    sites: list[dict[int, np.ndarray]] = []
     for a in np.flatnonzero(counts > 0):
         labels = site_labels(trace.actions, episodes,
                              acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
@@ -422,12 +470,54 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
         reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
                                           episode)
         seen = (labels >= 0) & np.isfinite(chroma[:, 0]) & (strength > 0) & (reading > 0.5)
-        for k in np.unique(labels[seen]):
-            found[k].append(chroma[seen & (labels == k)])
+        sites.append({int(k): chroma[seen & (labels == k)] for k in np.unique(labels[seen])})
+    return sites
+
+
+def pool_sites(sites: list[dict[int, np.ndarray]], n_cls: int) -> list[np.ndarray]:
+    """Every class's chroma over the sites of :func:`window_site_chroma`, one array (n_k, 2)
+    per class, at most :data:`MAX_EXAMPLES` (evenly spaced).
+
+    >>> pool_sites([{0: np.zeros((2, 2))}, {0: np.ones((1, 2)), 1: np.ones((3, 2))}], 3)[0].shape
+    (3, 2)
+    """
     out = []
-    for parts in found:
+    for k in range(n_cls):
+        parts = [site[k] for site in sites if k in site]
         pts = np.concatenate(parts) if parts else np.zeros((0, 2))
         if len(pts) > MAX_EXAMPLES:
             pts = pts[np.linspace(0, len(pts) - 1, MAX_EXAMPLES).round().astype(int)]
         out.append(pts)
     return out
+
+
+def apart_at_sites(sites: list[dict[int, np.ndarray]], bandwidth: float,
+                   distinct: float = 1.0, min_looks: int = MIN_SITE_LOOKS
+                   ) -> set[tuple[int, int]]:
+    """Pairs of classes ``(k, j)``, ``k < j``, that some site shows in clearly different
+    colours: both with ``min_looks`` looks or more there, and :func:`colour_classes` on those
+    looks alone keeps them apart.
+
+    A window that lies on the arm shows every class as the arm's grey there, and pooled over
+    the sites that grey makes two colours alike; one that lies on the objects shows two
+    classes of one colour alike wherever both are seen. So two classes that one site tells
+    apart are two colours, whatever the other sites show (:func:`window_colours`).
+
+    >>> rng = np.random.default_rng(0)
+    >>> grey = lambda: 0.33 + 0.003 * rng.standard_normal((6, 2))
+    >>> red = [0.8, 0.1] + 0.01 * rng.standard_normal((6, 2))
+    >>> yellow = [0.45, 0.4] + 0.01 * rng.standard_normal((6, 2))
+    >>> sorted(apart_at_sites([{0: grey(), 1: grey()}, {0: red, 1: yellow}], 0.02))
+    [(0, 1)]
+    >>> apart_at_sites([{0: grey(), 1: grey()}, {0: red}], 0.02)
+    set()
+    """
+    apart = set()
+    for site in sites:
+        shown = sorted(k for k, pts in site.items() if len(pts) >= min_looks)
+        for i, k in enumerate(shown):
+            for j in shown[i + 1:]:
+                if (k, j) not in apart and len(np.unique(
+                        colour_classes([site[k], site[j]], bandwidth, distinct))) == 2:
+                    apart.add((k, j))
+    return apart

@@ -102,12 +102,14 @@ from vggc_cp.vision.blobs import heaviest_component
 from vggc_cp.vision.colours import (
     action_classes,
     action_colours,
+    apart_at_sites,
     class_points,
     colour_posteriors,
+    pool_sites,
     pooled,
     trace_twin_colours,
-    window_class_chroma,
     window_colours,
+    window_site_chroma,
 )
 from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.places import trace_slots
@@ -457,11 +459,11 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     colour = action_colours(points, counts, classes, params.bandwidth)
     if pooled(colour, classes, counts):
         # pooled classes may be a footprint on an arm: ask the windows the labels teach
+        sites = window_site_chroma(trace, x, ov, classes, counts, params.site_overlap,
+                                   params.support, params.saturation)
         colour = window_colours(colour, classes, counts, points,
-                                window_class_chroma(trace, x, ov, classes, counts,
-                                                    params.site_overlap, params.support,
-                                                    params.saturation),
-                                params.bandwidth)
+                                pool_sites(sites, len(points)), params.bandwidth,
+                                apart_at_sites(sites, params.bandwidth))
     # an action the sequence links to no other takes its twin's colour, not the pixels' guess
     colour = trace_twin_colours(trace, x, ov, colour, classes, counts, params.site_overlap,
                                 points, params.bandwidth)
