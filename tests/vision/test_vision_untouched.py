@@ -45,6 +45,24 @@ def test_the_window_is_where_the_site_shows_what_it_holds_not_the_arm():
     assert un.site_window(x, np.where(labels >= 0, 0, -2), pose, EMPTY, 0.2) is None
 
 
+def test_the_window_lies_where_acting_at_the_site_changes_the_frames():
+    """multifruit-2x3 robot: with two objects on three regions, what the hand holds goes
+    with what a region holds on the labelled frames, and the object in the gripper, large
+    and bright, differed more than the small object at the site: the window lay on the
+    gripper and read its grey. Within the pixels the site's own actions change, it lies on
+    the site."""
+    x, labels, pose, _, holds = _scene(seed=4)
+    grip = (slice(0, 3), slice(9, 12))                   # far from the site
+    x[holds, grip[0], grip[1]] += np.float32(0.6)        # a held object, tied to the site
+    free = un.site_window(x, labels, pose, EMPTY, support=0.2)
+    assert free is not None and free[grip].sum() > 0.5
+    reach = np.zeros(x.shape[1:3], dtype=bool)
+    reach[6:12, 0:6] = True                              # what acting at the site changes
+    w = un.site_window(x, labels, pose, EMPTY, support=0.2, reach=reach)
+    assert w is not None and w[SITE].sum() > 0.9
+    assert un.site_window(x, labels, pose, EMPTY, 0.2, np.zeros_like(reach)) is None
+
+
 def test_the_window_ignores_edges_a_shaking_camera_moves():
     """A bright marker's edge that a camera shake moves by a pixel in some frames differs
     more between the means of the few occupied and empty frames than a faint object does;

@@ -449,20 +449,23 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
 
 def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
                        counts: np.ndarray, site_overlap: float, support: float,
-                       saturation: float) -> list[dict[int, np.ndarray]]:
+                       saturation: float, maps: np.ndarray | None = None
+                       ) -> list[dict[int, np.ndarray]]:
     """The chroma :func:`window_class_chroma` pools, site by site: for every taken action
     whose site has a window, the chroma (n, 2) of each class its labelled frames show there,
-    keyed by class. Parameters as for :func:`window_class_chroma`."""
+    keyed by class. Parameters as for :func:`window_class_chroma`; with the footprints
+    ``maps`` (A, H, W), a window lies where the actions at its site change the frames (as
+    in :func:`~vggc_cp.vision.occupancy.settle`)."""
     colour = np.where(counts > 0, classes, -1)
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
     episode = trace.episode_index()
     sites: list[dict[int, np.ndarray]] = []
     for a in np.flatnonzero(counts > 0):
-        labels = site_labels(trace.actions, episodes,
-                             acting_at(int(a), ov, colour, twin, site_overlap, mates), kinds,
-                             colour)
-        window = site_window(x, labels, pose, EMPTY, support)
+        acting = acting_at(int(a), ov, colour, twin, site_overlap, mates)
+        labels = site_labels(trace.actions, episodes, acting, kinds, colour)
+        reach = None if maps is None else (maps[acting] > 0).any(axis=0)
+        window = site_window(x, labels, pose, EMPTY, support, reach)
         if window is None:
             continue
         chroma = window_chroma(x, labels, pose, window, EMPTY)

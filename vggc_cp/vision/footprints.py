@@ -460,7 +460,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     if pooled(colour, classes, counts):
         # pooled classes may be a footprint on an arm: ask the windows the labels teach
         sites = window_site_chroma(trace, x, ov, classes, counts, params.site_overlap,
-                                   params.support, params.saturation)
+                                   params.support, params.saturation, maps)
         colour = window_colours(colour, classes, counts, points,
                                 pool_sites(sites, len(points)), params.bandwidth,
                                 apart_at_sites(sites, params.bandwidth))

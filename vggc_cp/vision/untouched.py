@@ -153,7 +153,7 @@ def _groups(labels: np.ndarray, pose: np.ndarray, empty: int,
 
 
 def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
-                support: float) -> np.ndarray | None:
+                support: float, reach: np.ndarray | None = None) -> np.ndarray | None:
     """Where a site shows what it holds (module docstring), shape (H, W), summing to 1.
 
     Parameters
@@ -168,12 +168,20 @@ def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
         The label of an empty site.
     support : float
         Share of the peak subtracted.
+    reach : ndarray of bool, shape (H, W), optional
+        The pixels that acting at the site changes (its actions' footprints): the window
+        lies among them. Elsewhere a pixel can only show what merely goes with what the site
+        holds -- an object in the hand, another region that the count of objects ties to it.
+        The colour windows take it (:func:`~vggc_cp.vision.colours.window_site_chroma`: a
+        window on the gripper reads the arm's grey for every class); the presence readings
+        do not (there the footprint, on a robot's camera mostly the arm, left out pixels that
+        read right: calibration.md, session 34).
 
     Returns
     -------
     ndarray or None
         None when no pose has :data:`MIN_LOOKS` labelled frames of each kind, or nothing
-        differs.
+        differs (within ``reach``).
     """
     acc = np.zeros(x.shape[1:3], dtype=np.float64)
     total = 0.0
@@ -190,6 +198,8 @@ def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
     if total == 0:
         return None
     m = np.maximum(acc / total - np.median(acc / total), 0.0)
+    if reach is not None:
+        m = np.where(reach, m, 0.0)
     m = heaviest_component(np.maximum(m - support * m.max(), 0.0))
     s = m.sum()
     return m / s if s > 0 else None
