@@ -13,7 +13,11 @@ where they pool classes (on a robot's camera every footprint may read the arm's 
 windows the actions' labels teach read them again and may split what the footprints pooled
 (:func:`window_colours`); two classes that one site's window shows in clearly different
 colours are two, whatever windows lying on the arm show elsewhere (:func:`apart_at_sites`).
-A site's colour is the posterior of each colour given the chroma it
+The windows are asked twice: anywhere in the frame, and only where the site's own actions
+change it (a window anywhere may lie on the gripper, whose load goes with what the site
+holds, and read its grey; one within the footprint, on a robot's camera mostly the arm, may
+miss the object), and a pair either shows apart is two colours: an arm makes colours alike,
+never different. A site's colour is the posterior of each colour given the chroma it
 shows (:func:`colour_posteriors`).
 
 **Actions the sequence does not link.** A pick that ends every episode it is in (the hand

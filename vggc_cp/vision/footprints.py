@@ -458,12 +458,17 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     points = class_points(own_chroma, counts, classes, occupied_of)
     colour = action_colours(points, counts, classes, params.bandwidth)
     if pooled(colour, classes, counts):
-        # pooled classes may be a footprint on an arm: ask the windows the labels teach
-        sites = window_site_chroma(trace, x, ov, classes, counts, params.site_overlap,
-                                   params.support, params.saturation, maps)
+        # pooled classes may be a footprint on an arm: ask the windows the labels teach,
+        # anywhere and where the site's own actions change the frames; two classes that
+        # either shows apart at one site are two colours (an arm makes colours alike, never
+        # different)
+        free, near = (window_site_chroma(trace, x, ov, classes, counts, params.site_overlap,
+                                         params.support, params.saturation, reach)
+                      for reach in (None, maps))
         colour = window_colours(colour, classes, counts, points,
-                                pool_sites(sites, len(points)), params.bandwidth,
-                                apart_at_sites(sites, params.bandwidth))
+                                pool_sites(free, len(points)), params.bandwidth,
+                                apart_at_sites(free, params.bandwidth)
+                                | apart_at_sites(near, params.bandwidth))
     # an action the sequence links to no other takes its twin's colour, not the pixels' guess
     colour = trace_twin_colours(trace, x, ov, colour, classes, counts, params.site_overlap,
                                 points, params.bandwidth)

@@ -172,10 +172,11 @@ def site_window(x: np.ndarray, labels: np.ndarray, pose: np.ndarray, empty: int,
         The pixels that acting at the site changes (its actions' footprints): the window
         lies among them. Elsewhere a pixel can only show what merely goes with what the site
         holds -- an object in the hand, another region that the count of objects ties to it.
-        The colour windows take it (:func:`~vggc_cp.vision.colours.window_site_chroma`: a
-        window on the gripper reads the arm's grey for every class); the presence readings
-        do not (there the footprint, on a robot's camera mostly the arm, left out pixels that
-        read right: calibration.md, session 34).
+        The colour windows are read with it and without it
+        (:func:`~vggc_cp.vision.colours.window_site_chroma`: a window on the gripper reads
+        the arm's grey for every class); the presence readings without it (there the
+        footprint, on a robot's camera mostly the arm, left out pixels that read right:
+        calibration.md, session 34).
 
     Returns
     -------
