@@ -45,7 +45,7 @@ from vggc_cp.vision.places import after_distances, trace_slots
 from vggc_cp.vision.slots import EMPTY, acting_at, action_episodes, alternations
 from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
 
-#: Most chroma examples a class keeps in :func:`window_class_chroma` (evenly spaced).
+#: Most chroma examples a class keeps in :func:`pool_sites` (evenly spaced).
 MAX_EXAMPLES = 2000
 #: Looks of its own an unlinked action's chroma needs to contradict its twin's colour
 #: (:func:`twin_colours`): one look is one draw of the noise, lighting and hand around it.
@@ -315,7 +315,7 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     Pooling says two classes look alike; a footprint that lies on a robot arm says so of
     every class (it reads the arm's grey). The classes are pooled again
     (:func:`colour_classes`) on the chroma their labels show in the sites' windows
-    (``window_points``, :func:`window_class_chroma`), and two
+    (``window_points``, :func:`pool_sites` of :func:`window_site_chroma`), and two
     classes keep one colour only where both readings pool them: the windows split what the
     footprints pooled, never pool what the footprints tell apart. A class with fewer than
     two window examples cannot be read there: it follows the readable class of its
@@ -417,11 +417,13 @@ def colour_posteriors(chroma: np.ndarray, examples: list[np.ndarray], bandwidth:
         n, n_act, len(examples))
 
 
-def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
-                        counts: np.ndarray, site_overlap: float, support: float,
-                        saturation: float) -> list[np.ndarray]:
-    """Chroma of every task class where the actions' labels show it, one array (n_k, 2) per
-    class (``n_k = 0`` where no site shows the class).
+def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
+                       counts: np.ndarray, site_overlap: float, support: float,
+                       saturation: float, maps: np.ndarray | None = None
+                       ) -> list[dict[int, np.ndarray]]:
+    """Chroma of the task classes where the actions' labels show them, site by site: for
+    every taken action whose site has a window, the chroma (n, 2) of each class its labelled
+    frames show there, keyed by class (:func:`pool_sites` pools them per class).
 
     Every taken action's site is labelled with the classes as its colours
     (:func:`~vggc_cp.vision.occupancy.site_labels`); the frames they label teach the site's
@@ -430,8 +432,7 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     (:func:`~vggc_cp.vision.untouched.window_chroma`), where its pose shows the site at
     :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
     (:func:`~vggc_cp.vision.untouched.pose_readings`). A footprint on a robot arm reads the
-    arm's grey for every class; the window lies where the objects differ. At most
-    :data:`MAX_EXAMPLES` per class, evenly spaced.
+    arm's grey for every class; the window lies where the objects differ.
 
     Parameters
     ----------
@@ -445,21 +446,11 @@ def window_class_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np
     counts : ndarray, shape (A,)
     site_overlap, support, saturation : float
         Of :class:`~vggc_cp.vision.footprints.FootprintConfig`.
+    maps : ndarray, shape (A, H, W), optional
+        The actions' footprints: each window then lies where the actions acting at its site
+        change the frames (``reach`` of :func:`~vggc_cp.vision.untouched.site_window`);
+        without them, anywhere.
     """
-    n_cls = int(classes.max()) + 1 if len(classes) else 0
-    return pool_sites(window_site_chroma(trace, x, ov, classes, counts, site_overlap, support,
-                                         saturation), n_cls)
-
-
-def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.ndarray,
-                       counts: np.ndarray, site_overlap: float, support: float,
-                       saturation: float, maps: np.ndarray | None = None
-                       ) -> list[dict[int, np.ndarray]]:
-    """The chroma :func:`window_class_chroma` pools, site by site: for every taken action
-    whose site has a window, the chroma (n, 2) of each class its labelled frames show there,
-    keyed by class. Parameters as for :func:`window_class_chroma`; with the footprints
-    ``maps`` (A, H, W), a window lies where the actions at its site change the frames (as
-    in :func:`~vggc_cp.vision.occupancy.settle`)."""
     colour = np.where(counts > 0, classes, -1)
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
     kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
