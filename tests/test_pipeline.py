@@ -262,19 +262,24 @@ def test_the_runner_ups_differences_are_listed_each_side_one_state():
 
 def test_nodes_an_arm_hidden_reading_splits_are_warned_and_a_right_graph_is_not():
     """A robot camera (an arm resting above the place it last acted on, shake, drift).
-    multifruit-2x3, 95 transitions, seed 10 (seed 4 until session 29, whose steadier frames
-    read it right): the footprints read regions 0 and 2 poorly (kappa well under 0.6) and
-    split its states (21 nodes for 12); the read doubts name those regions' sites, first
-    among the doubts. fruit-2x3, 50 transitions, seed 34: the true graph, quiet (seed
+    multifruit-2x3, 95 transitions, seed 4 (seed 10 until session 34, whose colour windows
+    read its red and yellow apart: 11 nodes for the 11 states it visits, right; seed 4 until
+    session 29): regions 0 and 2 are read with a kappa the few stated frames bound only at
+    0.20 (95 % lower bound, under 0.6), and observations land in the wrong nodes (one node
+    holds `y--|r` and `--y|r`); the read doubts (episode doubts) name those regions' sites,
+    first among the doubts. fruit-2x3, 50 transitions, seed 34: the true graph, quiet (seed
     33 until session 27, whose frame gains leave an episode doubt there). (Until
     session 20 the split was fruit-2x3 seed 37, and seed 35 before session 19: both read
     right now, as are 26 of fruit-2x3's seeds 30-59, against 17 before objects were
     conserved.)"""
     from vggc_cp.sim.explore import generate
 
-    split = generate("multifruit-2x3", 95, 10, look="robot").trace
+    split = generate("multifruit-2x3", 95, 4, look="robot").trace
     learned = learn_graph(split.without_states())
-    assert learned.graph.n_nodes > 12                   # the 12 true states, split (21)
+    states = np.array([str(s) for s in split.states])
+    labels = np.asarray(learned.labels)
+    # a node that holds two true states: the reading put observations where they are not
+    assert any(len(set(states[labels == n])) > 1 for n in np.unique(labels))
     assert learned.confidence.suspect
     read = [d for d in learned.doubts if "read_kappa" in d.evidence]
     assert read and read == list(learned.doubts[:len(read)])
