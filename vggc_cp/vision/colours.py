@@ -376,6 +376,42 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     return out
 
 
+def colours_in_windows(trace: Trace, x: np.ndarray, ov: np.ndarray, maps: np.ndarray,
+                       colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
+                       points: list[np.ndarray], site_overlap: float, support: float,
+                       saturation: float, bandwidth: float) -> np.ndarray:
+    """The actions' colours (:func:`action_colours`), read again in the windows the labels
+    teach where the footprints pooled task classes (:func:`pooled`), shape (A,); ``colour``
+    itself where they pooled none.
+
+    The windows are asked twice (:func:`window_site_chroma`): anywhere in the frame, and
+    only where the site's own actions change it (``maps``, the actions' footprints). The
+    classes are pooled again on the chroma the free windows show (:func:`window_colours`),
+    and two classes that either reading shows apart at one site (:func:`apart_at_sites`)
+    are two colours: an arm makes colours alike, never different.
+
+    Parameters
+    ----------
+    trace, x, ov, classes, counts, site_overlap, support, saturation
+        As for :func:`window_site_chroma`.
+    maps : ndarray, shape (A, H, W)
+        The actions' footprints.
+    colour : ndarray of int, shape (A,)
+        :func:`action_colours`.
+    points : list of ndarray, shape (n_k, 2)
+        The footprints' chroma of each task class (:func:`class_points`).
+    bandwidth : float
+        Width of the colour kernel.
+    """
+    if not pooled(colour, classes, counts):
+        return colour
+    free, near = (window_site_chroma(trace, x, ov, classes, counts, site_overlap, support,
+                                     saturation, reach) for reach in (None, maps))
+    return window_colours(colour, classes, counts, points, pool_sites(free, len(points)),
+                          bandwidth, apart_at_sites(free, bandwidth)
+                          | apart_at_sites(near, bandwidth))
+
+
 def _split_apart(group: dict[int, int], apart: set[tuple[int, int]]) -> dict[int, int]:
     """``group`` (class -> colour) with every colour that holds a pair of ``apart`` split:
     each class, in order, joins the first part of its colour that holds no class it is apart

@@ -102,14 +102,10 @@ from vggc_cp.vision.blobs import heaviest_component
 from vggc_cp.vision.colours import (
     action_classes,
     action_colours,
-    apart_at_sites,
     class_points,
     colour_posteriors,
-    pool_sites,
-    pooled,
+    colours_in_windows,
     trace_twin_colours,
-    window_colours,
-    window_site_chroma,
 )
 from vggc_cp.vision.occupancy import refine_presence, settle
 from vggc_cp.vision.places import trace_slots
@@ -457,18 +453,10 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     classes = action_classes(trace)
     points = class_points(own_chroma, counts, classes, occupied_of)
     colour = action_colours(points, counts, classes, params.bandwidth)
-    if pooled(colour, classes, counts):
-        # pooled classes may be a footprint on an arm: ask the windows the labels teach,
-        # anywhere and where the site's own actions change the frames; two classes that
-        # either shows apart at one site are two colours (an arm makes colours alike, never
-        # different)
-        free, near = (window_site_chroma(trace, x, ov, classes, counts, params.site_overlap,
-                                         params.support, params.saturation, reach)
-                      for reach in (None, maps))
-        colour = window_colours(colour, classes, counts, points,
-                                pool_sites(free, len(points)), params.bandwidth,
-                                apart_at_sites(free, params.bandwidth)
-                                | apart_at_sites(near, params.bandwidth))
+    # pooled classes may be a footprint on an arm: the windows the labels teach read them again
+    colour = colours_in_windows(trace, x, ov, maps, colour, classes, counts, points,
+                                params.site_overlap, params.support, params.saturation,
+                                params.bandwidth)
     # an action the sequence links to no other takes its twin's colour, not the pixels' guess
     colour = trace_twin_colours(trace, x, ov, colour, classes, counts, params.site_overlap,
                                 points, params.bandwidth)
