@@ -494,7 +494,8 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     """Description length of every graph of ``path`` and the :class:`Confidence` of the
     selected one (its chance of change from re-runs of the merge, and the margin, plateau and
     held-out prediction beside it)."""
-    dls = tuple(description_length(problem, r.labels) for r in path.results)
+    dls = tuple(description_length(problem, path.merged_labels(i))
+                for i in range(len(path.results)))
     k = path.selected
     best = path.results[k]
     other = runner_up(path, dls)

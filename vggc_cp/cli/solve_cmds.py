@@ -400,7 +400,7 @@ def _solve_merge(args) -> int:
     counts = graph.count_by_role()
     print(f"chosen         threshold {learned.threshold:.4f} ({path.rule}): {graph.n_nodes} "
           f"nodes ({counts['pick']} pick, {counts['place']} place), {graph.n_edges} edges, "
-          f"J {best.J:.4f}, {best.status}")
+          f"J {best.J:.4f}, {best.status}{_cuts(best)}")
     print(f"wrote          {args.output}")
     files = f"{args.output} {args.trace}"  # the commands the reasons and notes suggest
     print(f"confidence     {conf.summary().replace('SOLUTION TRACE', files)}")
@@ -410,6 +410,12 @@ def _solve_merge(args) -> int:
         print(f"vggc-cp: warning: the learned graph is suspect ({reasons}); the doubts above "
               f"say which decisions", file=sys.stderr)
     return 0
+
+
+def _cuts(best) -> str:
+    """``"; N node(s) cut by the sites' readings"`` where the merge's graph was cut."""
+    cuts = int((best.stats or {}).get("read_splits", 0))
+    return f"; {cuts} node(s) cut where the sites' readings show two states" if cuts else ""
 
 
 def _print_doubts(doubts) -> None:

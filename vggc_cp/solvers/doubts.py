@@ -21,6 +21,10 @@ observations are one state. Two kinds of decision can be close calls:
   lowest threshold (the noise scale, or a hundredth of the top distances) differ by
   rendering noise only and make no doubt.
 
+A join that the read cuts (:mod:`vggc_cp.solvers.read_splits`) would part again -- the
+combined readings of its node show two states, and cutting keeps the graph deterministic and
+its code shorter -- is no graph the method learns, and is no merge doubt.
+
 Evidence each way (a :class:`Doubt`'s ``evidence``; the two sides are ``A``/``B`` or
 ``P``/``Q``):
 
@@ -88,6 +92,7 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath, noise_scale
+from vggc_cp.solvers.read_splits import combined_readings, split_by_readings
 
 MERGE = "merge"
 SPLIT = "split"
@@ -309,6 +314,7 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         iu, ju = np.nonzero(np.triu(link <= limit_d, 1))
         pairs |= {(us[a], us[b]) for a, b in zip(iu.tolist(), ju.tolist())}
     closure = PartitionClosure(problem, labels) if pairs else None
+    rows = combined_readings(problem) if pairs else None
     # the closest pairs first, at most max_pairs of them (a bound on the work)
     ranked = sorted((sides.link(members[a], members[b]), a, b) for a, b in pairs)
     for dist_ab, a, b in ranked[:rule.max_pairs]:
@@ -329,6 +335,9 @@ def find_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                         need = max(need, sides.link(members[g[x]], members[g[y]]))
                 for u in g[1:]:
                     merged[members[u]] = g[0]
+        if rows is not None and split_by_readings(problem, merged, rows,
+                                                  (merged[members[a][0]],))[1]:
+            continue  # the read cuts would part the join again: no graph the method learns
         spread = max(sides.spread(members[a]), sides.spread(members[b]))
         ev = _evidence(dist_ab, t_star, spread, max(noise, 1e-3 * t_star), steps_of(need),
                        (description_length(problem, merged) - dl0) / n_trans,

@@ -67,7 +67,9 @@ from vggc_cp.solvers.merge import (
     ThresholdPath,
     _Clusters,
     _try_merge,
+    cut_path,
     get_selection,
+    with_read_splits,
     within,
 )
 from vggc_cp.solvers.selection import PATH
@@ -731,7 +733,8 @@ def _result(problem: CodedProblem, threshold: float, labels: np.ndarray, stats: 
 def coded_merge(problem: CodedProblem, threshold: float, max_work: int = 2_000
                 ) -> tuple[np.ndarray, MergeStats]:
     """:func:`vggc_cp.solvers.merge.congruence_merge` on a :class:`CodedProblem`."""
-    return _Pass(problem, float(threshold), max_work).advance(float(threshold))
+    return with_read_splits(problem,
+                            *_Pass(problem, float(threshold), max_work).advance(float(threshold)))
 
 
 def coded_threshold_path(problem: CodedProblem, thresholds: Sequence[float],
@@ -752,6 +755,4 @@ def coded_threshold_path(problem: CodedProblem, thresholds: Sequence[float],
         t1 = time.perf_counter()
         labels, stats = run.advance(float(t))
         results.append(_result(problem, float(t), labels, stats, time.perf_counter() - t1))
-    results = tuple(results)
-    return ThresholdPath(tuple(float(t) for t in ts), results, fn(results, problem), rule,
-                         time.perf_counter() - t0)
+    return cut_path(problem, ts, results, fn, rule, t0)

@@ -1,0 +1,253 @@
+"""Read splits: a node the sites' readings show to hold two states, split where the code is
+shorter and the graph stays deterministic.
+
+The merge (:mod:`vggc_cp.solvers.merge`) joins observations whose footprint distance lies
+under one threshold for the whole trace. Two states seen once or twice each that differ at
+one or two places of many lie closer than that threshold, and unless an action contradicts it
+they become one node (multifruit-4x6 clean: two renders of ``---yyr|r`` and ``--yy-r|r``,
+one each, in one node; AnyPath and OptPath fall below 100 %). What each site holds says
+they differ, but in no one code: the description length codes what the actions *state*
+(:mod:`vggc_cp.solvers.mdl`), the tie-break what the trusted readings *read* where the
+actions do not state it, and here each render is stated where the other is read.
+
+The **combined reading** of a site in an observation is what the actions state it holds
+there, or what the images read where the site's reading is trusted
+(:data:`~vggc_cp.solvers.mdl.TRUSTED_KAPPA`, per observation where the evidence gives it:
+:attr:`~vggc_cp.solvers.base.SiteReads.trust`), and nothing elsewhere; sites read alike in
+every observation are one. A node whose observations hold two symbols at a site is a
+candidate; for each such site it is cut into the observations holding the site's most
+common symbol and those holding another, an observation with nothing there going to the
+side its other sites agree with more. A cut is made when
+
+* the graph stays deterministic: every (node, action) that leads into the node leads into
+  one side only, and every (node, action) that leaves it is left from one side only (so
+  bipartiteness, Exactly-One and the hands' colours hold as before: a split only removes
+  edges between a pair of nodes), and
+* the node's code is shorter as two (two-part MDL, as :func:`~vggc_cp.solvers.mdl.
+  description_length` and :func:`~vggc_cp.solvers.mdl.reading_length` code it): the
+  actions taken from its observations, ``- sum_a n(a) log(n(a) / n) + 1/2 log|D|`` per
+  distinct action, plus per site its combined readings, ``- sum_x n(x) log(n(x) / n)``,
+  ``log K_s`` for stating the node's symbol and ``1/2 log N`` per extra symbol. Both codes
+  are sums over nodes, so the cut changes only the node's own term.
+
+Of a node's cuts the shortest is made, and each side is examined again. The cut needs no
+threshold of its own: a node of two states read apart at several sites pays their entropy
+there once joined; a node whose frames one run of misread frames sets apart pays a node's
+statement at every site once split, and keeps together where the misreading is brief. Where
+a state's own frames are read differently in whole runs (a slot covered by another object,
+read through it in some runs), the cut would split a true state: determinism refuses it
+wherever one (node, action) reaches both sides, as it does for a state reached often.
+
+Everything here reads the problem (transitions, readings) and the partition, never
+ground-truth states. :func:`split_by_readings` cuts the merge's graph at every threshold of
+the path (:func:`vggc_cp.solvers.merge.cut_path`) and in every re-run of the confidence
+(:func:`vggc_cp.solvers.merge.with_read_splits`), so the plateau, the re-runs and the
+doubts compare one kind of graph; a merge doubt whose join the cuts would part again is no
+graph the method learns and is not listed (:func:`vggc_cp.solvers.doubts.find_doubts`). The
+threshold itself is chosen on the merges' own graphs: chosen on the cut ones, the description
+length moved to coarser thresholds whose remaining merges nothing states apart
+(multifruit-4x6 robot s1: 50 nodes for 60, against 58 on the merges and 59 once cut).
+
+References
+----------
+J. Rissanen, *Modeling by shortest data description*, Automatica 14, 1978.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vggc_cp.solvers.mdl import TRUSTED_KAPPA
+
+
+def combined_readings(problem, min_trust: float = TRUSTED_KAPPA) -> np.ndarray | None:
+    """What every site holds in every observation as the actions state it or a trusted
+    reading reads it (module docstring): int64 shape (N, S'), 0 nothing, 1 empty, ``2 + c``
+    colour ``c``; sites alike in every observation kept once. None without site reads or
+    where no site says anything.
+
+    >>> from vggc_cp.solvers.base import Readings, SiteReads
+    >>> sites = SiteReads(held=np.array([[0, 0, 2], [1, 1, 2], [1, 1, 0]]),
+    ...                   stated=np.array([[True, True, False], [False, False, False],
+    ...                                    [False, False, False]]),
+    ...                   kappa=np.array([0.95, 0.95, 0.5]), action=np.arange(3))
+    >>> class P:
+    ...     readings = Readings.from_rows(np.zeros((3, 1)), sites)
+    >>> combined_readings(P()).tolist()    # sites 0 and 1 alike; site 2 stated nowhere, untrusted
+    [[1], [2], [2]]
+    """
+    readings = getattr(problem, "readings", None)
+    sites = None if readings is None else readings.sites
+    if sites is None:
+        return None
+    held = np.asarray(sites.held, dtype=np.int64)
+    trust = (np.broadcast_to(np.asarray(sites.kappa, dtype=np.float64), held.shape)
+             if sites.trust is None else np.asarray(sites.trust, dtype=np.float64))
+    known = np.asarray(sites.stated, dtype=bool) | (np.nan_to_num(trust, nan=-1.0) >= min_trust)
+    rows = np.where(known, 1 + held, 0)
+    rows = rows[:, rows.any(axis=0)]
+    if rows.shape[1] == 0:
+        return None
+    return np.unique(rows, axis=1)
+
+
+class _Code:
+    """Code lengths of nodes (module docstring) for one problem and its combined readings."""
+
+    def __init__(self, problem, rows: np.ndarray):
+        n = len(rows)
+        self.rows = rows
+        self.width = int(rows.max()) + 1
+        self.log_k = np.log(np.array([max(len(np.unique(c[c > 0])), 1) for c in rows.T],
+                                     dtype=np.float64))
+        act = np.asarray(problem.act, dtype=np.int64)
+        self.act_of = np.full(n, -1, dtype=np.int64)
+        self.act_of[np.asarray(problem.src, dtype=np.int64)] = act
+        self.half_log_d = 0.5 * np.log(max(len(act), 1))
+        self.half_log_n = 0.5 * np.log(max(n, 1))
+
+    def length(self, obs: np.ndarray) -> float:
+        """Nats to code the actions taken from, and the combined readings of, one node
+        holding the observations ``obs``."""
+        acts = self.act_of[obs]
+        counts = np.bincount(acts[acts >= 0])
+        counts = counts[counts > 0]
+        out = 0.0
+        if len(counts):
+            out += (-float(np.sum(counts * np.log(counts / counts.sum())))
+                    + self.half_log_d * len(counts))
+        sub = self.rows[obs]
+        per = np.stack([(sub == x).sum(axis=0) for x in range(1, self.width)], axis=1)
+        total = per.sum(axis=1)
+        seen = total > 0
+        if not seen.any():
+            return out
+        per, total = per[seen].astype(np.float64), total[seen].astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ent = np.where(per > 0, per * np.log(per / total[:, None]), 0.0)
+        symbols = (per > 0).sum(axis=1)
+        return (out - float(ent.sum()) + float(self.log_k[seen].sum())
+                + self.half_log_n * float(np.sum(symbols - 1)))
+
+
+def _cuts(sub: np.ndarray):
+    """The node's candidate cuts: per site holding two symbols, 0 for the observations of
+    its most common symbol, 1 for those of another, an observation with nothing there on
+    the side whose observations its known sites agree with more (ties: side 0). Distinct
+    cuts only."""
+    seen = set()
+    for s in range(sub.shape[1]):
+        col = sub[:, s]
+        values, counts = np.unique(col[col > 0], return_counts=True)
+        if len(values) < 2:
+            continue
+        side = np.where(col == values[np.argmax(counts)], 0, np.where(col > 0, 1, -1))
+        for i in np.flatnonzero(side < 0):
+            row, known = sub[i], sub[i] > 0
+            score = []
+            for k in (0, 1):
+                other = sub[side == k]
+                both = known & (other > 0)
+                score.append(float(np.mean((both & (other == row)).sum(axis=1)
+                                           - (both & (other != row)).sum(axis=1))))
+            side[i] = int(score[1] > score[0])
+        key = side.tobytes()
+        if key not in seen and 0 < side.sum() < len(side):
+            seen.add(key)
+            yield side
+
+
+def _deterministic(labels: np.ndarray, obs: np.ndarray, side: np.ndarray, src: np.ndarray,
+                   act: np.ndarray, dst: np.ndarray, n_act: int) -> bool:
+    """Whether cutting the node ``obs`` by ``side`` keeps every (node, action) into it, and
+    every (node, action) out of it, on one side."""
+    side_of = np.full(len(labels), -1, dtype=np.int64)
+    side_of[obs] = side
+    for end, other in ((dst, src), (src, dst)):
+        mask = side_of[end] >= 0
+        if not mask.any():
+            continue
+        keys = labels[other[mask]] * n_act + act[mask]
+        pairs = np.unique(keys * 2 + side_of[end[mask]])
+        if len(np.unique(pairs // 2)) < len(pairs):
+            return False
+    return True
+
+
+def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = None,
+                      nodes=None) -> tuple[np.ndarray, int]:
+    """The partition ``labels`` with every node the combined readings show to hold two
+    states split (module docstring), and how many cuts were made. New nodes take ids after
+    the largest; ``labels`` is not modified.
+
+    Parameters
+    ----------
+    problem : Problem or CodedProblem
+        Its transitions (``src``, ``act``, ``dst``) and ``readings.sites``; without site
+        reads, ``labels`` is returned as is.
+    labels : ndarray of int, shape (N,)
+    rows : ndarray of int, shape (N, S'), optional
+        :func:`combined_readings` of ``problem``, where already computed.
+    nodes : iterable of int, optional
+        Examine only these nodes (and the parts cut from them): whether a join the doubts
+        consider would be cut again (:func:`vggc_cp.solvers.doubts.find_doubts`).
+
+    Two picks and two places; the picks read 2 and 3 at a site, each after its own place,
+    so the pick node is cut in two (the code is shorter and every edge keeps one end):
+
+    >>> from vggc_cp.solvers.base import Readings, SiteReads
+    >>> sites = SiteReads(held=np.array([[1], [0], [2], [0]]), stated=np.ones((4, 1), bool),
+    ...                   kappa=np.array([1.0]), action=np.array([0]))
+    >>> class P:
+    ...     src, act, dst = np.array([1, 3]), np.array([1, 2]), np.array([0, 2])
+    ...     readings = Readings.from_rows(np.zeros((4, 1)), sites)
+    >>> lab, cuts = split_by_readings(P(), np.array([0, 1, 0, 2]))
+    >>> lab.tolist(), cuts
+    ([0, 1, 3, 2], 1)
+
+    Where one (node, action) reaches both, the cut is refused:
+
+    >>> P.act = np.array([1, 1]); P.src = np.array([1, 1])
+    >>> split_by_readings(P(), np.array([0, 1, 0, 2]))[0].tolist()
+    [0, 1, 0, 2]
+    """
+    labels = np.array(labels, dtype=np.int64)
+    rows = combined_readings(problem) if rows is None else rows
+    if rows is None or len(labels) < 2:
+        return labels, 0
+    code = _Code(problem, rows)
+    src = np.asarray(problem.src, dtype=np.int64)
+    act = np.asarray(problem.act, dtype=np.int64)
+    dst = np.asarray(problem.dst, dtype=np.int64)
+    n_act = int(act.max()) + 1 if len(act) else 1
+    # nodes holding two symbols at some site
+    cell = (labels[:, None] * rows.shape[1] + np.arange(rows.shape[1])) * code.width + rows
+    cells = np.unique(cell[rows > 0])
+    site_node = cells // code.width
+    doubled = np.unique(site_node)[np.bincount(np.unique(site_node, return_inverse=True)[1]
+                                               .ravel()) > 1]
+    queue = sorted({int(c) // rows.shape[1] for c in doubled})
+    if nodes is not None:
+        queue = [u for u in queue if u in {int(x) for x in nodes}]
+    nxt = int(labels.max()) + 1
+    cuts = 0
+    while queue:
+        u = queue.pop(0)
+        obs = np.flatnonzero(labels == u)
+        if len(obs) < 2:
+            continue
+        whole = code.length(obs)
+        best_gain, best_side = 1e-9, None
+        for side in _cuts(rows[obs]):
+            if not _deterministic(labels, obs, side, src, act, dst, n_act):
+                continue
+            gain = whole - code.length(obs[side == 0]) - code.length(obs[side == 1])
+            if gain > best_gain:
+                best_gain, best_side = gain, side
+        if best_side is None:
+            continue
+        labels[obs[best_side == 1]] = nxt
+        queue += [u, nxt]
+        nxt += 1
+        cuts += 1
+    return labels, cuts
