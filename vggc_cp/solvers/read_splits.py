@@ -133,8 +133,11 @@ class _Code:
 def _cuts(sub: np.ndarray):
     """The node's candidate cuts: per site holding two symbols, 0 for the observations of
     its most common symbol, 1 for those of another, an observation with nothing there on
-    the side whose observations its known sites agree with more (ties: side 0). Distinct
-    cuts only."""
+    the side whose observations its known sites agree with more (mean over the side of the
+    sites both know alike less those they know differently; ties: side 0). Distinct cuts
+    only."""
+    width = int(sub.max()) + 1
+    onehot = sub[:, :, None] == np.arange(1, width)          # (m, S, width - 1)
     seen = set()
     for s in range(sub.shape[1]):
         col = sub[:, s]
@@ -142,15 +145,18 @@ def _cuts(sub: np.ndarray):
         if len(values) < 2:
             continue
         side = np.where(col == values[np.argmax(counts)], 0, np.where(col > 0, 1, -1))
+        # in order, each placed observation counting for those after it
+        same = [onehot[side == k].sum(axis=0) for k in (0, 1)]  # (S, width - 1) each
+        size = [int(np.sum(side == k)) for k in (0, 1)]
         for i in np.flatnonzero(side < 0):
-            row, known = sub[i], sub[i] > 0
-            score = []
-            for k in (0, 1):
-                other = sub[side == k]
-                both = known & (other > 0)
-                score.append(float(np.mean((both & (other == row)).sum(axis=1)
-                                           - (both & (other != row)).sum(axis=1))))
-            side[i] = int(score[1] > score[0])
+            row = sub[i]
+            known = np.flatnonzero(row > 0)
+            score = [float(np.sum(2 * same[k][known, row[known] - 1]
+                                  - same[k][known].sum(axis=1))) / size[k] for k in (0, 1)]
+            k = int(score[1] > score[0])
+            side[i] = k
+            same[k] = same[k] + onehot[i]
+            size[k] += 1
         key = side.tobytes()
         if key not in seen and 0 < side.sum() < len(side):
             seen.add(key)
