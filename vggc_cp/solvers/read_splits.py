@@ -211,11 +211,12 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
     >>> lab.tolist(), cuts
     ([0, 1, 3, 2], 1)
 
-    Where one (node, action) reaches both, the cut is refused:
+    With the two places one node left by one action, that (node, action) would reach both
+    sides, and the cut is refused:
 
-    >>> P.act = np.array([1, 1]); P.src = np.array([1, 1])
-    >>> split_by_readings(P(), np.array([0, 1, 0, 2]))[0].tolist()
-    [0, 1, 0, 2]
+    >>> P.act = np.array([1, 1])
+    >>> split_by_readings(P(), np.array([0, 1, 0, 1]))[0].tolist()
+    [0, 1, 0, 1]
     """
     labels = np.array(labels, dtype=np.int64)
     rows = combined_readings(problem) if rows is None else rows
