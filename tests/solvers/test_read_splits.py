@@ -79,13 +79,17 @@ class _Bare:
         self.readings = Readings.from_rows(np.zeros((len(held), 1)), sites)
 
 
-def test_a_lone_misread_does_not_buy_a_node_but_two_groups_read_apart_do():
-    # nodes 0 and 1 hold two things at each of eight sites, each site another pair (sites
-    # read alike everywhere would be one): a node states one of two symbols at each
+def _two_nodes():
+    """Nodes 0 and 1, six observations each, hold two things at each of eight sites, each
+    site another pair (sites read alike everywhere would be one): a node states one of two
+    symbols at each. Returns ``held``, ``stated``, ``nodes``."""
     pairs = [(a, b) for a in range(4) for b in range(4) if a != b][:8]
-    stated = np.ones((12, 8), dtype=bool)
-    held = np.repeat(np.array(pairs).T, 6, axis=0)
-    nodes = np.repeat([0, 1], 6)
+    return (np.repeat(np.array(pairs).T, 6, axis=0), np.ones((12, 8), dtype=bool),
+            np.repeat([0, 1], 6))
+
+
+def test_a_lone_misread_does_not_buy_a_node_but_two_groups_read_apart_do():
+    held, stated, nodes = _two_nodes()
     lone = held.copy()
     lone[5, 2] = held[6, 2]                           # one frame, one site
     labels, cuts = split_by_readings(_Bare(lone, stated), nodes)
@@ -127,11 +131,8 @@ def test_a_pair_of_once_seen_states_merged_by_the_threshold_is_learned_apart():
 
 
 def test_only_the_nodes_asked_about_are_examined():
-    stated = np.ones((12, 8), dtype=bool)
-    pairs = [(a, b) for a in range(4) for b in range(4) if a != b][:8]
-    held = np.repeat(np.array(pairs).T, 6, axis=0)
+    held, stated, nodes = _two_nodes()
     held[3:6, :4] = held[6, :4]                       # node 0 holds two states
-    nodes = np.repeat([0, 1], 6)
     assert split_by_readings(_Bare(held, stated), nodes, nodes=(1,))[1] == 0
     assert split_by_readings(_Bare(held, stated), nodes, nodes=(0,))[1] == 1
 

@@ -130,12 +130,14 @@ class _Code:
                 + self.half_log_n * float(np.sum(symbols - 1)))
 
 
-def _cuts(sub: np.ndarray):
+def _cuts(sub: np.ndarray, feasible=None):
     """The node's candidate cuts: per site holding two symbols, 0 for the observations of
     its most common symbol, 1 for those of another, an observation with nothing there on
     the side whose observations its known sites agree with more (mean over the side of the
     sites both know alike less those they know differently; ties: side 0). Distinct cuts
-    only."""
+    only. ``feasible(side)``, where given, is asked first with those observations at -1
+    (on neither side): a cut it refuses then is refused whatever they join, and they are
+    not placed."""
     width = int(sub.max()) + 1
     onehot = sub[:, :, None] == np.arange(1, width)          # (m, S, width - 1)
     seen = set()
@@ -145,6 +147,8 @@ def _cuts(sub: np.ndarray):
         if len(values) < 2:
             continue
         side = np.where(col == values[np.argmax(counts)], 0, np.where(col > 0, 1, -1))
+        if feasible is not None and not feasible(side):
+            continue
         # in order, each placed observation counting for those after it
         same = [onehot[side == k].sum(axis=0) for k in (0, 1)]  # (S, width - 1) each
         size = [int(np.sum(side == k)) for k in (0, 1)]
@@ -166,7 +170,7 @@ def _cuts(sub: np.ndarray):
 def _deterministic(labels: np.ndarray, obs: np.ndarray, side: np.ndarray, src: np.ndarray,
                    act: np.ndarray, dst: np.ndarray, n_act: int) -> bool:
     """Whether cutting the node ``obs`` by ``side`` keeps every (node, action) into it, and
-    every (node, action) out of it, on one side."""
+    every (node, action) out of it, on one side (observations at -1 count on neither)."""
     side_of = np.full(len(labels), -1, dtype=np.int64)
     side_of[obs] = side
     for end, other in ((dst, src), (src, dst)):
@@ -245,8 +249,11 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
             continue
         whole = code.length(obs)
         best_gain, best_side = 1e-9, None
-        for side in _cuts(rows[obs]):
-            if not _deterministic(labels, obs, side, src, act, dst, n_act):
+        def feasible(side, obs=obs):
+            return _deterministic(labels, obs, side, src, act, dst, n_act)
+
+        for side in _cuts(rows[obs], feasible):
+            if not feasible(side):
                 continue
             gain = whole - code.length(obs[side == 0]) - code.length(obs[side == 1])
             if gain > best_gain:
