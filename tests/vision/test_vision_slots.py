@@ -122,6 +122,31 @@ def test_a_slot_has_one_mate_of_each_colour_and_kind():
     assert slots.acting_at(0, ov, colour, twin, 0.2).tolist() == [0, 1, 2, 3, 4, 5]
 
 
+def test_a_chain_of_mates_does_not_join_two_levels_the_sequence_keeps_apart():
+    """random-14 clean: a red pair (0, 1) and a yellow pair (2, 3) at level 0 of a region, a
+    green pair (4, 5) at level 1 above them. Red and green never meet in an episode, so the
+    pixels (0.6, above the site bar) make them mates; but yellow is placed and then green
+    on top of it, which one slot of one thing cannot hold: the green pair is ruled out of
+    the yellow pair's slot, so it is no mate of the red pair either, and the level-0 slot
+    keeps red and yellow alone."""
+    kinds = np.array([PICK, PLACE] * 3, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1, 2, 2]), np.array([1, 0, 3, 2, 5, 4])
+    ov = np.full((6, 6), 0.6)
+    ov[np.ix_([0, 1, 2, 3], [0, 1, 2, 3])] = 0.8
+    np.fill_diagonal(ov, 1.0)
+    swap = [0, 3, 2, 1]                                 # red out, yellow in and out, red in
+    stack = [3, 5, 4, 2]                                # yellow in, green on it, both out
+    actions = np.array((swap + [-1] + stack + [-1]) * 3)[:-1]
+    episodes = [(i * 10, i * 10 + 4) for i in range(3)] + [(i * 10 + 5, i * 10 + 9)
+                                                          for i in range(3)]
+    mates = slots.sequence_mates(actions, sorted(episodes), ov, colour, kinds, twin, 0.2)
+    assert np.flatnonzero(mates[0]).tolist() == [2, 3]
+    assert not mates[4].any() and not mates[5].any()
+    assert slots.acting_at(0, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+    assert occ.slot_groups(ov, colour, np.ones(6, int), twin, mates, 0.2).tolist() == \
+        [0, 0, 0, 0, 1, 1]
+
+
 def test_one_mate_per_colour_prefers_what_the_pixels_confirm():
     """Of two candidates of one colour and kind, one that the footprints put at the slot too
     beats one only the sequence names; among equals, the larger overlap."""

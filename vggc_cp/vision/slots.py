@@ -18,7 +18,9 @@ overlaps the block's below it; the trace's own sequence says what it can:
   there finds; a candidate that breaks this once is ruled out, one that always agrees is taken
   at :data:`TWIN_ODDS`, the footprints decide the rest; one mate of each colour and kind
   (:func:`one_per_colour`), and none that the other side gives to another action
-  (:func:`exclusive_mates`).
+  (:func:`exclusive_mates`); and since a slot is every action its mates reach, no chain of
+  mates may put two actions of one colour and kind, or two the sequence rules apart, in
+  one slot (:func:`consistent_mates`).
 
 :func:`acting_at` gathers them: the actions that change what site ``a`` holds. Nothing here
 reads action names or ground-truth states.
@@ -246,6 +248,8 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     n = len(colour)
     other = (colour[:, None] != colour[None, :]) & (colour[:, None] >= 0) & (colour >= 0)
     out = other & (ov >= site_overlap)
+    named = np.zeros((n, n), dtype=bool)               # taken by the sequence at TWIN_ODDS
+    broken = np.zeros((n, n), dtype=bool)              # ruled out by the sequence
     actions = np.asarray(actions)
     episode_of = action_episodes(len(actions), episodes)
     # what each action finds at its slot and what it leaves (-1: empty)
@@ -266,6 +270,7 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
             cross = (episode_of[at[1:]] == episode_of[at[:-1]]) & (own[seq[1:]] != own[seq[:-1]])
             agree = leaves[seq[:-1]] == finds[seq[1:]]
             counts[i] = ((cross & ~agree).sum(), (cross & agree).sum())
+        broken[a, cand[counts[:, 0] > 0]] = True
         total = counts.sum()
         if total == 0 or counts[:, 0].sum() == 0:
             continue                       # no candidate ever breaks it: the pixels decide
@@ -275,8 +280,69 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
             continue
         sure = (counts[:, 0] == 0) & odds_met(counts[:, 1], p_agree)
         out[a, cand[sure]] = True
+        named[a, cand[sure]] = True
     seen = out & (ov >= site_overlap)                  # the pixels put them at the slot too
-    return exclusive_mates(one_per_colour(out, seen, ov, colour, kinds), colour, kinds)
+    kept = exclusive_mates(one_per_colour(out, seen, ov, colour, kinds), colour, kinds)
+    return consistent_mates(kept, twin, colour, kinds, ov + (named | named.T),
+                            broken | broken.T)
+
+
+def consistent_mates(mates: np.ndarray, twin: np.ndarray, colour: np.ndarray,
+                     kinds: np.ndarray, strength: np.ndarray,
+                     apart: np.ndarray | None = None) -> np.ndarray:
+    """Mates that leave every slot one pick and one place of each colour, and no two
+    actions the sequence rules out of one slot, boolean shape (A, A).
+
+    Mates are chosen action by action, so a chain of them can join two slots: level 0 and
+    level 1 of a region overlap as much as two objects at one level do, and where the
+    sequence never puts an action of one beside an action of the other, the pixels join
+    them (random-14 clean: the green pick at level 1 of region 0 a mate of the red pick
+    below it, which never met it in an episode, while the sequence ruled it out of the
+    yellow pick's slot, the red one's mate, 12 times). The slots are grown as a forest,
+    strongest link first (twins, then mates by ``strength``); a link that would put two
+    actions of one colour and kind, or two actions ``apart``, in one slot is left out, and
+    every mate outside its action's slot with it.
+
+    Parameters
+    ----------
+    mates : ndarray of bool, shape (A, A)
+    twin : ndarray of int, shape (A,)
+        -1 for none.
+    colour, kinds : ndarray, shape (A,)
+    strength : ndarray, shape (A, A)
+        How sure each link is (footprint overlap, plus 1 where the sequence names it).
+    apart : ndarray of bool, shape (A, A), optional
+        Pairs the sequence rules out of one slot (:func:`sequence_mates`).
+
+    >>> kinds, colour = np.array([PICK, PICK, PICK]), np.array([0, 1, 2])
+    >>> m = np.zeros((3, 3), bool); m[0, 1] = m[1, 0] = m[0, 2] = m[2, 0] = True
+    >>> apart = np.zeros((3, 3), bool); apart[1, 2] = apart[2, 1] = True
+    >>> strength = np.full((3, 3), 0.7); strength[0, 2] = strength[2, 0] = 0.5
+    >>> out = consistent_mates(m, np.full(3, -1), colour, kinds, strength, apart)
+    >>> np.flatnonzero(out[0]).tolist(), np.flatnonzero(out[2]).tolist()
+    ([1], [])
+    """
+    n = len(colour)
+    apart = np.zeros((n, n), dtype=bool) if apart is None else apart
+    slot = np.arange(n)
+    members = {a: [a] for a in range(n)}
+    keys = {a: {(int(colour[a]), int(kinds[a]))} for a in range(n)}
+
+    def join(a: int, b: int) -> None:
+        ra, rb = int(slot[a]), int(slot[b])
+        if ra == rb or keys[ra] & keys[rb] or apart[np.ix_(members[ra], members[rb])].any():
+            return
+        slot[members[rb]] = ra
+        members[ra] += members.pop(rb)
+        keys[ra] |= keys.pop(rb)
+
+    for a in np.flatnonzero(twin >= 0):
+        join(int(a), int(twin[a]))
+    links = np.argwhere(np.triu(mates | mates.T, k=1))
+    order = np.argsort(-strength[links[:, 0], links[:, 1]], kind="stable")
+    for a, b in links[order]:
+        join(int(a), int(b))
+    return mates & (slot[:, None] == slot[None, :])
 
 
 def one_per_colour(mates: np.ndarray, seen: np.ndarray, ov: np.ndarray, colour: np.ndarray,
