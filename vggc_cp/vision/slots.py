@@ -220,7 +220,8 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     colour, so at most one of each is kept (:func:`one_per_colour`), and only where the
     other side does not give its own mate of ``a``'s colour and kind to another action
     (:func:`exclusive_mates`): a block on top of ``a``'s overlaps it, but it is not at its
-    slot.
+    slot. Last, no chain of mates may join what the sequence rules apart or two actions of
+    one colour and kind (:func:`consistent_mates`).
 
     Parameters
     ----------
@@ -270,12 +271,13 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
             cross = (episode_of[at[1:]] == episode_of[at[:-1]]) & (own[seq[1:]] != own[seq[:-1]])
             agree = leaves[seq[:-1]] == finds[seq[1:]]
             counts[i] = ((cross & ~agree).sum(), (cross & agree).sum())
-        broken[a, cand[counts[:, 0] > 0]] = True
         total = counts.sum()
         if total == 0 or counts[:, 0].sum() == 0:
             continue                       # no candidate ever breaks it: the pixels decide
         p_agree = counts[:, 1].sum() / total
-        out[a, cand[counts[:, 0] > 0]] = False          # ruled out by the sequence
+        ruled = cand[counts[:, 0] > 0]
+        out[a, ruled] = False                          # ruled out by the sequence
+        broken[a, ruled] = True
         if p_agree <= 0:
             continue
         sure = (counts[:, 0] == 0) & odds_met(counts[:, 1], p_agree)
