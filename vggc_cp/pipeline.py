@@ -27,7 +27,10 @@
   (:func:`~vggc_cp.solvers.read_doubts.read_doubts`,
   :func:`~vggc_cp.solvers.read_doubts.episode_doubts`, listed first), and a join the images and
   the actions both favour that a constraint forbids
-  (:func:`~vggc_cp.solvers.doubt_checks.doubt_forbidden`).
+  (:func:`~vggc_cp.solvers.doubt_checks.doubt_forbidden`). Episodes none of whose nodes
+  another episode visits, more of them than chance gives, flag it too, each with the path
+  its actions take on the rest of the graph (:mod:`vggc_cp.solvers.lone_episodes`, listed
+  first of all).
 
 Everything here reads observations and actions only, never ground-truth ``states``.
 """
@@ -53,7 +56,7 @@ from vggc_cp.solvers.confidence import (
     plateau_length,
     resample,
 )
-from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_readings
+from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_lone, doubt_readings
 from vggc_cp.solvers.doubts import (
     Doubt,
     DoubtRule,
@@ -61,6 +64,7 @@ from vggc_cp.solvers.doubts import (
     find_doubts,
     runner_up_doubts,
 )
+from vggc_cp.solvers.lone_episodes import lone_doubts, lone_episodes
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
@@ -586,6 +590,16 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                  [d for d in read if "episode" in d.evidence])
         read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
+    # episodes that share no node with any other, beyond chance: their images may have been
+    # read wrong throughout, which no bound on the readings sees; flagged, listed first
+    lone = lone_episodes(chosen.problem, chosen.best.labels)
+    if lone.doubtful:
+        chosen = replace(chosen, confidence=doubt_lone(chosen.confidence, lone))
+        problem = chosen.problem
+        if not (isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS):
+            found = lone_doubts(problem, chosen.path, chosen.best.labels, lone)
+            doubts = (*found, *(d for d in doubts if d.nodes not in {f.nodes for f in found})
+                      )[:DoubtRule().limit]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
     # flagged and listed first
     facts = recorded_facts(trace)

@@ -8,7 +8,9 @@ of change of :mod:`vggc_cp.solvers.confidence`:
   conflicts with them), or that the hands' colours forbid where one node is one render or two
   (a misread action colour makes such a node);
 * :func:`doubt_readings` -- nodes that only an untrustworthy reading of the images sets apart
-  (:func:`vggc_cp.solvers.read_doubts.read_doubts`).
+  (:func:`vggc_cp.solvers.read_doubts.read_doubts`);
+* :func:`doubt_lone` -- episodes that visit no node another episode visits, beyond chance
+  (:func:`vggc_cp.solvers.lone_episodes.lone_episodes`).
 """
 
 from __future__ import annotations
@@ -308,3 +310,30 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
                   f"`vggc-cp suggest SOLUTION TRACE -o next.json` the episodes to record next")
         return conf.flagged(reason)
     return conf
+
+
+def doubt_lone(conf: Confidence, lone) -> Confidence:
+    """``conf`` flagged when episodes that visit no node another episode visits are less
+    likely than :data:`~vggc_cp.solvers.lone_episodes.LONE_ALPHA` by chance
+    (:func:`~vggc_cp.solvers.lone_episodes.lone_episodes`): such an episode's images may have
+    been read wrong throughout, which no bound on the readings sees. The reason names the
+    episode, the chance and what to record.
+
+    >>> from vggc_cp.solvers.lone_episodes import LoneEpisodes
+    >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    >>> lone = LoneEpisodes((np.array([9, 10, 11]),), 0.1, 0.01, 0.01)
+    >>> doubt_lone(c, lone).suspect, doubt_lone(c, LoneEpisodes((), 0.0, 0.0, 1.0)).suspect
+    (True, False)
+    """
+    if not lone.doubtful:
+        return conf
+    chain = lone.chains[0]
+    more = (f" (and {len(lone.chains) - 1} more such episode(s))" if len(lone.chains) > 1
+            else "")
+    return conf.flagged(
+        f"the episode of observations {int(chain[0])}-{int(chain[-1])} visits only nodes no "
+        f"other episode visits{more}: {len(lone.chains)} such episode(s) where "
+        f"{lone.expected:.3f} would be expected by chance (chance {lone.chance:.3f}; "
+        f"{100 * lone.share:.0f} % of the episodes' nodes are their own), so its images may "
+        f"have been read wrong throughout; record an episode from that episode's start "
+        f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")

@@ -75,6 +75,9 @@ def format_doubts(doubts, limit: int = 10) -> list[str]:
                 f"{ev['contradicted']} held-out transition(s) dispute it"
                 if ev.get("contradicted") else
                 "the runner-up graph decides it the other way" if ev.get("runner_up") else
+                f"episode {ev['lone_episode'][0]}-{ev['lone_episode'][-1]} visits only nodes "
+                f"of its own; might be the path from node {ev.get('moved_to')}"
+                if isinstance(ev.get("lone_episode"), list) and ev["lone_episode"] else
                 f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "
                 f"{ev.get('moved_to')}, kappa {_kappa(ev)}: "
                 f"{', '.join(ev.get('read_sites', []))}"

@@ -236,7 +236,7 @@ def _dense(problem):
     return problem.dense() if hasattr(problem, "dense") else problem
 
 
-def _chains(problem: Problem) -> list[np.ndarray]:
+def episode_chains(problem: Problem) -> list[np.ndarray]:
     """Every episode's observations in the order its transitions link them (a problem's
     transitions chain its observations: one successor and one predecessor at most)."""
     n = problem.n_obs
@@ -253,7 +253,7 @@ def _chains(problem: Problem) -> list[np.ndarray]:
     return out
 
 
-class _Graph:
+class WalkGraph:
     """The learned graph's edges: ``ahead[(u, a)]``, the nodes action ``a`` leads to from
     ``u``, and ``labels_of[(u, v)]``, the actions between ``u`` and ``v``."""
 
@@ -348,13 +348,13 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         return ()
     labels = nodes.labels
     held, stated, facts, majority = nodes.held, nodes.stated, nodes.facts, nodes.majority
-    graph = _Graph(labels[problem.src], problem.act, labels[problem.dst])
+    graph = WalkGraph(labels[problem.src], problem.act, labels[problem.dst])
     sizes = np.bincount(labels, minlength=nodes.n)
     act_of = np.full(problem.n_obs, -1, dtype=np.int64)
     act_of[problem.src] = problem.act
     site_rows = np.arange(held.shape[1])
     candidates = []
-    for chain in _chains(problem):
+    for chain in episode_chains(problem):
         here = labels[chain]
         if len(chain) < 2 or np.count_nonzero(here == here[0]) == sizes[here[0]]:
             continue

@@ -1,0 +1,119 @@
+"""Episodes none of whose nodes another episode visits (:mod:`vggc_cp.solvers.lone_episodes`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import make_trace
+
+from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.confidence import Confidence
+from vggc_cp.solvers.doubt_checks import doubt_lone
+from vggc_cp.solvers.doubt_text import format_doubts
+from vggc_cp.solvers.doubts import MERGE
+from vggc_cp.solvers.lone_episodes import (
+    LONE_ALPHA,
+    lone_doubts,
+    lone_episodes,
+    poisson_tail,
+)
+from vggc_cp.solvers.merge import threshold_path
+
+NAMES = ("pick_1", "place_1", "pick_2", "place_2")
+
+
+def _problem(episodes):
+    """The problem of ``episodes`` (lists of states and actions) whose images tell every
+    state apart, its merge path and the labels of the true partition."""
+    trace = make_trace(episodes, NAMES)
+    src, act, dst = trace.transitions()
+    states, roles = trace.states, trace.roles()
+    apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
+             for r in (0, 1)}
+    problem = Problem(roles, src, act, dst, NAMES, apart[0], apart[1])
+    _, labels = np.unique(states, return_inverse=True)
+    return problem, threshold_path(problem, (0.1, 0.2), "mdl"), labels.astype(np.int64)
+
+
+HOME = ["A", "pick_1", "HA", "place_1", "A", "pick_2", "HB", "place_2", "A"]
+
+
+def test_poisson_tail_is_one_minus_the_sum_below_the_count():
+    assert poisson_tail(0, 2.0) == 1.0
+    assert poisson_tail(1, 2.0) == pytest.approx(1 - np.exp(-2.0))
+    assert poisson_tail(3, 2.0) == pytest.approx(1 - np.exp(-2.0) * (1 + 2.0 + 2.0))
+
+
+def test_one_long_walk_is_lone_by_chance():
+    problem, _, labels = _problem([HOME + ["pick_1", "HA", "place_1", "A"]])
+    lone = lone_episodes(problem, labels)
+    assert len(lone.chains) == 1 and lone.share == 1.0
+    assert lone.chance == pytest.approx(1 - np.exp(-1.0)) and not lone.doubtful
+    assert not doubt_lone(Confidence("mdl", 0.0, 5, None, 4.0, False, ()), lone).suspect
+
+
+def test_episodes_through_disjoint_parts_seen_twice_each_are_not_lone():
+    problem, _, labels = _problem([["A", "pick_1", "HA"], ["A", "pick_1", "HA"],
+                                   ["C", "pick_2", "HC"], ["C", "pick_2", "HC"]])
+    lone = lone_episodes(problem, labels)
+    assert lone.chains == () and lone.share == 0.0 and lone.chance == 1.0
+
+
+def test_an_episode_read_as_states_of_its_own_is_a_doubt_and_its_walk_the_path_it_took():
+    """Six episodes from 'A'; a seventh takes pick_1 then place_1 as the others do, but its
+    images were read as states 'X' and 'HX' that nothing else visits (a misread: a swap, an
+    arm over a site). One such episode among seven is unlikely by chance; walked from 'A',
+    its actions are the path 'A' -pick_1-> 'HA' -place_1-> 'A' of the other episodes."""
+    misread = ["X", "pick_1", "HX", "place_1", "X"]
+    problem, path, labels = _problem([HOME] * 6 + [misread])
+    lone = lone_episodes(problem, labels)
+    (chain,) = lone.chains
+    assert chain.tolist() == [30, 31, 32]
+    assert lone.share == pytest.approx(2 / (6 * 3 + 2))
+    assert lone.chance < LONE_ALPHA and lone.doubtful
+    (d,) = lone_doubts(problem, path, labels, lone)
+    a, ha = int(labels[0]), int(labels[1])
+    assert d.kind == MERGE and d.nodes == (int(labels[30]), a)
+    assert d.evidence["lone_episode"] == [30, 32] and d.evidence["moved_to"] == a
+    assert d.evidence["moved_path"] == [a, ha, a]
+    assert d.evidence["dl_nats"] < 0            # the actions favour the walk
+    assert "visits only nodes of its own" in format_doubts([d])[1]
+    conf = doubt_lone(Confidence("mdl", 0.0, 5, None, 4.0, False, ()), lone)
+    assert conf.suspect and "observations 30-32" in conf.reasons[0]
+    assert "suggest" in conf.reasons[0]
+    # seen twice, the same states are no longer lone
+    problem, _, labels = _problem([HOME] * 6 + [misread] * 2)
+    assert lone_episodes(problem, labels).chains == ()
+
+
+@pytest.mark.slow
+def test_multifruit_4x6_robot_s2_episode_read_swapped_is_flagged_with_the_path_it_took():
+    """multifruit-4x6 robot, trace seed 2 (tuning split, 400 transitions): one episode of
+    seven frames was read with a red and a yellow object swapped at two regions, at kappa
+    1.0 -- no bound on the readings questioned it, and its five states became five nodes of
+    their own (69 nodes for 64 states). The graph is flagged for that episode, and its first
+    doubt walks the episode onto the nodes of the states it really visited (the true states
+    are read by the test only)."""
+    from collections import Counter
+
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("multifruit-4x6", 400, 2, size=64, look="robot").trace
+    learned = learn_graph(trace.without_states())
+    conf = learned.confidence
+    assert conf.suspect
+    assert any("visits only nodes no other episode visits" in r for r in conf.reasons)
+    d = learned.doubts[0]
+    first, last = d.evidence["lone_episode"]
+    labels = learned.labels
+    truth = [str(s) for s in trace.states]
+    state_of = {}
+    for node in np.unique(labels):
+        state_of[int(node)] = Counter(truth[o] for o in np.flatnonzero(labels == node)
+                                      ).most_common(1)[0][0]
+    episode = list(range(first, last + 1))
+    moved = d.evidence["moved_path"]
+    # the episode's nodes are copies of states other nodes hold, and the walk goes there
+    assert [state_of[v] for v in moved] == [truth[o] for o in episode]
+    assert not set(moved) & {int(labels[o]) for o in episode}
