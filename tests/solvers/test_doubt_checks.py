@@ -12,6 +12,7 @@ from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_checks import (
     MAX_PLAN_RISK,
     doubt_readings,
+    face_value,
     misplaced_share,
     plan_risk,
     plans_through,
@@ -98,3 +99,27 @@ def test_an_edge_other_episodes_show_too_is_not_at_risk():
     m = moved / (sizes + moved)
     want = np.mean([1 - (1 - m[u]) * (1 - m[v]) for u in range(6) for v in range(6) if u != v])
     assert plan_risk([d], labels, src, act, dst) == pytest.approx(want)
+
+
+def test_an_episode_read_at_face_value_flags_only_where_the_re_runs_question_the_graph():
+    labels, src, act, dst, episode = _chain()
+    problem = SimpleNamespace(src=src, act=act, dst=dst)
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    base = {"episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_sites": ["pick_3"]}
+    # the same episode and plan risk (above the bar): what decides is how it was read
+    taken = Doubt(SPLIT, (0,), ((0,), (episode[0],)),
+                  base | {"read_kappa": 0.9, "read_kappa_low": 0.3})
+    assert face_value(taken.evidence)
+    assert plan_risk([taken], labels, src, act, dst) > MAX_PLAN_RISK
+    noted = doubt_readings(quiet, [taken], labels, problem, questioned=False)
+    assert not noted.suspect and "so it stands" in noted.notes[0]
+    flagged = doubt_readings(quiet, [taken], labels, problem, questioned=True)
+    assert flagged.suspect and "the re-runs question the graph too" in flagged.reasons[0]
+    # by default a note already there (the re-runs') questions it
+    assert doubt_readings(quiet.noted("re-runs change it"), [taken], labels, problem).suspect
+    for weak in ({"read_kappa": 0.5, "read_kappa_low": 0.2},      # not substantial
+                 {"read_kappa": 1.0, "read_kappa_low": 0.0}):     # not surely above chance
+        d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), base | weak)
+        assert not face_value(d.evidence)
+        conf = doubt_readings(quiet, [taken, d], labels, problem, questioned=False)
+        assert conf.suspect and "and 1 more" not in conf.reasons[0]
