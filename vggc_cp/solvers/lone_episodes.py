@@ -41,7 +41,7 @@ from vggc_cp.solvers.read_doubts import WalkGraph, episode_chains
 LONE_ALPHA = 0.05
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LoneEpisodes:
     """The episodes whose nodes no other episode visits, and how surprising they are.
 
