@@ -581,10 +581,9 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
     if read:
         # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
         # their path): flagged, or noted where the episodes would misplace few plans; first
-        conf = chosen.confidence
-        questioned = conf.p_change is not None and conf.p_change > options.warning.max_change
-        chosen = replace(chosen, confidence=doubt_readings(conf, read, chosen.best.labels,
-                                                           chosen.problem, questioned))
+        chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read,
+                                                           chosen.best.labels,
+                                                           chosen.problem))
         pairs = {d.nodes for d in read}
         # the pairs and the episodes in turn, so that the list keeps some of each
         kinds = ([d for d in read if "episode" not in d.evidence],

@@ -12,7 +12,6 @@ from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_checks import (
     MAX_PLAN_RISK,
     doubt_readings,
-    face_value,
     misplaced_share,
     plan_risk,
     plans_through,
@@ -99,46 +98,3 @@ def test_an_edge_other_episodes_show_too_is_not_at_risk():
     m = moved / (sizes + moved)
     want = np.mean([1 - (1 - m[u]) * (1 - m[v]) for u in range(6) for v in range(6) if u != v])
     assert plan_risk([d], labels, src, act, dst) == pytest.approx(want)
-
-
-
-def test_an_episode_read_at_face_value_flags_alone_or_with_the_re_runs():
-    """An episode doubt whose reading is substantial at face value and better than chance
-    for sure is rarely right (1 of 199 on the tuning split and draws 15-16): one that alone
-    would fail more than the bar flags the graph; several that only together would, each
-    as unlikely, flag it only where the re-runs question the graph too."""
-    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
-    labels = np.repeat(np.arange(4), 25)
-    sure = {"read_kappa": 0.9, "read_kappa_low": 0.3, "read_sites": ["pick_2"], "moved_to": 2}
-    # three episodes of two renders each, moved to nodes 2 and 3: 3.8 % of plans each,
-    # 10.4 % together (renders only)
-    three = [Doubt(SPLIT, (0,), ((0,), (o,)), sure | {"episode": [o, o + 1],
-                                                       "moved_path": [2, 3]})
-             for o in (3, 6, 9)]
-    assert all(face_value(d.evidence) for d in three)
-    assert misplaced_share(three[:1], labels) < misplaced_share(three, labels)
-    noted = doubt_readings(quiet, three, labels, questioned=False)
-    assert not noted.suspect and "so it stands" in noted.notes[0]
-    assert "10.4 % of plans" in noted.notes[0]
-    flagged = doubt_readings(quiet, three, labels, questioned=True)
-    assert flagged.suspect and "the re-runs question the graph too" in flagged.reasons[0]
-    # by default a note already there (the re-runs') questions it
-    assert doubt_readings(quiet.noted("re-runs change it"), three, labels).suspect
-    # one episode of the same reading that alone would fail more than the bar
-    labels_, src, act, dst, episode = _chain()
-    problem = SimpleNamespace(src=src, act=act, dst=dst)
-    big = Doubt(SPLIT, (0,), ((0,), (episode[0],)), sure | {"episode": episode,
-                                                           "moved_path": [1, 2]})
-    assert plan_risk([big], labels_, src, act, dst) > MAX_PLAN_RISK
-    alone = doubt_readings(quiet, [big], labels_, problem, questioned=False)
-    assert alone.suspect and "this episode alone, read at face value" in alone.reasons[0]
-    # a reading not substantial, or not surely above chance, counts with the others
-    for weak in ({"read_kappa": 0.5, "read_kappa_low": 0.2},
-                 {"read_kappa": 1.0, "read_kappa_low": 0.0}):
-        d = Doubt(SPLIT, (0,), ((0,), (12,)), sure | weak | {"episode": [12, 13],
-                                                            "moved_path": [2, 3]})
-        assert not face_value(d.evidence)
-        conf = doubt_readings(quiet, [*three, d], labels, questioned=False)
-        assert not conf.suspect          # 3.8 % counted: a note
-        conf = doubt_readings(quiet, [d, d, d], labels, questioned=False)
-        assert conf.suspect

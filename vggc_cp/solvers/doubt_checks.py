@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.read_doubts import READ_KAPPA, bound_decided
+from vggc_cp.solvers.read_doubts import bound_decided
 
 #: The share of plans between two observations that may fail before a graph stops being usable:
 #: the robustness study's bar, Exec >= 90 % (:data:`vggc_cp.evaluate.metrics.MIN_EXEC`).
@@ -153,7 +153,7 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
 
 
 def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
-                   problem=None, questioned: bool | None = None) -> Confidence:
+                   problem=None) -> Confidence:
     """``conf`` flagged when a doubt rests on an untrustworthy reading
     (:func:`vggc_cp.solvers.read_doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
     that nothing the actions state sets apart, told apart only by what the images read at
@@ -163,18 +163,10 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
     and that, were they misplaced, would fail more than :data:`MAX_PLAN_RISK` of the plans
     between two observations (with ``labels`` only): plans that start or end at a misplaced
     render (:func:`misplaced_share`) or, given the ``problem`` (its transitions), that also
-    take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable
-    either way: the episode is a note (it joins the reasons when another check flags).
-    Re-runs and the description length cannot see either: both take the reading as given.
-
-    An episode whose reading can be taken at face value (:func:`face_value`: substantial,
-    and better than chance for sure, though not shown substantial for sure) flags the graph
-    where it alone would fail more than :data:`MAX_PLAN_RISK` of the plans; several such
-    episodes that only together would (each misplaced rarely: of 199 listed on the tuning
-    split and draws 15-16, one was, against 10 of the 67 others) flag it only where the
-    re-runs question the graph too (``questioned``: its chance of change above the rule's
-    bar; default, ``conf`` holds a note, which only the re-runs write before this check).
-    The reason names the nodes (the episode), the sites and what to record.
+    take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable either way: the episode is a note
+    (it joins the reasons when another check flags). Re-runs and the description length
+    cannot see either: both take the reading as given. The reason names the nodes (the
+    episode), the sites and what to record.
     """
     read = [d for d in doubts if "read_kappa" in d.evidence]
     pairs = [d for d in read if "episode" not in d.evidence]
@@ -187,75 +179,28 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
             f"actions state it {_agreement(ev)}; record episodes that act there from both "
             f"nodes (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
-    if not moves:
-        return conf
-    if questioned is None:
-        questioned = bool(conf.notes)
-    counted = [d for d in moves if not face_value(d.evidence)]
-
-    def risk(some) -> float:
-        if labels is None or not some:
-            return 0.0
-        if problem is None:
-            return 1.0 - (1.0 - misplaced_share(some, labels)) ** 2
-        return plan_risk(some, labels, problem.src, problem.act, problem.dst)
-
-    shown, at_risk = counted, risk(counted)
-    flag = labels is None or at_risk > MAX_PLAN_RISK
-    why = ""
-    if not flag:
-        # one episode read at face value that alone would fail more than the bar
-        alone = sorted(((risk([d]), k) for k, d in enumerate(moves)
-                        if face_value(d.evidence)), reverse=True)
-        if alone and alone[0][0] > MAX_PLAN_RISK:
-            shown, at_risk, flag = [moves[alone[0][1]]], alone[0][0], True
-            why = " (this episode alone, read at face value)"
-    if not flag:
-        shown, at_risk = moves, risk(moves)
-        flag = questioned and at_risk > MAX_PLAN_RISK
-        why = (" (their readings are substantial at face value, and the re-runs question "
-               "the graph too)" if flag else
-               "; the readings of the rest are substantial at face value and better than "
-               "chance for sure, none of those episodes alone would fail that many, and the "
-               "re-runs do not question the graph, so it stands"
-               if at_risk > MAX_PLAN_RISK else "")
-    d, ev = shown[0], shown[0].evidence
-    first, last = ev["episode"]
-    more = f" (and {len(shown) - 1} more such episode(s))" if len(shown) > 1 else ""
-    also = "" if problem is None else " or take a transition only such episodes show"
-    reason = (
-        f"the episode of observations {first}-{last} might be another path of the graph, "
-        f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
-        f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
-        f"actions state it {_agreement(ev)}; if so, {100 * at_risk:.1f} % of plans between "
-        f"two observations start or end at a misplaced one{also}{why}; record an episode "
-        f"from that episode's start that acts there (`vggc-cp suggest SOLUTION TRACE -o "
-        f"next.json`)")
-    return conf.flagged(reason) if flag else conf.noted(reason)
-
-
-def face_value(evidence: dict) -> bool:
-    """Whether an episode doubt's reading may be taken at face value: its agreement with the
-    stated frames is substantial (``read_kappa`` at least
-    :data:`~vggc_cp.solvers.read_doubts.READ_KAPPA`) and better than chance for sure (its 95 %
-    lower bound ``read_kappa_low``, where there is one, above 0).
-
-    Such a doubt is listed (its bound cannot show the agreement substantial: the stated
-    frames are few) but counts toward :func:`doubt_readings`' plan risk only where the
-    re-runs question the graph too. On the tuning split and draws 15-16 (at f0a1275, the
-    true states read by a script), 187 of the 199 listed episodes read at face value were
-    where their reading put them and 1 was misplaced (random-3 robot, flagged by other
-    checks; the rest moved onto nodes that were no better); of the 67 others, 10 were
-    misplaced.
-
-    >>> face_value({"read_kappa": 1.0, "read_kappa_low": 0.3}), face_value({"read_kappa": 0.5})
-    (True, False)
-    >>> face_value({"read_kappa": 1.0, "read_kappa_low": 0.0})
-    False
-    """
-    kappa, low = evidence.get("read_kappa"), evidence.get("read_kappa_low")
-    return (isinstance(kappa, (int, float)) and kappa >= READ_KAPPA
-            and (not isinstance(low, (int, float)) or low > 0))
+    if moves:
+        d, ev = moves[0], moves[0].evidence
+        first, last = ev["episode"]
+        more = f" (and {len(moves) - 1} more such episode(s))" if len(moves) > 1 else ""
+        if labels is None:
+            risk = 0.0
+        elif problem is None:
+            risk = 1.0 - (1.0 - misplaced_share(moves, labels)) ** 2
+        else:
+            risk = plan_risk(moves, labels, problem.src, problem.act, problem.dst)
+        also = "" if problem is None else " or take a transition only such episodes show"
+        reason = (
+            f"the episode of observations {first}-{last} might be another path of the graph, "
+            f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
+            f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
+            f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between "
+            f"two observations start or end at a misplaced one{also}; record an episode from "
+            f"that episode's start that acts there (`vggc-cp suggest SOLUTION TRACE -o "
+            f"next.json`)")
+        conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
+                else conf.noted(reason))
+    return conf
 
 
 def _sites(evidence: dict) -> str:
