@@ -598,8 +598,8 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
         problem = chosen.problem
         if not (isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS):
             found = lone_doubts(problem, chosen.path, chosen.best.labels, lone)
-            doubts = (*found, *(d for d in doubts if d.nodes not in {f.nodes for f in found})
-                      )[:DoubtRule().limit]
+            named = {f.nodes for f in found}
+            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:DoubtRule().limit]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
     # flagged and listed first
     facts = recorded_facts(trace)

@@ -191,11 +191,10 @@ def _differing_sites(problem, sites, labels: np.ndarray, chain: np.ndarray,
     if sites is None:
         return []
     held = np.asarray(sites.held)
+    majority = {v: np.array([np.bincount(col).argmax() for col in held[labels == v].T])
+                for v in set(moved.tolist()) if np.any(labels == v)}
     differ = np.zeros(held.shape[1], dtype=bool)
     for o, v in zip(chain.tolist(), moved.tolist()):
-        rows = held[labels == v]
-        if len(rows) == 0:
-            continue
-        majority = np.array([np.bincount(col).argmax() for col in rows.T])
-        differ |= held[o] != majority
+        if v in majority:
+            differ |= held[o] != majority[v]
     return sorted({problem.action_names[int(a)] for a in np.asarray(sites.action)[differ]})
