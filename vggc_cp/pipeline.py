@@ -20,8 +20,9 @@
 * **Confidence.** The chance that a recording of the same kind would change the graph: re-runs
   of the merge at the chosen threshold with a fifth of the episodes left out
   (:mod:`vggc_cp.solvers.confidence`); above 30 % the graph is flagged *suspect* with reasons.
-* **Doubts.** The chosen graph's decisions that neither the images nor the actions settle
-  (:mod:`vggc_cp.solvers.doubts`): nodes that might be one state, a node that might be two.
+* **Doubts** (one stage, :func:`vggc_cp.solvers.verdict.verdict`). The chosen graph's
+  decisions that neither the images nor the actions settle (:mod:`vggc_cp.solvers.doubts`):
+  nodes that might be one state, a node that might be two.
   Two more flag the graph: nodes that only an untrustworthy reading of the images sets apart,
   or an episode that only such a reading puts on its path
   (:func:`~vggc_cp.solvers.read_doubts.read_doubts`,
@@ -40,15 +41,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields, replace
-from itertools import zip_longest
 
 import numpy as np
 
 from vggc_cp.errors import EvidenceNotApplicable, VggcError, lookup
 from vggc_cp.graph import TaskGraph
-from vggc_cp.recorded import recorded_facts
 from vggc_cp.solvers.base import Problem, Readings, SiteReads, SolveResult
-from vggc_cp.solvers.broken_facts import broken_facts, facts_check
 from vggc_cp.solvers.confidence import (
     Confidence,
     WarningRule,
@@ -56,19 +54,11 @@ from vggc_cp.solvers.confidence import (
     plateau_length,
     resample,
 )
-from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_lone, doubt_readings
-from vggc_cp.solvers.doubts import (
-    Doubt,
-    DoubtRule,
-    disputed_doubts,
-    find_doubts,
-    runner_up_doubts,
-)
-from vggc_cp.solvers.lone_episodes import lone_doubts, lone_episodes
+from vggc_cp.solvers.doubts import Doubt
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
-from vggc_cp.solvers.read_doubts import episode_doubts, read_doubts
+from vggc_cp.solvers.verdict import graph_doubts, runner_up, verdict
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
@@ -479,24 +469,6 @@ def run_candidate(trace: Trace, evidence: str, options: LearnConfig,
     return Candidate(evidence, problem, path, dls, conf, time.perf_counter() - t0)
 
 
-def runner_up(path: ThresholdPath, dls) -> int | None:
-    """The graph the description-length margin of the selected one is measured to: the least
-    description length (``dls``, one per graph of ``path``) among graphs of another size,
-    the nearest on the path of equal ones; None when there is none.
-
-    The margin stays in the code of the actions and stated facts even where the trusted
-    readings chose among a tie (:func:`~vggc_cp.solvers.mdl.choice_lengths`): they break a
-    tie but do not settle it (a run of frames read wrong at a well-read site is common
-    under a robot's arm), so a graph they chose keeps the warning that the actions leave
-    another size at least 1/20 as probable."""
-    k = path.selected
-    if k is None:
-        return None
-    size = path.results[k].n_nodes
-    others = [j for j, r in enumerate(path.results) if r.n_nodes != size]
-    return min(others, key=lambda j: (dls[j], abs(j - k))) if others else None
-
-
 def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPath,
                 options: LearnConfig) -> tuple[tuple[float, ...], Confidence]:
     """Description length of every graph of ``path`` and the :class:`Confidence` of the
@@ -571,104 +543,20 @@ def learn_graph(trace: Trace, options: LearnConfig | None = None,
                             + ")")
     chosen = choose(candidates)
     chosen = _with_disagreement(chosen, candidates)
-    doubts = learned_doubts(chosen)
-    chosen = replace(chosen, confidence=corroborate(chosen.confidence, doubts,
-                                                    DoubtRule().max_nats))
-    chosen = replace(chosen, confidence=doubt_forbidden(chosen.confidence, doubts,
-                                                        chosen.best.labels,
-                                                        DoubtRule().max_nats))
-    read = learned_doubts(chosen, read=True)
-    if read:
-        # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
-        # their path): flagged, or noted where the episodes would misplace few plans; first
-        chosen = replace(chosen, confidence=doubt_readings(chosen.confidence, read,
-                                                           chosen.best.labels,
-                                                           chosen.problem))
-        pairs = {d.nodes for d in read}
-        # the pairs and the episodes in turn, so that the list keeps some of each
-        kinds = ([d for d in read if "episode" not in d.evidence],
-                 [d for d in read if "episode" in d.evidence])
-        read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
-        doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:DoubtRule().limit]
-    # episodes that share no node with any other, beyond chance: their images may have been
-    # read wrong throughout, which no bound on the readings sees; flagged, listed first
-    lone = lone_episodes(chosen.problem, chosen.best.labels)
-    if lone.doubtful:
-        chosen = replace(chosen, confidence=doubt_lone(chosen.confidence, lone))
-        problem = chosen.problem
-        if not (isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS):
-            found = lone_doubts(problem, chosen.path, chosen.best.labels, lone)
-            named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:DoubtRule().limit]
-    # what the recording states (resets, refusals) and the graph breaks: certain errors,
-    # flagged and listed first
-    facts = recorded_facts(trace)
-    if facts:
-        broken = broken_facts(facts, trace.actions, trace.action_names, chosen.best.labels)
-        if broken:
-            chosen = replace(chosen, confidence=facts_check(chosen.confidence, broken))
-            doubts = (*broken, *doubts)[:max(DoubtRule().limit, len(broken))]
-    # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
-    # on the way to the runner-up graph, so the verdict says what is doubtful
-    asked = chosen.confidence.suspect or bool(chosen.confidence.notes)
-    if asked and not doubts:
-        # e.g. a graph of another size nearly as probable
-        doubts = learned_doubts(chosen, toward_runner_up=True)
-    if asked and not doubts:
-        # nor on the way to it: the nodes that held-out transitions dispute, else the nodes
-        # the runner-up graph splits or joins
-        doubts = (learned_doubts(chosen, disputed=True)
-                  or learned_doubts(chosen, toward_runner_up=True, differences=True))
-    return Learned(chosen, tuple(candidates), time.perf_counter() - t0, tuple(skipped),
-                   options, trace, doubts)
-
-
-#: Largest trace (observations) whose doubts are looked for on a problem of descriptor codes:
-#: they read the within-role distance matrices, which such a problem builds for them.
-DOUBTS_MAX_OBS = 8000
+    conf, doubts = verdict(chosen.problem, chosen.path, chosen.best.labels, chosen.confidence,
+                           chosen.description_lengths, trace)
+    return Learned(replace(chosen, confidence=conf), tuple(candidates),
+                   time.perf_counter() - t0, tuple(skipped), options, trace, doubts)
 
 
 def learned_doubts(chosen: Candidate, toward_runner_up: bool = False, disputed: bool = False,
                    differences: bool = False, read: bool = False) -> tuple[Doubt, ...]:
-    """The chosen graph's doubts (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem
-    of descriptor codes, on its dense matrices up to :data:`DOUBTS_MAX_OBS` observations
-    (none beyond: the matrices would cost what the codes save).
-
-    With ``toward_runner_up``, the decisions between the chosen threshold and that of the
-    runner-up graph (the least description length among graphs of another size, the one the
-    margin is measured to): the window reaches it and the description length does not
-    settle a decision (what questions the graph is that the two are nearly as probable).
-    With ``disputed``, the node pairs that contradicted held-out transitions name
-    (:func:`~vggc_cp.solvers.doubts.disputed_doubts`); with ``toward_runner_up`` and
-    ``differences``, the nodes the runner-up graph splits or joins
-    (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
-    untrustworthy reading of the images sets apart
-    (:func:`~vggc_cp.solvers.read_doubts.read_doubts`), then the episodes only such a reading
-    puts on their path (:func:`~vggc_cp.solvers.read_doubts.episode_doubts`)."""
-    problem = chosen.problem
-    if isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS:
-        return ()
-    if read:                    # a problem of codes: densified only if a doubt is found
-        pairs = read_doubts(problem, chosen.path, chosen.best.labels)
-        return (*pairs, *episode_doubts(problem, chosen.path, chosen.best.labels))
-    if isinstance(problem, CodedProblem):
-        problem = problem.dense()
-    if disputed:
-        held = chosen.confidence.heldout
-        return (() if held is None else
-                disputed_doubts(problem, chosen.path, chosen.best.labels, held.disputed))
-    rule = None
-    if toward_runner_up:
-        other = runner_up(chosen.path, chosen.description_lengths)
-        if other is None:
-            return ()
-        if differences:
-            labels = chosen.path.results[other].labels
-            return (() if labels is None else
-                    runner_up_doubts(problem, chosen.path, chosen.best.labels, labels))
-        rule = DoubtRule(window=max(DoubtRule().window, abs(other - chosen.path.selected)),
-                         max_nats=math.inf)
-    return find_doubts(problem, chosen.path, chosen.best.labels, rule=rule)
+    """The doubts of a candidate's chosen graph
+    (:func:`vggc_cp.solvers.verdict.graph_doubts`, whose flags these are)."""
+    return graph_doubts(chosen.problem, chosen.path, chosen.best.labels,
+                        chosen.description_lengths, chosen.confidence.heldout,
+                        toward_runner_up=toward_runner_up, disputed=disputed,
+                        differences=differences, read=read)
 
 
 def choose(candidates: list[Candidate]) -> Candidate:
