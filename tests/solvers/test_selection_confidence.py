@@ -189,8 +189,8 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
 def test_a_graph_the_readings_chose_keeps_the_margin_of_the_actions():
     """The trusted readings choose among a tie, but the confidence's margin stays in the
     actions' code: the graph they chose is warned that another size is nearly as probable."""
-    from vggc_cp.solvers.verdict import runner_up
     from vggc_cp.solvers.merge import ThresholdPath
+    from vggc_cp.solvers.verdict import runner_up
 
     p, one, two = _tie_problem(1.0)
     results = [one, two]
