@@ -344,6 +344,27 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     assert "kappa 0.90, >= " in format_doubts([d])[1]
 
 
+def test_an_episode_whose_first_node_is_its_own_is_moved_by_the_node_it_shares():
+    """multifruit-2x3 robot s242 in small: the last episode's first frame is a node of its
+    own, its second sits in 'HA''s node. Joining the first to 'B' would join 'HA' and 'HB',
+    whose stated sites differ, so no pair is in question; moving the episode onto 'B''s path
+    is: a split doubt of the node it shares with other episodes ('HA'), named from its own
+    first node (before, an episode whose first node was its own was left to the pairs)."""
+    problem, path, labels = _episode_on_a_read(0.3)
+    own = int(labels.max()) + 1
+    labels[6] = own
+    assert read_doubts(problem, path, labels) == ()
+    (d,) = episode_doubts(problem, path, labels)
+    ha, b = int(labels[7]), int(labels[3])
+    assert d.kind == SPLIT and d.nodes == (ha,)
+    assert d.observations == ((1,), (7,))
+    assert d.evidence["moved_from"] == own and d.evidence["moved_to"] == b
+    assert d.evidence["moved_path"] == [b, int(labels[4])]
+    # an episode all of whose nodes are its own is a lone episode's question, not this one's
+    labels[7] = own + 1
+    assert episode_doubts(problem, path, labels) == ()
+
+
 def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():
     """Site 1 reads at kappa 0.9 where a pose of the hand reads it, but the last episode's
     run was read by none (a guess, trust 0; fruit-2x3 robot s102: the arm over region 0 hides

@@ -192,7 +192,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         also = "" if problem is None else " or take a transition only such episodes show"
         reason = (
             f"the episode of observations {first}-{last} might be another path of the graph, "
-            f"from node {ev['moved_to']} instead of node {d.nodes[0]}{more}: only the images' "
+            f"from node {ev['moved_to']} instead of node {ev.get('moved_from', d.nodes[0])}"
+            f"{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
             f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between "
             f"two observations start or end at a misplaced one{also}; record an episode from "

@@ -313,12 +313,19 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
       takes a weaker reading than the site's kappa says, or a guess), and taken at its
       lower bound at ``z`` as in :func:`read_doubts`.
 
-    The episode's first node ``N`` is then a split doubt: its observations in that
-    episode (side ``Q``) might be the other path's first node ``M``, the rest of ``N``
-    (side ``P``) stay. A node whose every observation lies in the episode is a merge
-    question (:func:`read_doubts`), not listed here. Evidence: that of
+    The episode's first node ``N`` that other episodes visit too is then a split doubt: its
+    observations in that episode (side ``Q``) might be on the other path, the rest of ``N``
+    (side ``P``) stay. (A node whose every observation lies in the episode is no such side:
+    joining it to another node is a merge question, :func:`read_doubts`, which the closure
+    may forbid where the episode's other nodes are shared -- multifruit-2x3 robot s242: two
+    frames of one episode made a node of their own, the next two sat in a node of another
+    state, and joining the first two to their state's node would have joined those two
+    states; only moving the episode keeps the graph.) An episode all of whose nodes are its
+    own is a lone episode (:mod:`vggc_cp.solvers.lone_episodes`), not listed here. ``M``
+    is the other path's first node. Evidence: that of
     :func:`~vggc_cp.solvers.doubts.find_doubts` for moving the whole episode onto the other
-    path, plus ``episode`` (its first and last observation), ``moved_to`` (``M``),
+    path, plus ``episode`` (its first and last observation), ``moved_from`` (the episode's
+    first node), ``moved_to`` (``M``),
     ``moved_path`` (the other path's nodes, one per observation of the episode),
     ``read_sites``, ``read_kappa``, ``read_kappa_low`` as for :func:`read_doubts`. Ranked
     by ``read_kappa_low - max_kappa``; the episode with the least trustworthy reading
@@ -356,7 +363,9 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     candidates = []
     for chain in episode_chains(problem):
         here = labels[chain]
-        if len(chain) < 2 or np.count_nonzero(here == here[0]) == sizes[here[0]]:
+        # the split doubt's node: the first of the episode's nodes that other episodes visit
+        shared = [int(v) for v in here if np.count_nonzero(here == v) < sizes[v]]
+        if len(chain) < 2 or not shared:
             continue
         best_move = None
         for other in np.flatnonzero(nodes.role == nodes.role[here[0]]):
@@ -381,15 +390,14 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             if best < max_kappa and (best_move is None or best < best_move[0]):
                 best_move = (best, int(other), moved, sep, point)
         if best_move is not None:
-            candidates.append((best_move[0], int(chain[0]), chain, *best_move[1:]))
+            candidates.append((best_move[0], int(chain[0]), chain, shared[0], *best_move[1:]))
     if not candidates:
         return ()
     candidates.sort(key=lambda c: (c[0], c[1]))
     problem = _dense(problem)
     flips = Flips(problem, path, labels)
     found = []
-    for best, _first, chain, other, moved, sep, point in candidates[:rule.limit]:
-        u = int(labels[chain[0]])
+    for best, _first, chain, u, other, moved, sep, point in candidates[:rule.limit]:
         mine = chain[labels[chain] == u]
         rest = np.setdiff1d(np.flatnonzero(labels == u), mine)
         flipped = labels.copy()
@@ -397,7 +405,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         found.append(flips.doubt(
             SPLIT, (u,), rest, mine, flipped, rule.typical,
             lambda steps, ev, b=best: round(b - max_kappa, 4),
-            episode=[int(chain[0]), int(chain[-1])], moved_to=other,
+            episode=[int(chain[0]), int(chain[-1])], moved_from=int(labels[chain[0]]),
+            moved_to=other,
             moved_path=[int(v) for v in moved],
             read_sites=sorted(problem.action_names[int(a)] for a in nodes.action[sep]),
             read_kappa=round(point, 4), read_kappa_low=round(best, 4)))

@@ -393,6 +393,30 @@ def grounded(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
     return best, found[0], last if ranked >= limit else -np.inf
 
 
+def counted_loglik(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
+                   forced: np.ndarray | None = None, floats=None) -> float:
+    """Log-likelihood of an episode's readings when its untouched slots hold ``need[c]``
+    objects of colour ``c``: of the most likely assignment (:func:`episode_assignment`), or,
+    with ``floats`` (:func:`in_the_air`), of the most likely one that puts nothing in the
+    air (:func:`grounded`); where none of those ranked stands, the most likely one pays
+    ``log FLOOR`` for it, as a reading that rules a value out would.
+
+    >>> p, post = np.array([0.0, 0.4]), np.ones((2, 1))       # slot 1 stands on slot 0
+    >>> on_top = lambda c: bool(c[1] >= 0 and c[0] < 0)
+    >>> round(counted_loglik(p, post, np.array([1])), 2)       # slot 1, in the air
+    -0.92
+    >>> round(counted_loglik(p, post, np.array([1]), None, on_top), 2)   # slot 0, read empty
+    -7.42
+    """
+    need = np.asarray(need, dtype=np.int64)
+    contents, loglik = episode_assignment(p_occupied, colour_post, need, forced)
+    if floats is None or (need < 0).any() or need.sum() > len(p_occupied) or \
+            not floats(contents):
+        return loglik
+    _, standing, _ = grounded(p_occupied, colour_post, need, forced, floats)
+    return standing if np.isfinite(standing) else loglik + float(np.log(FLOOR))
+
+
 def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, float]:
     """``K_c``: the object counts under which the episodes' readings are most likely, and by
     how much they beat the counts one object away.
@@ -405,9 +429,9 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
 
     Parameters
     ----------
-    episodes : list of (fixed, p_occupied, colour_post[, forced])
+    episodes : list of (fixed, p_occupied, colour_post[, forced[, floats]])
         ``fixed`` (C,): objects of each colour the touched slots and the hand hold at the
-        episode's start; the rest as for :func:`episode_assignment`.
+        episode's start; the rest as for :func:`counted_loglik`.
     start : ndarray of int, shape (C,)
 
     Returns
@@ -429,7 +453,7 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
     def total(k):
         key = tuple(int(v) for v in k)
         if key not in seen:
-            seen[key] = sum(episode_assignment(p, post, k - fixed, *rest)[1]
+            seen[key] = sum(counted_loglik(p, post, k - fixed, *rest)
                             for fixed, p, post, *rest in episodes)
         return seen[key]
 
@@ -504,6 +528,39 @@ def stack_forced(full: np.ndarray, loose: np.ndarray, below: dict[int, set[int]]
     return np.where(both, 0, need_full.astype(np.int64) - need_empty.astype(np.int64))
 
 
+def in_the_air(full: np.ndarray, loose: np.ndarray, below: dict[int, set[int]]):
+    """``floats(contents)`` of :func:`grounded` for one episode: whether giving its untouched
+    slots ``loose`` the ``contents`` (-1 empty, else a colour) puts an object above an empty
+    slot in any of its frames ``full`` (bool, shape (F, S): what every slot holds; the
+    touched slots change from frame to frame, the untouched do not).
+
+    >>> full = np.array([[True, False, False]])            # slot 2 stands on slot 1
+    >>> floats = in_the_air(full, np.array([1, 2]), {2: {1}})
+    >>> floats(np.array([-1, 0])), floats(np.array([0, 0]))
+    (True, False)
+    """
+    def floats(contents: np.ndarray) -> bool:
+        frames = full.copy()
+        frames[:, loose] = np.asarray(contents) >= 0
+        return any((frames[:, s] & ~frames[:, sorted(under)].all(axis=1)).any()
+                   for s, under in below.items())
+    return floats
+
+
+def count_trust(margin: float) -> float:
+    """How far a slot's contents that the counts set against its reading can be trusted at
+    most, on the scale of a reading's kappa: ``tanh(margin / 2)`` = ``2 P - 1``, ``P`` the
+    chance of the episode's best assignment against the next (``margin`` nats apart), 0 for a
+    coin toss and 1 for a sure one. (Two assignments 0.34 nats apart, multifruit-2x3 robot
+    s242: an object put on the weaker of two readings of an empty place, 0.17; at the
+    counts' own odds of 20 to 1, 0.90.)
+
+    >>> [round(count_trust(m), 2) for m in (0.0, 0.34, float(np.log(20.0)), float("inf"))]
+    [0.0, 0.17, 0.9, 1.0]
+    """
+    return float(np.tanh(max(float(margin), 0.0) / 2.0))
+
+
 def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
              trust: np.ndarray, slot: np.ndarray, colour: np.ndarray,
              above: dict[int, list[int]] | None = None, odds: float = COUNT_ODDS
@@ -536,11 +593,18 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         Copies, the untouched slots of every episode set to 0 / 1 and one-hot colours.
     changed : int
         Slot-episodes whose contents changed.
+    trust : ndarray, shape (N, A)
+        A copy of ``trust``; where the counts changed what a slot holds, no more than how
+        sure their choice is (:func:`count_trust` of the episode's best assignment over the
+        next). Never more than before: the choice rests on the other slots' readings, as
+        far as their kappas trust them, and a kappa read off few stated frames is surer than
+        they show (multifruit-2x3 robot s4: counts set at kappa 1.0, bound 0.20, would
+        have hidden the episode that is misplaced).
     """
-    presence, posterior = presence.copy(), posterior.copy()
+    presence, posterior, trust = presence.copy(), posterior.copy(), trust.copy()
     n_slots = int(slot.max()) + 1 if len(slot) and slot.max() >= 0 else 0
     if n_slots == 0:
-        return presence, posterior, 0
+        return presence, posterior, 0, trust
     n_col = posterior.shape[2]
     members = [np.flatnonzero(slot == s) for s in range(n_slots)]
     # an unread slot holds what the stated first frames of episodes say it usually holds
@@ -570,25 +634,22 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
                           for c in range(n_col)])
         forced = stack_forced(values[frames] >= 0, loose, below)
         plans.append((first, last, loose, holds, p_soft[frames][:, loose].mean(axis=0),
-                      post[frames][:, loose].mean(axis=0), forced))
-    total, margin = best_counts([(h, ps, po, fo) for *_, h, ps, po, fo in plans],
+                      post[frames][:, loose].mean(axis=0), forced,
+                      in_the_air(values[frames] >= 0, loose, below) if below else None))
+    # the counts are weighed on the assignments the stacks allow, as they are then assigned:
+    # an object the counts can only put in the air is no evidence for them
+    total, margin = best_counts([(h, ps, po, fo, fl) for *_, h, ps, po, fo, fl in plans],
                                 object_counts(values, held, n_col))
     if margin < odds:
-        return presence, posterior, 0      # the recording does not settle the counts
+        return presence, posterior, 0, trust   # the recording does not settle the counts
     changed = 0
-    for first, last, loose, holds, p_loose, post_loose, forced in plans:
+    for first, last, loose, holds, p_loose, post_loose, forced, floats in plans:
         need = total - holds
         if not len(loose) or (need < 0).any() or need.sum() > len(loose):
             continue                       # the stated slots already break the counts
-        if below:
+        if floats is not None:
             # the most likely assignment with nothing in the air, in any frame of the
             # episode (the touched slots change, the untouched do not)
-            def floats(contents, frames=values[first:last + 1] >= 0, loose=loose):
-                full = frames.copy()
-                full[:, loose] = contents >= 0
-                return any((full[:, s] & ~full[:, sorted(under)].all(axis=1)).any()
-                           for s, under in below.items())
-
             new, best, second = grounded(p_loose, post_loose, need, forced, floats)
             if new is None:
                 continue                   # every assignment leaves an object in the air
@@ -597,12 +658,17 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
             second = runner_up(p_loose, post_loose, need, new, forced)
         if (new != values[first, loose]).any() and best - second < TIE:
             continue                       # another assignment as likely: a coin toss
+        sure = count_trust(best - second)
         for i, s in enumerate(loose):
             changed += int(new[i] != values[first, s])
             cols = members[s]
+            if new[i] != values[first, s]:
+                # set against the reading: no surer than the counts' choice (which rests on
+                # the other slots' readings, so never surer than the reading it overruled)
+                trust[first:last + 1, cols] = np.minimum(trust[first:last + 1, cols], sure)
             if new[i] < 0:
                 presence[first:last + 1, cols] = 0.0
             else:
                 presence[first:last + 1, cols] = 1.0
                 posterior[first:last + 1, cols] = np.eye(n_col)[new[i]]
-    return presence, posterior, changed
+    return presence, posterior, changed, trust

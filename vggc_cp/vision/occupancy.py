@@ -489,9 +489,13 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
     # objects are conserved: the counts decide what the readings leave open
-    presence, posterior, _ = conserve(trace, presence, posterior, stated, trust, slot, colour,
-                                      above)
-    return presence, posterior, stated, kappa, trust, trust_low
+    presence, posterior, _, counted = conserve(trace, presence, posterior, stated, trust,
+                                               slot, colour, above)
+    # where the counts overruled a pose reading, its bound is no surer than their choice
+    moved = counted != trust
+    trust_low = np.where(moved & np.isfinite(trust_low), np.minimum(trust_low, counted),
+                         trust_low)
+    return presence, posterior, stated, kappa, counted, trust_low
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
