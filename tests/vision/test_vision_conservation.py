@@ -333,6 +333,20 @@ def test_random_705_randomized_counts_three_objects_not_four():
     assert 45 <= nodes <= 55
 
 
+@pytest.mark.slow
+def test_blocks_2_randomized_s243_counts_two_blocks_and_learns_the_true_graph():
+    """The eighteenth draw's silent miss (session 38): three blocks counted for two, a block
+    stood on bare region 0 through the stacking episode, 9 nodes for 9 states with a wrong
+    partition, quiet. Weighed on objects that stand, the counts are two and the graph true."""
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("blocks-2", 95, 243, look="randomized").trace
+    labels = learn_graph(trace.without_states()).labels
+    np.testing.assert_array_equal(labels[:, None] == labels[None],
+                                  trace.states[:, None] == trace.states[None])
+
+
 def test_an_untouched_slot_is_judged_by_what_episodes_start_with():
     """Two red objects on three places. Four episodes start with them at places 0 and 1 and
     move the one at 1 over to 2 and back (their actions state places 1 and 2; 0 is read
