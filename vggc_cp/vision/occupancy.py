@@ -366,7 +366,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         How far the reading that set every observation's presence can be trusted: 1 where
         the actions state it, else the kappa (at least 0) of the reading its run took -- the
         pose reading, the footprint presence, or 0 for the majority guess -- which may be
-        less than the site's ``kappa`` where some runs no pose reads.
+        less than the site's ``kappa`` where some runs no pose reads; where the object counts
+        overruled the reading, no more than their choice is sure
+        (:func:`~vggc_cp.vision.conservation.count_trust`).
     trust_low : ndarray of float64, shape (N, A)
         Where a pose reading set the run, how far it can be trusted for sure: the mean over
         the run's frames, weighted by their strength, of the lower confidence bound at ``z``
