@@ -48,7 +48,13 @@ assignment that puts no object above an empty slot in any of its frames (:func:`
 ranking the assignments with Murty's method, :func:`ranked_assignments`): a slot above one
 the counts leave full may read full because it sees the object below, and then the object
 stands on the slot below, not in the air (blocks-3 randomized s94: a block read on top of a
-two-block stack made three nodes of their own).
+two-block stack made three nodes of their own). The counts are weighed on such assignments
+too (:func:`counted_loglik`): an object they could put only in the air is no evidence for a
+count (blocks-2 randomized s243: an unread level-1 slot with a start prior of 2/3 favoured a
+third block in each of twelve episodes, and the count came out three for two).
+
+A slot whose contents the counts set against its reading is trusted no more than their choice
+is sure (:func:`count_trust`), so that a doubt may name it (multifruit-2x3 robot s242).
 
 The counts decide only where they do: an episode whose best assignment changes a reading
 but ties with another assignment (two slots read full with equal certainty and one object
