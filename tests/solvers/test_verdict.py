@@ -29,6 +29,16 @@ def test_learn_graph_is_the_verdict_on_the_chosen_graph(learned):
     assert conf == got.confidence and doubts == got.doubts
 
 
+def test_doubts_toward_the_runner_up_need_the_description_lengths(learned):
+    from vggc_cp.solvers.verdict import graph_doubts
+
+    c = learned[1].chosen
+    with pytest.raises(ValueError, match="toward_runner_up needs dls"):
+        graph_doubts(c.problem, c.path, c.best.labels, toward_runner_up=True)
+    assert isinstance(graph_doubts(c.problem, c.path, c.best.labels, c.description_lengths,
+                                   toward_runner_up=True), tuple)
+
+
 def test_runner_up_is_the_least_description_length_of_another_size():
     def result(n):
         return SolveResult(np.arange(8) % n, n, n, 0.0, FEASIBLE, "merge")

@@ -105,6 +105,10 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
                                                           heldout.disputed)
     rule = None
     if toward_runner_up:
+        if len(dls) != len(path.results):
+            raise ValueError(f"graph_doubts: toward_runner_up needs dls, one description "
+                             f"length per graph of the path ({len(path.results)}), got "
+                             f"{len(dls)}")
         other = runner_up(path, dls)
         if other is None:
             return ()
@@ -118,7 +122,7 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
 
 
 def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.ndarray,
-            confidence: Confidence, dls=(), trace: Trace | None = None
+            confidence: Confidence, dls, trace: Trace | None = None
             ) -> tuple[Confidence, tuple[Doubt, ...]]:
     """The confidence of the graph ``labels`` chosen on ``path`` with the checks its doubts
     raise, and its doubts, most pressing first (module docstring, steps 1-5).
