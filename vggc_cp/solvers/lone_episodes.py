@@ -35,7 +35,7 @@ from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath
-from vggc_cp.solvers.read_doubts import WalkGraph, episode_chains
+from vggc_cp.solvers.read_doubts import WalkGraph, dense_problem, episode_chains, node_majority
 
 #: The chance of the lone episodes below which they are a doubt (a 5 % test).
 LONE_ALPHA = 0.05
@@ -172,8 +172,7 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             continue
         _, other, moved, flipped = min(walks, key=lambda w: (w[0], w[1]))
         if flips is None:
-            flips = Flips(problem.dense() if hasattr(problem, "dense") else problem, path,
-                          labels)
+            flips = Flips(dense_problem(problem), path, labels)
         u = int(here[0])
         found.append(flips.doubt(
             MERGE, (u, other), np.flatnonzero(labels == u), np.flatnonzero(labels == other),
@@ -191,10 +190,5 @@ def _differing_sites(problem, sites, labels: np.ndarray, chain: np.ndarray,
     if sites is None:
         return []
     held = np.asarray(sites.held)
-    majority = {v: np.array([np.bincount(col).argmax() for col in held[labels == v].T])
-                for v in set(moved.tolist()) if np.any(labels == v)}
-    differ = np.zeros(held.shape[1], dtype=bool)
-    for o, v in zip(chain.tolist(), moved.tolist()):
-        if v in majority:
-            differ |= held[o] != majority[v]
+    differ = (held[chain] != node_majority(held, labels)[moved]).any(axis=0)
     return sorted({problem.action_names[int(a)] for a in np.asarray(sites.action)[differ]})

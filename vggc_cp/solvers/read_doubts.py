@@ -73,6 +73,23 @@ def observation_episodes(problem: Problem) -> np.ndarray:
     return order[comp]
 
 
+def node_majority(held: np.ndarray, labels: np.ndarray, n: int | None = None) -> np.ndarray:
+    """What most observations of every node hold at every site, int64 shape ``(n, S)``
+    (``held``: shape ``(N, S)``, non-negative values; the least value on a tie, 0 for a node
+    without observations).
+
+    >>> node_majority(np.array([[1, 0], [1, 2], [2, 2], [0, 0]]), np.array([0, 0, 0, 1])).tolist()
+    [[1, 2], [0, 0]]
+    """
+    held, labels = np.asarray(held), np.asarray(labels, dtype=np.int64)
+    n = int(labels.max()) + 1 if n is None else n
+    n_sites, n_vals = held.shape[1], int(held.max()) + 1 if held.size else 1
+    rows, cols = np.repeat(labels, n_sites), np.tile(np.arange(n_sites), len(labels))
+    counts = np.zeros((n, n_sites, n_vals), dtype=np.int64)
+    np.add.at(counts, (rows, cols, held.ravel()), 1)
+    return counts.argmax(axis=2)
+
+
 class _NodeReads:
     """What the observations of every node of ``labels`` hold at every site: ``facts``
     (bool, shape ``(n, S, V)``: a value stated by the actions in one of the node's
@@ -116,12 +133,10 @@ class _NodeReads:
         self.role = np.full(n, -1)
         self.role[labels] = roles
         rows, cols = np.repeat(labels, n_sites), np.tile(np.arange(n_sites), len(labels))
-        counts = np.zeros((n, n_sites, n_vals), dtype=np.int64)
-        np.add.at(counts, (rows, cols, held.ravel()), 1)
         self.facts = np.zeros((n, n_sites, n_vals), dtype=bool)
         told = stated.ravel()
         self.facts[rows[told], cols[told], held.ravel()[told]] = True
-        self.majority = counts.argmax(axis=2)
+        self.majority = node_majority(held, labels, n)
 
     @classmethod
     def of(cls, problem: Problem, path: ThresholdPath, labels: np.ndarray, rule: DoubtRule,
@@ -209,7 +224,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     if not candidates:
         return ()
     candidates.sort(key=lambda c: (c[0], c[1], c[2]))
-    problem = _dense(problem)
+    problem = dense_problem(problem)
     closure = PartitionClosure(problem, labels)
     flips = Flips(problem, path, labels)
     found = []
@@ -231,7 +246,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     return tuple(found)
 
 
-def _dense(problem):
+def dense_problem(problem):
     """A problem of descriptor codes made dense (its matrices), any other as it is."""
     return problem.dense() if hasattr(problem, "dense") else problem
 
@@ -364,8 +379,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     for chain in episode_chains(problem):
         here = labels[chain]
         # the split doubt's node: the first of the episode's nodes that other episodes visit
-        shared = [int(v) for v in here if np.count_nonzero(here == v) < sizes[v]]
-        if len(chain) < 2 or not shared:
+        shared = here[np.bincount(here, minlength=nodes.n)[here] < sizes[here]]
+        if len(chain) < 2 or not len(shared):
             continue
         best_move = None
         for other in np.flatnonzero(nodes.role == nodes.role[here[0]]):
@@ -390,11 +405,12 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             if best < max_kappa and (best_move is None or best < best_move[0]):
                 best_move = (best, int(other), moved, sep, point)
         if best_move is not None:
-            candidates.append((best_move[0], int(chain[0]), chain, shared[0], *best_move[1:]))
+            candidates.append((best_move[0], int(chain[0]), chain, int(shared[0]),
+                               *best_move[1:]))
     if not candidates:
         return ()
     candidates.sort(key=lambda c: (c[0], c[1]))
-    problem = _dense(problem)
+    problem = dense_problem(problem)
     flips = Flips(problem, path, labels)
     found = []
     for best, _first, chain, u, other, moved, sep, point in candidates[:rule.limit]:

@@ -47,12 +47,18 @@ from vggc_cp.solvers.doubts import (
 from vggc_cp.solvers.lone_episodes import lone_doubts, lone_episodes
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.solvers.pairs import CodedProblem
-from vggc_cp.solvers.read_doubts import episode_doubts, read_doubts
+from vggc_cp.solvers.read_doubts import dense_problem, episode_doubts, read_doubts
 from vggc_cp.trace import Trace
 
 #: Largest trace (observations) whose doubts are looked for on a problem of descriptor codes:
 #: they read the within-role distance matrices, which such a problem builds for them.
 DOUBTS_MAX_OBS = 8000
+
+
+def _too_large(problem) -> bool:
+    """A problem of descriptor codes too large to densify for its doubts
+    (:data:`DOUBTS_MAX_OBS`)."""
+    return isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS
 
 
 def runner_up(path: ThresholdPath, dls) -> int | None:
@@ -93,13 +99,12 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
     untrustworthy reading of the images sets apart
     (:func:`~vggc_cp.solvers.read_doubts.read_doubts`), then the episodes only such a reading
     puts on their path (:func:`~vggc_cp.solvers.read_doubts.episode_doubts`)."""
-    if isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS:
+    if _too_large(problem):
         return ()
     if read:                    # a problem of codes: densified only if a doubt is found
         pairs = read_doubts(problem, path, labels)
         return (*pairs, *episode_doubts(problem, path, labels))
-    if isinstance(problem, CodedProblem):
-        problem = problem.dense()
+    problem = dense_problem(problem)
     if disputed:
         return () if heldout is None else disputed_doubts(problem, path, labels,
                                                           heldout.disputed)
@@ -166,7 +171,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
     lone = lone_episodes(problem, labels)
     if lone.doubtful:
         conf = doubt_lone(conf, lone)
-        if not (isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS):
+        if not _too_large(problem):
             found = lone_doubts(problem, path, labels, lone)
             named = {f.nodes for f in found}
             doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.limit]
