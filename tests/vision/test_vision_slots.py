@@ -201,6 +201,37 @@ def test_too_little_sequence_leaves_the_slot_to_the_pixels():
     np.testing.assert_array_equal(alone, (colour[:, None] != colour) & (ov >= 0.2))
 
 
+def test_a_slot_s_mates_are_every_action_its_links_reach():
+    """multifruit-2x3 randomized s262 (twenty-first draw, silent): at one region a red pair
+    (0, 1) and a yellow pair (2, 3) never act next to each other in an episode, and of their
+    footprints only the two picks overlap by the site bar (the objects' shapes differ, and
+    the randomized look moves where each is put). The picks are mates and each pair is
+    twins, so the four share one slot: the red place's mates are the yellow pick and place,
+    not none (before, the place's site was read without the yellow pick that empties it)."""
+    kinds = np.array([PICK, PLACE] * 2, dtype=np.int8)
+    colour, twin = np.array([0, 0, 1, 1]), np.array([1, 0, 3, 2])
+    ov = np.array([[1, .74, .25, .09], [.74, 1, .16, .03],
+                   [.25, .16, 1, .65], [.09, .03, .65, 1]])
+    actions = np.array([0, 1, -1, 2, 3])
+    mates = slots.sequence_mates(actions, [(0, 2), (3, 5)], ov, colour, kinds, twin, 0.2)
+    assert [np.flatnonzero(m).tolist() for m in mates] == [[2, 3], [2, 3], [0, 1], [0, 1]]
+    assert slots.acting_at(1, ov, colour, twin, 0.2, mates).tolist() == [0, 1, 2, 3]
+
+
+@pytest.mark.slow
+def test_multifruit_2x3_randomized_s262_learns_the_true_graph():
+    """The twenty-first draw's silent miss (session 39): the red place at region 2 had no
+    mates, so its site's run was not cut where the yellow pick emptied the region, and a bare
+    region was read full at trust 1.00 (13 nodes for 12, Exec 74 %, quiet)."""
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("multifruit-2x3", 95, 262, look="randomized").trace
+    labels = learn_graph(trace.without_states()).labels
+    np.testing.assert_array_equal(labels[:, None] == labels[None],
+                                  trace.states[:, None] == trace.states[None])
+
+
 def test_twins_are_mutual():
     """A place that names a pick its twin (the sequence settles it) makes that pick's twin
     the place, where the pick named none; a pick two places name stays without one."""

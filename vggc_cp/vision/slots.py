@@ -20,7 +20,8 @@ overlaps the block's below it; the trace's own sequence says what it can:
   (:func:`one_per_colour`), and none that the other side gives to another action
   (:func:`exclusive_mates`); and since a slot is every action its mates reach, no chain of
   mates may put two actions of one colour and kind, or two the sequence rules apart, in
-  one slot (:func:`consistent_mates`).
+  one slot, and every action of another colour that the chains reach is a mate
+  (:func:`consistent_mates`).
 
 :func:`acting_at` gathers them: the actions that change what site ``a`` holds. Nothing here
 reads action names or ground-truth states.
@@ -221,7 +222,7 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     other side does not give its own mate of ``a``'s colour and kind to another action
     (:func:`exclusive_mates`): a block on top of ``a``'s overlaps it, but it is not at its
     slot. Last, no chain of mates may join what the sequence rules apart or two actions of
-    one colour and kind (:func:`consistent_mates`).
+    one colour and kind, and what the chains join are mates (:func:`consistent_mates`).
 
     Parameters
     ----------
@@ -292,8 +293,9 @@ def sequence_mates(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
 def consistent_mates(mates: np.ndarray, twin: np.ndarray, colour: np.ndarray,
                      kinds: np.ndarray, strength: np.ndarray,
                      apart: np.ndarray | None = None) -> np.ndarray:
-    """Mates that leave every slot one pick and one place of each colour, and no two
-    actions the sequence rules out of one slot, boolean shape (A, A).
+    """The slots mates and twins make, each with one pick and one place of each colour and
+    no two actions the sequence rules out of one slot, as mates: boolean shape (A, A), true
+    for two actions of different colours in one slot.
 
     Mates are chosen action by action, so a chain of them can join two slots: level 0 and
     level 1 of a region overlap as much as two objects at one level do, and where the
@@ -303,7 +305,11 @@ def consistent_mates(mates: np.ndarray, twin: np.ndarray, colour: np.ndarray,
     yellow pick's slot, the red one's mate, 12 times). The slots are grown as a forest,
     strongest link first (twins, then mates by ``strength``); a link that would put two
     actions of one colour and kind, or two actions ``apart``, in one slot is left out, and
-    every mate outside its action's slot with it.
+    every mate outside its action's slot with it. What a slot holds is every action its
+    links reach: where only a red and a yellow pick overlap by the site bar (the two
+    objects' shapes differ) and each has its twin, the red place's mates are the yellow
+    pick and place too (multifruit-2x3 randomized s262: without them, the place's site ran
+    on past the yellow pick that emptied it).
 
     Parameters
     ----------
@@ -344,7 +350,9 @@ def consistent_mates(mates: np.ndarray, twin: np.ndarray, colour: np.ndarray,
     order = np.argsort(-strength[links[:, 0], links[:, 1]], kind="stable")
     for a, b in links[order]:
         join(int(a), int(b))
-    return mates & (slot[:, None] == slot[None, :])
+    coloured = colour >= 0
+    return ((slot[:, None] == slot[None, :]) & (colour[:, None] != colour[None, :])
+            & coloured[:, None] & coloured[None, :])
 
 
 def one_per_colour(mates: np.ndarray, seen: np.ndarray, ov: np.ndarray, colour: np.ndarray,
