@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from vggc_cp.trace import Trace
+from vggc_cp.vision import assignment as asg
 from vggc_cp.vision import conservation as cons
 
 #: pick and place of one red class at three places: action 2r is pick_red_r, 2r+1 place_red_r
@@ -42,28 +43,6 @@ def test_the_hand_holds_what_it_lifted_until_it_puts_it_down():
 def test_the_counts_are_what_most_observations_show():
     values = np.array([[0, 0, -1]] * 5 + [[0, -1, -1]] * 2)     # two frames miss one object
     assert cons.object_counts(values, np.full(7, -1), 1).tolist() == [2]
-
-
-def test_the_assignment_respects_the_counts_and_follows_the_readings():
-    # two red objects and one blue among four slots; readings of the first three only
-    p = np.array([0.9, 0.8, 0.95, 0.5])
-    post = np.array([[0.9, 0.1], [0.2, 0.8], [0.6, 0.4], [0.5, 0.5]])
-    got, loglik = cons.episode_assignment(p, post, np.array([2, 1]))
-    assert sorted(got.tolist()) == [-1, 0, 0, 1]
-    assert loglik == pytest.approx(np.log(0.9 * 0.9 * 0.8 * 0.8 * 0.95 * 0.6 * 0.5))
-    assert got[1] == 1                    # the bluest reading takes the blue object
-    assert got[3] == -1                   # the unread slot is left empty: three are seen
-    # one object only: the most certain reading holds it
-    assert cons.episode_assignment(p, post, np.array([1, 0]))[0].tolist() == [-1, -1, 0, -1]
-
-
-def test_counts_no_assignment_meets_cost_as_much_as_a_reading_that_rules_them_out():
-    p, post = np.array([0.9, 0.9]), np.ones((2, 1))
-    _, fits = cons.episode_assignment(p, post, np.array([2]))
-    _, too_many = cons.episode_assignment(p, post, np.array([3]))
-    _, too_few = cons.episode_assignment(p, post, np.array([-1]))
-    assert too_many == pytest.approx(fits + np.log(cons.FLOOR))
-    assert too_few == pytest.approx(np.log(0.1 * 0.1) + np.log(cons.FLOOR))
 
 
 def test_the_counts_follow_the_episodes_not_a_slot_misread_in_most_frames():
@@ -189,28 +168,6 @@ def test_the_counts_are_weighed_on_objects_that_stand():
     assert cons.best_counts(free, np.array([2]))[0].tolist() == [3]
 
 
-def test_ranked_assignments_come_best_first_and_once_each():
-    """Murty's ranking gives every assignment of contents once, from the most likely down,
-    as the brute force over all of them does; a stack with every assignment in the air
-    leaves nothing grounded."""
-    import itertools
-
-    rng = np.random.default_rng(3)
-    p = rng.uniform(0.05, 0.95, 5)
-    post = rng.dirichlet(np.ones(2), 5)
-    need = np.array([1, 2])
-    ranked = list(cons.ranked_assignments(p, post, need, limit=1000))
-    every = {c for c in itertools.product([-1, 0, 1], repeat=5)
-             if c.count(0) == 1 and c.count(1) == 2}
-    assert len(ranked) == len(every) == 30
-    assert {tuple(c.tolist()) for c, _ in ranked} == every
-    lls = [ll for _, ll in ranked]
-    assert all(a >= b - 1e-12 for a, b in zip(lls, lls[1:]))
-    assert abs(lls[0] - cons.episode_assignment(p, post, need)[1]) < 1e-9
-    assert len(list(cons.ranked_assignments(p, post, need, limit=4))) == 4
-    assert cons.grounded(p, post, need, None, lambda c: True)[0] is None
-
-
 def test_a_slot_no_reading_reaches_is_no_free_room_for_an_extra_object():
     """Two objects; in each of four episodes one is stated (place 0), one read full with
     trust 0.9 (place 1), and place 2 is read by nothing (trust 0); a fifth episode reads
@@ -252,9 +209,9 @@ def test_a_tie_keeps_the_readings():
     kept, _, changed, _ = cons.conserve(trace, presence, np.ones((n, 6, 1)), stated, trust,
                                         SLOT, COLOUR)
     assert changed == 0 and (kept == presence).all()   # the first episode reads three
-    best, loglik = cons.episode_assignment(np.array([1.0, 1.0]), np.ones((2, 1)),
+    best, loglik = asg.episode_assignment(np.array([1.0, 1.0]), np.ones((2, 1)),
                                            np.array([1]))
-    assert loglik == pytest.approx(cons.runner_up(np.array([1.0, 1.0]), np.ones((2, 1)),
+    assert loglik == pytest.approx(asg.runner_up(np.array([1.0, 1.0]), np.ones((2, 1)),
                                                   np.array([1]), best))
     # with one of the two less certain, the count decides: that one is emptied
     presence[0:3, 2:4] = 0.8
@@ -264,7 +221,7 @@ def test_a_tie_keeps_the_readings():
     # the emptied slot is as sure as the count's choice between the two, not as its reading
     # (1.0); the slot the count left as read keeps its reading's trust
     # (best: slot 2 full, read 1.0, slot 1 empty, read 0.8; next: the other way round)
-    margin = np.log(1.0 - cons.FLOOR) + np.log(0.2) - np.log(0.8) - np.log(cons.FLOOR)
+    margin = np.log(1.0 - asg.FLOOR) + np.log(0.2) - np.log(0.8) - np.log(asg.FLOOR)
     assert sure[0:3, 2:4] == pytest.approx(cons.count_trust(margin))
     assert 0.9 < cons.count_trust(margin) < 1.0
     assert (sure[0:3, 4:6] == 1.0).all() and (sure[3:] == trust[3:]).all()
@@ -295,11 +252,11 @@ def test_a_block_put_on_an_untouched_slot_shows_it_holds_one_all_episode():
     assert (out[stated] == presence[stated]).all()
     # what the stacks require of the untouched slots: slot 1 full, as the block showed
     full = np.array([[False, False, False], [False, False, True], [False, False, False]])
-    assert cons.stack_forced(full, np.array([0, 1]), {2: {1}}).tolist() == [0, 1]
+    assert asg.stack_forced(full, np.array([0, 1]), {2: {1}}).tolist() == [0, 1]
     # a tower of untouched slots: what is required of the middle passes down and up
-    assert cons.stack_forced(full, np.array([0, 1]), {2: {1}, 1: {0}}).tolist() == [1, 1]
+    assert asg.stack_forced(full, np.array([0, 1]), {2: {1}, 1: {0}}).tolist() == [1, 1]
     empty_base = np.zeros((2, 3), dtype=bool)
-    assert cons.stack_forced(empty_base, np.array([1, 2]), {2: {1}, 1: {0}}).tolist() == \
+    assert asg.stack_forced(empty_base, np.array([1, 2]), {2: {1}, 1: {0}}).tolist() == \
         [-1, -1]
 
 

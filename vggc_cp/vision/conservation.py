@@ -17,76 +17,78 @@ and that is read from the images, well where a reading reaches it and not at all
 hides it in every frame. The untouched slots together hold ``K_c`` less what the touched slots
 and the hand hold, ``n_c`` objects of colour ``c``: the assignment of ``n_c`` slots to each
 colour (the rest empty) that the readings make most likely is what they hold
-(:func:`episode_assignment`, the Hungarian method on log-likelihoods).
+(:func:`~vggc_cp.vision.assignment.episode_assignment`, the Hungarian method on
+log-likelihoods).
 
 A reading counts as far as it can be trusted: with settled presence ``p`` of a reading whose
 agreement with the stated frames beyond chance is ``kappa`` (its held-out Cohen's kappa,
-:func:`vggc_cp.vision.trust.reading_kappa`; 0 for a run no reading reaches), the
-probability that the slot holds something is ``m + kappa (p - m)``, and of colour ``c``
-that times the run's colour posterior, with ``m`` what is known of the slot without the
-reading: how often it holds something when an episode starts, as the first frames of the
-episodes whose actions state it say, shrunk toward how often all its stated frames do by two
-frames (:func:`start_rates`; :func:`base_rates`, Laplace's rule of succession). An untouched
-slot holds all episode long what it held at the start, so that is its prior: where episodes
-start alike (a robot reset to one home), an arm that hides a place and a weaker reading of
-an empty one elsewhere no longer move an object between them (multifruit-4x6 robot s134: in
-one episode both places read empty, the count put the missing red at the weaker reading of
-the two, and the episode's three frames made nodes of their own). A slot nothing can read
-is decided by the counts, the other slots and ``m``; at ``m = 1/2`` it was free room for
-any object the counts had left over, and a count one too many could win (random-705 randomized: a level-2 place taken once, read by nothing,
-held a fourth red in every episode). Where they cannot decide (two unread slots, one
-object), the reading's low kappa is what the read doubts report
+:func:`vggc_cp.vision.trust.reading_kappa`; 0 for a run no reading reaches), the probability
+that the slot holds something is ``m + kappa (p - m)``, and of colour ``c`` that times the
+run's colour posterior, with ``m`` what is known of the slot without the reading: how often it
+holds something when an episode starts, as the first frames of the episodes whose actions
+state it say, shrunk toward how often all its stated frames do by two frames
+(:func:`start_rates`; :func:`base_rates`, Laplace's rule of succession). An untouched slot
+holds all episode long what it held at the start, so that is its prior: where episodes start
+alike (a robot reset to one home), an arm that hides a place and a weaker reading of an empty
+one elsewhere no longer move an object between them (multifruit-4x6 robot s134: in one episode
+both places read empty, the count put the missing red at the weaker reading of the two, and
+the episode's three frames made nodes of their own). A slot nothing can read is decided by the
+counts, the other slots and ``m``; at ``m = 1/2`` it was free room for any object the counts
+had left over, and a count one too many could win (random-705 randomized: a level-2 place
+taken once, read by nothing, held a fourth red in every episode). Where they cannot decide
+(two unread slots, one object), the reading's low kappa is what the read doubts report
 (:mod:`vggc_cp.solvers.read_doubts`).
 
-Stacks are facts too (a block on a block, where the actions state which slot is above
-which): an untouched slot under one the actions fill in any frame of the episode holds
-something, and one above a slot they empty holds nothing (:func:`stack_forced`); the other
-value costs as much as a reading that rules it out.
+Stacks are facts too (a block on a block, where the actions state which slot is above which):
+an untouched slot under one the actions fill in any frame of the episode holds something, and
+one above a slot they empty holds nothing (:func:`~vggc_cp.vision.assignment.stack_forced`);
+the other value costs as much as a reading that rules it out.
 
 Objects rest on something: where the trace stacks slots, an episode takes the most likely
-assignment that puts no object above an empty slot in any of its frames (:func:`grounded`,
-ranking the assignments with Murty's method, :func:`ranked_assignments`): a slot above one
-the counts leave full may read full because it sees the object below, and then the object
-stands on the slot below, not in the air (blocks-3 randomized s94: a block read on top of a
-two-block stack made three nodes of their own). The counts are weighed on such assignments
-too (:func:`counted_loglik`): an object they could put only in the air is no evidence for a
-count (blocks-2 randomized s243: an unread level-1 slot with a start prior of 2/3 favoured a
-third block in each of twelve episodes, and the count came out three for two).
+assignment that puts no object above an empty slot in any of its frames
+(:func:`~vggc_cp.vision.assignment.grounded`, ranking the assignments with Murty's method,
+:func:`~vggc_cp.vision.assignment.ranked_assignments`): a slot above one the counts leave full
+may read full because it sees the object below, and then the object stands on the slot below,
+not in the air (blocks-3 randomized s94: a block read on top of a two-block stack made three
+nodes of their own). The counts are weighed on such assignments too
+(:func:`~vggc_cp.vision.assignment.counted_loglik`): an object they could put only in the air
+is no evidence for a count (blocks-2 randomized s243: an unread level-1 slot with a start
+prior of 2/3 favoured a third block in each of twelve episodes, and the count came out three
+for two).
 
 A slot whose contents the counts set against its reading is trusted no more than their choice
 is sure (:func:`count_trust`), so that a doubt may name it (multifruit-2x3 robot s242).
 
-The counts decide only where they do: an episode whose best assignment changes a reading
-but ties with another assignment (two slots read full with equal certainty and one object
-to place: the counts would toss a coin) keeps its readings (:func:`runner_up`, or the next
-grounded assignment). So do an episode none of whose first :data:`MAX_RANKED` assignments
-stands and one whose counts the stated slots already contradict (fewer objects left than
-they need, or more than the untouched slots can hold). Nothing reads action names or
-ground-truth states.
-"""
+The counts decide only where they do: an episode whose best assignment changes a reading but
+ties with another assignment (two slots read full with equal certainty and one object to
+place: the counts would toss a coin) keeps its readings
+(:func:`~vggc_cp.vision.assignment.runner_up`, or the next grounded assignment). So do an
+episode none of whose first :data:`~vggc_cp.vision.assignment.MAX_RANKED` assignments stands
+and one whose counts the stated slots already contradict (fewer objects left than they need,
+or more than the untouched slots can hold). Nothing reads action names or ground-truth states."""
 
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from vggc_cp.trace import PICK, Trace, hand_colours_along
+from vggc_cp.vision.assignment import (
+    counted_loglik,
+    episode_assignment,
+    grounded,
+    in_the_air,
+    runner_up,
+    stack_forced,
+)
 from vggc_cp.vision.slots import acting_at
 
-#: Floor of a probability in the log-likelihoods (a reading never rules a value out).
-FLOOR = 1e-3
 #: Log-likelihoods closer than this are a tie: the counts do not decide between them.
 TIE = 1e-6
 #: The object counts are used only where they are at least 20 times as likely as any count
 #: one object away (the odds the sequence's twins are taken at, :mod:`vggc_cp.vision.slots`).
 COUNT_ODDS = float(np.log(20.0))
-#: Assignments of an episode ranked at most in search of one that puts no object in the air
-#: (:func:`grounded`).
-MAX_RANKED = 64
 
 
 def slot_groups(ov: np.ndarray, colour: np.ndarray, counts: np.ndarray, twin: np.ndarray,
@@ -213,223 +215,13 @@ def object_counts(values: np.ndarray, held: np.ndarray, n_col: int) -> np.ndarra
     return out
 
 
-def _gains(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-           forced: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Log-likelihood of every slot holding what every column stands for, shape (L, L), and
-    the columns: ``need[c]`` of colour ``c``, the rest empty (-1). A slot ``forced`` full
-    (1) or empty (-1) by a stack pays ``log FLOOR`` more for the other (:func:`stack_forced`)."""
-    p = np.clip(np.nan_to_num(p_occupied, nan=0.5), FLOOR, 1.0 - FLOOR)
-    post = np.clip(np.nan_to_num(colour_post, nan=1.0), FLOOR, None)
-    post = post / post.sum(axis=1, keepdims=True)
-    occupied = np.log(p)[:, None] + np.log(post)                    # (L, C)
-    empty = np.log(1.0 - p)                                          # (L,)
-    if forced is not None:
-        occupied = occupied + np.where(forced < 0, np.log(FLOOR), 0.0)[:, None]
-        empty = empty + np.where(forced > 0, np.log(FLOOR), 0.0)
-    columns = np.concatenate([np.repeat(np.arange(len(need)), need),
-                              np.full(len(p) - int(need.sum()), -1)]).astype(np.int64)
-    gain = np.where(columns[None, :] >= 0, occupied[:, np.maximum(columns, 0)], empty[:, None])
-    return gain, columns
-
-
-def episode_assignment(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-                       forced: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """The most likely contents of untouched slots that hold ``need[c]`` objects of colour
-    ``c``, and their log-likelihood.
-
-    Parameters
-    ----------
-    p_occupied : ndarray, shape (L,)
-        Probability that each slot holds something.
-    colour_post : ndarray, shape (L, C)
-        Colour posterior of what each slot holds.
-    need : ndarray of int, shape (C,)
-    forced : ndarray of int, shape (L,), optional
-        1 where a stack requires the slot to hold something, -1 where it requires it empty,
-        0 elsewhere (:func:`stack_forced`); the other value costs a reading at ``FLOOR``.
-
-    Returns
-    -------
-    contents : ndarray of int64, shape (L,)
-        -1 empty, else a colour.
-    loglik : float
-        Of the readings under ``contents``. Counts no assignment meets (a negative need,
-        or more objects than slots) cost ``log FLOOR`` per object too many or too few, as
-        a reading that rules a value out would: the counts are as much evidence as a
-        reading, no more.
-
-    >>> contents, _ = episode_assignment(np.array([0.5, 0.5, 0.9]),
-    ...                                  np.array([[1.0], [1.0], [1.0]]), np.array([2]))
-    >>> contents.tolist()
-    [0, -1, 0]
-    """
-    need = np.asarray(need, dtype=np.int64)
-    short = int(np.maximum(-need, 0).sum())
-    need = np.maximum(need, 0)
-    excess = max(int(need.sum()) - len(p_occupied), 0)
-    for _ in range(excess):                      # drop the most wanted colour's extra ones
-        need[int(np.argmax(need))] -= 1
-    penalty = (short + excess) * np.log(FLOOR)
-    out = np.empty(len(p_occupied), dtype=np.int64)
-    if not len(p_occupied):
-        return out, float(penalty)
-    gain, columns = _gains(p_occupied, colour_post, need, forced)
-    rows, picked = linear_sum_assignment(-gain)
-    out[rows] = columns[picked]
-    return out, float(gain[rows, picked].sum() + penalty)
-
-
-def runner_up(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-              contents: np.ndarray, forced: np.ndarray | None = None) -> float:
-    """Log-likelihood of the most likely assignment (as :func:`episode_assignment`, ``need``
-    met) that differs from ``contents`` in at least one slot; ``-inf`` where none does.
-
-    The best assignment that gives slot ``i`` anything but ``contents[i]``, the best over
-    ``i`` (the first step of Murty's ranking of assignments).
-
-    >>> p, post = np.array([0.9, 0.9, 0.2]), np.ones((3, 1))
-    >>> best, loglik = episode_assignment(p, post, np.array([1]))
-    >>> round(loglik - runner_up(p, post, np.array([1]), best), 6)    # a coin toss
-    0.0
-    """
-    gain, columns = _gains(p_occupied, colour_post, np.asarray(need, dtype=np.int64), forced)
-    out = -np.inf
-    for i in range(len(contents)):
-        banned = gain.copy()
-        banned[i, columns == contents[i]] = -np.inf
-        if not np.isfinite(banned[i]).any():
-            continue
-        try:
-            rows, picked = linear_sum_assignment(-banned)
-        except ValueError:                       # no assignment avoids the ban
-            continue
-        out = max(out, float(banned[rows, picked].sum()))
-    return out
-
-
-def ranked_assignments(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-                       forced: np.ndarray | None = None, limit: int = MAX_RANKED):
-    """The assignments of :func:`episode_assignment` (``need`` met, non-negative and at most
-    one object a slot) from the most likely down, at most ``limit`` of them: yields
-    ``(contents, loglik)``, ``loglik`` never increasing.
-
-    Murty's ranking (Murty 1968) over what each slot holds: the next assignment is the best
-    of the ones not yet given, found by splitting the space left by the last one given (the
-    best with its first ``k`` slots as in it and slot ``k`` not) and solving each part with
-    the Hungarian method. Objects of one colour are interchangeable, so each assignment of
-    contents comes once.
-
-    References
-    ----------
-    K. G. Murty, "An algorithm for ranking all the assignments in order of increasing cost",
-    Operations Research 16(3):682-687, 1968.
-
-    >>> p, post = np.array([0.9, 0.6, 0.2]), np.ones((3, 1))
-    >>> [c.tolist() for c, _ in ranked_assignments(p, post, np.array([1]))]
-    [[0, -1, -1], [-1, 0, -1], [-1, -1, 0]]
-    """
-    need = np.asarray(need, dtype=np.int64)
-    if (need < 0).any() or need.sum() > len(p_occupied) or not len(p_occupied):
-        return
-    gain, columns = _gains(p_occupied, colour_post, need, forced)
-
-    def solve(rules: tuple) -> tuple[np.ndarray, float] | None:
-        g = gain.copy()
-        for i, value, kept in rules:
-            g[i, (columns != value) if kept else (columns == value)] = -np.inf
-        try:
-            rows, picked = linear_sum_assignment(-g)
-        except ValueError:                       # the rules leave no assignment
-            return None
-        total = float(g[rows, picked].sum())
-        if not np.isfinite(total):
-            return None
-        contents = np.empty(len(p_occupied), dtype=np.int64)
-        contents[rows] = columns[picked]
-        return contents, total
-
-    first = solve(())
-    if first is None:
-        return
-    heap = [(-first[1], 0, first[0], ())]
-    count = 1
-    for _ in range(limit):
-        if not heap:
-            return
-        neg, _, contents, rules = heapq.heappop(heap)
-        yield contents, -neg
-        kept = {i for i, _, k in rules if k}
-        free = [i for i in range(len(contents)) if i not in kept]
-        for k, i in enumerate(free):
-            part = (*rules, *((j, int(contents[j]), True) for j in free[:k]),
-                    (i, int(contents[i]), False))
-            found = solve(part)
-            if found is not None:
-                heapq.heappush(heap, (-found[1], count, found[0], part))
-                count += 1
-
-
-def grounded(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-             forced: np.ndarray | None, floats, limit: int = MAX_RANKED
-             ) -> tuple[np.ndarray | None, float, float]:
-    """The most likely assignment that puts no object above an empty slot (``floats(contents)``
-    False), its log-likelihood and the next such one's (``-inf`` where none is left; where
-    the ranking stops at ``limit`` first, the last assignment ranked bounds it from above).
-    ``(None, -inf, -inf)`` where none of the first ``limit`` stands.
-
-    >>> p, post = np.array([0.9, 0.8, 0.1]), np.ones((3, 1))
-    >>> on_top = lambda c: bool(c[1] >= 0 and c[0] < 0)       # slot 1 stands on slot 0
-    >>> best, ll, next_ll = grounded(p, post, np.array([1]), None, on_top)
-    >>> best.tolist(), bool(ll > next_ll)
-    ([0, -1, -1], True)
-    """
-    found: list[float] = []
-    best, last, ranked = None, -np.inf, 0
-    for contents, loglik in ranked_assignments(p_occupied, colour_post, need, forced, limit):
-        last, ranked = loglik, ranked + 1
-        if floats(contents):
-            continue
-        if best is None:
-            best = contents
-        found.append(loglik)
-        if len(found) == 2:
-            return best, found[0], found[1]
-    if best is None:
-        return None, -np.inf, -np.inf
-    return best, found[0], last if ranked >= limit else -np.inf
-
-
-def counted_loglik(p_occupied: np.ndarray, colour_post: np.ndarray, need: np.ndarray,
-                   forced: np.ndarray | None = None, floats=None) -> float:
-    """Log-likelihood of an episode's readings when its untouched slots hold ``need[c]``
-    objects of colour ``c``: of the most likely assignment (:func:`episode_assignment`), or,
-    with ``floats`` (:func:`in_the_air`), of the most likely one that puts nothing in the
-    air (:func:`grounded`); where none of those ranked stands, the most likely one pays
-    ``log FLOOR`` for it, as a reading that rules a value out would.
-
-    >>> p, post = np.array([0.0, 0.4]), np.ones((2, 1))       # slot 1 stands on slot 0
-    >>> on_top = lambda c: bool(c[1] >= 0 and c[0] < 0)
-    >>> round(counted_loglik(p, post, np.array([1])), 2)       # slot 1, in the air
-    -0.92
-    >>> round(counted_loglik(p, post, np.array([1]), None, on_top), 2)   # slot 0, read empty
-    -7.42
-    """
-    need = np.asarray(need, dtype=np.int64)
-    contents, loglik = episode_assignment(p_occupied, colour_post, need, forced)
-    if floats is None or (need < 0).any() or need.sum() > len(p_occupied) or \
-            not floats(contents):
-        return loglik
-    _, standing, _ = grounded(p_occupied, colour_post, need, forced, floats)
-    return standing if np.isfinite(standing) else loglik + float(np.log(FLOOR))
-
-
 def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, float]:
     """``K_c``: the object counts under which the episodes' readings are most likely, and by
     how much they beat the counts one object away.
 
     Each episode contributes the log-likelihood of its best assignment
-    (:func:`episode_assignment`) given what its touched slots and the hand hold; the counts
-    move one object of one colour at a time from ``start`` while that raises the total (a
+    (:func:`~vggc_cp.vision.assignment.counted_loglik`) given what its touched slots and the
+    hand hold; the counts move one object of one colour at a time from ``start`` while that raises the total (a
     slot misread in most frames would make the most frequent count wrong; the episodes
     whose actions state where the objects are outweigh it).
 
@@ -437,7 +229,7 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
     ----------
     episodes : list of (fixed, p_occupied, colour_post[, forced[, floats]])
         ``fixed`` (C,): objects of each colour the touched slots and the hand hold at the
-        episode's start; the rest as for :func:`counted_loglik`.
+        episode's start; the rest as for :func:`~vggc_cp.vision.assignment.counted_loglik`.
     start : ndarray of int, shape (C,)
 
     Returns
@@ -482,75 +274,6 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
                 break
     margin = min((score - total(k) for k in neighbours(best)), default=np.inf)
     return best, float(margin)
-
-
-def stack_forced(full: np.ndarray, loose: np.ndarray, below: dict[int, set[int]]
-                 ) -> np.ndarray:
-    """What the stacks require of an episode's untouched slots: 1 where one must hold
-    something, -1 where one must be empty, 0 where nothing is required; int64 shape
-    ``(len(loose),)``.
-
-    An untouched slot holds one thing all episode. Where a slot stacked on it holds something
-    in any frame (a block the actions put on it), it holds something too; where a slot it
-    stands on is empty in any frame, it is empty. What is required of one untouched slot
-    passes down (full) or up (empty) to the untouched slots it is stacked with. A slot
-    required both ways (readings that contradict the stack) is required neither way.
-
-    Parameters
-    ----------
-    full : ndarray of bool, shape (F, S)
-        What every slot holds in every frame of the episode, as settled.
-    loose : ndarray of int
-        The untouched slots.
-    below : dict
-        Slot -> slots that must hold something where it does (:func:`slots_below`).
-
-    >>> full = np.array([[False, False], [False, True]])    # slot 1 put on slot 0 at frame 1
-    >>> stack_forced(full, np.array([0]), {1: {0}}).tolist()
-    [1]
-    >>> stack_forced(full[:, ::-1], np.array([1]), {1: {0}}).tolist()   # 0 empty: 1 too
-    [-1]
-    """
-    index = {int(s): i for i, s in enumerate(loose)}
-    need_full = np.zeros(len(loose), dtype=bool)
-    need_empty = np.zeros(len(loose), dtype=bool)
-    for top, under in below.items():
-        for u in under:
-            if u in index and top not in index and full[:, top].any():
-                need_full[index[u]] = True
-            if top in index and u not in index and (~full[:, u]).any():
-                need_empty[index[top]] = True
-    changed = True
-    while changed:
-        changed = False
-        for top, under in below.items():
-            for u in under:
-                if top in index and u in index:
-                    if need_full[index[top]] and not need_full[index[u]]:
-                        need_full[index[u]] = changed = True
-                    if need_empty[index[u]] and not need_empty[index[top]]:
-                        need_empty[index[top]] = changed = True
-    both = need_full & need_empty
-    return np.where(both, 0, need_full.astype(np.int64) - need_empty.astype(np.int64))
-
-
-def in_the_air(full: np.ndarray, loose: np.ndarray, below: dict[int, set[int]]):
-    """``floats(contents)`` of :func:`grounded` for one episode: whether giving its untouched
-    slots ``loose`` the ``contents`` (-1 empty, else a colour) puts an object above an empty
-    slot in any of its frames ``full`` (bool, shape (F, S): what every slot holds; the
-    touched slots change from frame to frame, the untouched do not).
-
-    >>> full = np.array([[True, False, False]])            # slot 2 stands on slot 1
-    >>> floats = in_the_air(full, np.array([1, 2]), {2: {1}})
-    >>> floats(np.array([-1, 0])), floats(np.array([0, 0]))
-    (True, False)
-    """
-    def floats(contents: np.ndarray) -> bool:
-        frames = full.copy()
-        frames[:, loose] = np.asarray(contents) >= 0
-        return any((frames[:, s] & ~frames[:, sorted(under)].all(axis=1)).any()
-                   for s, under in below.items())
-    return floats
 
 
 def count_trust(margin: float) -> float:

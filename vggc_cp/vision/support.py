@@ -28,7 +28,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from vggc_cp.vision.conservation import FLOOR, slots_below, trusted
+from vggc_cp.vision.assignment import FLOOR
+from vggc_cp.vision.conservation import slots_below, trusted
 
 #: Stacks of more slots than this are left as read (2^k fillings are scored per frame).
 MAX_STACK = 8
