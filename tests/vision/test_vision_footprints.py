@@ -109,6 +109,7 @@ def test_what_the_actions_state_is_right_and_a_slot_counts_once(shipped):
     assert rows.shape == (shipped.n_obs, 3) and set(np.unique(rows)) <= {0, 1, 2}
     acted = np.flatnonzero(shipped.actions >= 0) + 1
     assert (rows[acted] > 0).any(axis=1).all()
+    assert fp.stacked is not None and not fp.stacked.any()     # one level per region
 
 
 def test_bad_parameters_and_an_empty_trace_are_refused(shipped):

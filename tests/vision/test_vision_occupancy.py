@@ -325,6 +325,8 @@ def test_a_reading_judged_on_the_one_episode_that_taught_it_is_not_trusted():
     assert len(np.unique(episode[:-1][acting])) == 1         # one episode acts there
     assert np.all(fp.kappa[above] == 0.0)
     assert fp.kappa[names.index("pick_2_0")] > 0.9
+    # the slot above region 1 and the one under it are stacked, and the sites say so
+    assert fp.stacked[above].all() and fp.stacked[names.index("pick_1_0")]
     assert _same_partition(learn_graph(blind).labels, trace.states)
 
 

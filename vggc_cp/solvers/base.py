@@ -67,6 +67,9 @@ class SiteReads:
         Where the evidence can say it, how far each observation's reading can be trusted
         for sure (a lower confidence bound, e.g. from the few stated frames of the poses
         that read it); NaN or None elsewhere.
+    stacked : ndarray of bool, shape (S,), or None
+        Sites of slots the actions stack, above another or under one: what the actions
+        state there depends on which level they are read at. None: not known.
     """
 
     held: np.ndarray
@@ -75,12 +78,14 @@ class SiteReads:
     action: np.ndarray
     trust: np.ndarray | None = None
     trust_low: np.ndarray | None = None
+    stacked: np.ndarray | None = None
 
     def restricted(self, idx: np.ndarray) -> SiteReads:
         """The rows of the observations ``idx``."""
         return SiteReads(self.held[idx], self.stated[idx], self.kappa, self.action,
                          None if self.trust is None else self.trust[idx],
-                         None if self.trust_low is None else self.trust_low[idx])
+                         None if self.trust_low is None else self.trust_low[idx],
+                         self.stacked)
 
 
 @dataclass(frozen=True, eq=False)

@@ -214,6 +214,9 @@ class Footprints:
         Where a pose reading set the run, how far it can be trusted for sure, as the poses
         of its frames show (``trust_low`` of :func:`vggc_cp.vision.occupancy.settle`); NaN
         elsewhere.
+    stacked : ndarray of bool, shape (A,), or None
+        The sites of slots the actions stack (``stacked`` of
+        :func:`vggc_cp.vision.occupancy.settle`).
     """
 
     maps: np.ndarray
@@ -229,6 +232,7 @@ class Footprints:
     kappa: np.ndarray | None = None
     trust: np.ndarray | None = None
     trust_low: np.ndarray | None = None
+    stacked: np.ndarray | None = None
 
     @property
     def taken(self) -> np.ndarray:
@@ -483,7 +487,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
                                   params.site_overlap, twin, mates)
     # what the actions state a site holds, and one look per run between actions at it
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
-    presence, posterior, stated, kappa, trust, trust_low = settle(
+    presence, posterior, stated, kappa, trust, trust_low, stacked = settle(
         trace, presence, posterior, ov, colour, counts, params.site_overlap, x, params.support,
         params.saturation, twin, mates, params.bandwidth, rests=rests)
     # a stated fact rests on which actions act at one slot; where the site's own reading
@@ -492,7 +496,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     stated &= ((seen_p >= 0.5) == full) & (~full | (seen_c == posterior.argmax(axis=-1)))
     nuisance = footprint_nuisance(presence, posterior, counts, src, act, dst, params)
     return Footprints(maps, sites, presence, chroma, posterior, colour, nuisance, counts,
-                      resolution, stated, kappa, trust, trust_low)
+                      resolution, stated, kappa, trust, trust_low, stacked)
 
 
 def footprint_differences(p: np.ndarray, q: np.ndarray, c: np.ndarray, e: np.ndarray
@@ -558,7 +562,8 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     site's reading can be trusted: ``(held, stated, kappa, action, trust, trust_low)`` of
     shapes (N, S), (N, S), (S,), (S,), (N, S), (N, S) (the fields of
     :class:`~vggc_cp.solvers.base.SiteReads`; ``trust`` None without ``fp.trust``,
-    ``trust_low`` without ``fp.trust_low``); None without ``fp.stated``.
+    ``trust_low`` without ``fp.trust_low``) and ``stacked`` (shape (S,), None without
+    ``fp.stacked``); None without ``fp.stated``.
 
     ``held`` is 0 where the site is empty and ``1 + c`` where it holds colour ``c``;
     ``stated`` where the actions state it (``fp.stated``); ``kappa`` is ``fp.kappa``;
@@ -568,7 +573,7 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     ...                 np.ones((2, 2, 1)), np.zeros(2, np.int64), None, np.array([3, 2]),
     ...                 stated=np.array([[True, False], [True, False]]),
     ...                 kappa=np.array([np.nan, 0.3]))
-    >>> held, stated, kappa, action, trust, trust_low = site_reads(fp)
+    >>> held, stated, kappa, action, trust, trust_low, stacked = site_reads(fp)
     >>> held.tolist(), stated.tolist(), kappa.tolist(), trust
     ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3], None)
     """
@@ -580,7 +585,9 @@ def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
     trust = None if fp.trust is None else np.asarray(fp.trust, dtype=np.float64)[:, taken]
     low = (None if fp.trust_low is None
            else np.asarray(fp.trust_low, dtype=np.float64)[:, taken])
-    return _held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust, low
+    stacked = None if fp.stacked is None else np.asarray(fp.stacked, dtype=bool)[taken]
+    return (_held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust, low,
+            stacked)
 
 
 def _held(fp: Footprints) -> np.ndarray:

@@ -378,6 +378,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         elsewhere. (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine
         stated frames read full took the site's kappa, 0.98, and outweighed the right
         reading of yellow_2 where the object counts decide.)
+    stacked : ndarray of bool, shape (A,)
+        The sites of slots the actions stack, above another or under one
+        (:func:`~vggc_cp.vision.stacks.slots_above`).
     """
     seen = posterior
     presence, posterior = presence.copy(), posterior.copy()
@@ -497,7 +500,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     moved = counted != trust
     trust_low = np.where(moved & np.isfinite(trust_low), np.minimum(trust_low, counted),
                          trust_low)
-    return presence, posterior, stated, kappa, counted, trust_low
+    stacked = np.zeros(presence.shape[1], dtype=bool)
+    stacked[[int(s) for s in above] + [int(b) for below in above.values() for b in below]] = True
+    return presence, posterior, stated, kappa, counted, trust_low, stacked
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
