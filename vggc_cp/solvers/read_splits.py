@@ -218,8 +218,10 @@ def read_apart(sub: np.ndarray, side: np.ndarray) -> int:
     >>> sub = np.array([[1, 2, 0], [1, 2, 1], [2, 3, 1], [2, 0, 2]])
     >>> read_apart(sub, np.array([0, 0, 1, 1]))      # site 2: symbol 1 on both sides
     2
+    >>> read_apart(np.zeros((2, 3), np.int64), np.array([0, 1]))   # nothing known
+    0
     """
-    if not sub.size:
+    if not sub.size or sub.max() <= 0:
         return 0
     width = int(sub.max()) + 1
     held = [np.stack([(sub[side == k] == x).any(axis=0) for x in range(1, width)], axis=1)
