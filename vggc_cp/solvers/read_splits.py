@@ -233,7 +233,7 @@ def read_apart(sub: np.ndarray, side: np.ndarray) -> int:
 def _stacks(problem) -> bool:
     """Whether the problem's sites include slots the actions stack (or where that is not
     known): no joint cut there (module docstring)."""
-    stacked = getattr(problem.readings.sites, "stacked", None)
+    stacked = problem.readings.sites.stacked
     return stacked is None or bool(np.asarray(stacked).any())
 
 
@@ -250,9 +250,10 @@ def _as_function(lab: np.ndarray, src: np.ndarray, act: np.ndarray, dst: np.ndar
 
 def _joint_cut(labels: np.ndarray, u: int, side: np.ndarray, rows: np.ndarray,
                src: np.ndarray, act: np.ndarray, dst: np.ndarray, n_act: int,
-               max_nodes: int = MAX_JOINT) -> dict[int, np.ndarray] | None:
+               max_nodes: int = MAX_JOINT
+               ) -> dict[int, tuple[np.ndarray, np.ndarray]] | None:
     """The cut of node ``u`` by ``side`` (over its observations in order; -1 undecided)
-    together with the cuts it forces, as node -> side over that node's observations; None
+    together with the cuts it forces, as node -> (its observations, their sides); None
     where it forces more than ``max_nodes`` nodes apart, contradicts itself, or leaves a
     node whole.
 
@@ -321,7 +322,7 @@ def _joint_cut(labels: np.ndarray, u: int, side: np.ndarray, rows: np.ndarray,
             return None
         if read_apart(rows[obs], sv) < (MOVE_PLACES if v == u else 1):
             return None                        # the readings do not show it
-        out[v] = sv
+        out[v] = (obs, sv)
     lab = labels * 2
     lab[side_of >= 0] += side_of[side_of >= 0]
     return out if _as_function(lab, src, act, dst, n_act) else None
@@ -396,24 +397,20 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
             placed = _place(rows[obs], side)
             if (_deterministic(labels, obs, side, src, act, dst, n_act)
                     and _deterministic(labels, obs, placed, src, act, dst, n_act)):
-                found = {u: placed}
+                found = {u: (obs, placed)}
             elif joint:                             # the cuts it forces, if any
                 found = _joint_cut(labels, u, side, rows, src, act, dst, n_act)
                 if found is None:
                     continue
             else:
                 continue
-            gain = 0.0
-            for v, sv in found.items():
-                part = np.flatnonzero(labels == v)
-                gain += (code.length(part) - code.length(part[sv == 0])
-                         - code.length(part[sv == 1]))
+            gain = sum(code.length(part) - code.length(part[sv == 0])
+                       - code.length(part[sv == 1]) for part, sv in found.values())
             if gain > best_gain:
                 best_gain, best_cut = gain, found
         if best_cut is None:
             continue
-        for v, sv in best_cut.items():
-            part = np.flatnonzero(labels == v)
+        for v, (part, sv) in best_cut.items():
             labels[part[sv == 1]] = nxt
             queue += [v, nxt]
             nxt += 1

@@ -56,7 +56,7 @@ from vggc_cp.vision.slots import (
     action_mates,
     action_twins,
 )
-from vggc_cp.vision.stacks import slots_above
+from vggc_cp.vision.stacks import slots_above, stacked_sites
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
 from vggc_cp.vision.untouched import (
@@ -500,9 +500,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     moved = counted != trust
     trust_low = np.where(moved & np.isfinite(trust_low), np.minimum(trust_low, counted),
                          trust_low)
-    stacked = np.zeros(presence.shape[1], dtype=bool)
-    stacked[[int(s) for s in above] + [int(b) for below in above.values() for b in below]] = True
-    return presence, posterior, stated, kappa, counted, trust_low, stacked
+    return (presence, posterior, stated, kappa, counted, trust_low,
+            stacked_sites(above, presence.shape[1]))
 
 
 def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.ndarray,
@@ -520,10 +519,10 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
     robot s82, after one round of suggested episodes, the 1,193 site frames they state were
     all right, yet as teachers they moved the readings of other episodes enough for the
     object counts to place two reds wrongly: 68 nodes for 66 became 58)."""
-    in_stack = set(above) | {int(b) for below in above.values() for b in below}
+    in_stack = stacked_sites(above, presence.shape[1])
     n_col = posterior.shape[2]
     for a, (labels, _run, _loose, acting) in runs.items():
-        free = a not in in_stack and not in_stack & {int(b) for b in acting}
+        free = not in_stack[a] and not in_stack[np.asarray(acting, dtype=np.int64)].any()
         now = site_labels(actions, episodes, acting, kinds, colour, facts, refusals=free)
         new = np.flatnonzero((now != UNLABELLED) & (labels == UNLABELLED))
         if not len(new):

@@ -69,6 +69,18 @@ def slots_above(runs: dict, ov: np.ndarray, site_overlap: float,
     return out
 
 
+def stacked_sites(above: dict[int, list[int]], n: int) -> np.ndarray:
+    """Which of ``n`` sites stand in a stack, under another (a key of ``above``, as
+    :func:`slots_above` gives it) or on one (one of its values), bool shape ``(n,)``.
+
+    >>> stacked_sites({0: [2]}, 4).tolist()
+    [True, False, True, False]
+    """
+    out = np.zeros(n, dtype=bool)
+    out[[int(s) for s in above] + [int(b) for on in above.values() for b in on]] = True
+    return out
+
+
 def _full_only_on(la: np.ndarray, lb: np.ndarray) -> np.ndarray | None:
     """Where labels ``la`` and ``lb`` both state their sites and ``b`` holds something (bool
     mask), if ``b`` holds something only where ``a`` does and ``a`` holds something with
