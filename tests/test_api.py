@@ -16,6 +16,7 @@ import pytest
 
 import vggc_cp as vg
 from vggc_cp import api, pipeline
+from vggc_cp import learned as learned_module
 from vggc_cp.cli import main
 from vggc_cp.errors import EvidenceNotApplicable, VggcError
 from vggc_cp.vision.evidence import EVIDENCE_REGISTRY, Evidence
@@ -35,7 +36,7 @@ def learned(trace):
     return vg.learn_graph(trace)
 
 
-@pytest.mark.parametrize("module", [api, pipeline])
+@pytest.mark.parametrize("module", [api, learned_module])
 def test_docstring_examples_run(module, monkeypatch):
     monkeypatch.chdir(ROOT)  # the examples name data/fruit-2x3.npz
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)

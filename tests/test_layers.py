@@ -26,7 +26,7 @@ FLOORS = (
      "vggc_cp.trace", "vggc_cp.graph", "vggc_cp.solution"),
     ("vggc_cp.vision", "vggc_cp.sim", "vggc_cp.solvers", "vggc_cp.baselines",
      "vggc_cp.importers", "vggc_cp.export"),
-    ("vggc_cp.pipeline",),
+    ("vggc_cp.pipeline", "vggc_cp.learned"),
     ("vggc_cp.localize",),
     ("vggc_cp.evaluate",),
     ("vggc_cp.experiments",),

@@ -143,7 +143,8 @@ def test_greedy_solve_on_a_cluster_writes_the_same_bytes(cluster, tmp_path, caps
 def test_default_learning_on_a_cluster_equals_local(cluster, monkeypatch):
     """The footprint evidence converts its frames in blocks on the cluster's workers (issue
     27): the same codes, tables and graph as in this process."""
-    from vggc_cp.pipeline import LearnConfig, evidence_problem, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import evidence_problem, learn_graph
     from vggc_cp.vision import working
 
     trace = load_trace(DATA).without_states()
@@ -172,7 +173,8 @@ def test_frames_read_from_the_file_are_converted_on_the_cluster_in_waves(cluster
     from dataclasses import replace
 
     from vggc_cp.frames import StreamedFrames
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.trace import save_trace
     from vggc_cp.vision import working
 

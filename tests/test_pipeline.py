@@ -9,7 +9,8 @@ import pytest
 from conftest import shuffled_within_roles
 
 from vggc_cp.errors import VggcError
-from vggc_cp.pipeline import LearnConfig, choose, learn_graph, learned_doubts, threshold_grid
+from vggc_cp.learned import LearnConfig
+from vggc_cp.pipeline import choose, learn_graph, learned_doubts, threshold_grid
 from vggc_cp.solvers.doubts import DoubtRule
 from vggc_cp.trace import Trace, load_trace
 
@@ -304,7 +305,7 @@ def test_a_noted_graph_lists_the_decisions_its_note_is_about():
     on its path (observations 104-107; in truth it is right there): were it wrong, fewer
     than 10 % of plans would fail, so it is a note too, and the solution lists the decision
     it is about."""
-    from vggc_cp.pipeline import LearnConfig
+    from vggc_cp.learned import LearnConfig
     from vggc_cp.sim.explore import generate
     from vggc_cp.solvers.confidence import WarningRule
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from vggc_cp.errors import VggcError
 from vggc_cp.graph import TaskGraph, shortest_plan
-from vggc_cp.pipeline import LearnConfig, Learned
+from vggc_cp.learned import LearnConfig, Learned
 from vggc_cp.pipeline import learn_graph as _learn_graph
 from vggc_cp.solution import Solution, read_solution, verify_standalone
 from vggc_cp.trace import Trace, load_trace

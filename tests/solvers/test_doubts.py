@@ -161,7 +161,8 @@ def test_a_right_graph_of_the_clean_shipped_trace_has_few_doubts():
     """fruit-2x3 (clean look, 50 transitions): the footprint graph is the true one (6 nodes)
     and at most two decisions are doubtful, both splits, never a merge (measured: none with
     the footprints of main c5b09cd; two outlier renders at 0.95 x the threshold before)."""
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.trace import load_trace
 
     trace = load_trace(SHIPPED)

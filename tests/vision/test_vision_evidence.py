@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from vggc_cp.errors import EvidenceNotApplicable, UnknownNameError
-from vggc_cp.pipeline import LearnConfig, evidence_choices, learn_graph
+from vggc_cp.learned import LearnConfig, evidence_choices
+from vggc_cp.pipeline import learn_graph
 from vggc_cp.trace import Trace, load_trace
 from vggc_cp.vision import evidence as ev
 

@@ -202,7 +202,8 @@ def test_settled_sites_are_what_the_actions_state_even_where_a_frame_hides_them(
     presence is that, whatever the frame shows; the learned graph stays the true one."""
     from pathlib import Path
 
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.trace import Trace, load_trace
     from vggc_cp.vision.footprints import action_footprints
 

@@ -210,7 +210,8 @@ def test_a_robot_camera_fruit_4x6_is_read_and_learned_right():
     what nearly every site holds; the learned graph is the true one (before: 131 nodes for
     35)."""
     from vggc_cp.evaluate import evaluate_trace
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.sim.explore import generate
     from vggc_cp.vision.footprints import action_footprints
 

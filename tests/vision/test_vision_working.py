@@ -111,7 +111,8 @@ def _wide_view(trace, side: int = 256):
 
 
 def test_small_footprints_in_a_wide_view_are_worked_finer_than_the_image_size_bound():
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.vision.footprints import FootprintConfig, action_footprints
     from vggc_cp.vision.working import FOOTPRINT_SIDE
 

@@ -306,7 +306,7 @@ def _problem(args, executor=None):
 
 def _write_chosen(args, trace, cfg, problem, best, how: str, **extra) -> None:
     """Write the chosen result as the solution JSON and print its summary line."""
-    from vggc_cp.pipeline import solution_record
+    from vggc_cp.learned import solution_record
     from vggc_cp.solution import jsonable, write_solution
 
     graph = problem.graph(best.labels)
@@ -333,9 +333,9 @@ def _parse_thresholds(text: str | None) -> list[float] | None:
 
 
 def _learn_options(args):
-    """The :class:`~vggc_cp.pipeline.LearnConfig` of ``solve``'s merge options (it refuses an
+    """The :class:`~vggc_cp.learned.LearnConfig` of ``solve``'s merge options (it refuses an
     unknown evidence or rule, naming the known ones)."""
-    from vggc_cp.pipeline import LearnConfig
+    from vggc_cp.learned import LearnConfig
 
     thresholds = _parse_thresholds(args.thresholds)
     return LearnConfig(evidence=args.evidence, distance=config_from_args(args),

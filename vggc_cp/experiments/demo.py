@@ -118,7 +118,8 @@ def compute_solution(trace, *, cache_dir: str | Path | None = None,
     the fallback, if any, are cached in ``cache_dir`` (default: the vision package's)."""
     from dataclasses import replace
 
-    from vggc_cp.pipeline import LearnConfig, learn_graph, solution_record
+    from vggc_cp.learned import LearnConfig, solution_record
+    from vggc_cp.pipeline import learn_graph
 
     options = LearnConfig()
     options = replace(options, distance=replace(options.distance, cache_dir=cache_dir))

@@ -75,7 +75,7 @@ def bench_solve(trace: Trace, threads: int | None = None, repeats: int = 3) -> S
     """
     from dataclasses import replace
 
-    from vggc_cp.pipeline import LearnConfig
+    from vggc_cp.learned import LearnConfig
 
     if repeats < 1:
         raise ValueError(f"repeats must be at least 1, got {repeats}")

@@ -295,8 +295,8 @@ def code_digest() -> str:
 
 
 def learn_key() -> dict:
-    """The default :class:`vggc_cp.pipeline.LearnConfig` as JSON values (part of a cell's key)."""
-    from vggc_cp.pipeline import LearnConfig
+    """The default :class:`vggc_cp.learned.LearnConfig` as JSON values (part of a cell's key)."""
+    from vggc_cp.learned import LearnConfig
 
     opts = LearnConfig()
     out = {k: v for k, v in asdict(opts).items() if k != "distance"}
@@ -396,7 +396,8 @@ def run_cell(job: RobustCell) -> dict:
     import numpy as np
 
     from vggc_cp.evaluate import evaluate_trace
-    from vggc_cp.pipeline import LearnConfig, learn_graph
+    from vggc_cp.learned import LearnConfig
+    from vggc_cp.pipeline import learn_graph
     from vggc_cp.solution import labels_solution, write_solution
 
     trace = ensure_trace(job)

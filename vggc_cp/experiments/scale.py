@@ -163,7 +163,8 @@ def measure(path: Path, generate_seconds: float = 0.0) -> SizeRecord:
     """The default learning's stages on the trace file ``path``: loading it (frames above
     ``max_bytes`` stay in the file and are inflated by the evidence, :mod:`vggc_cp.frames`),
     the footprint evidence, the merge path and the confidence (its states unread)."""
-    from vggc_cp.pipeline import FOOTPRINTS, LearnConfig, assess_path, evidence_problem, merge_path
+    from vggc_cp.learned import FOOTPRINTS, LearnConfig
+    from vggc_cp.pipeline import assess_path, evidence_problem, merge_path
     from vggc_cp.trace import load_trace
 
     options = LearnConfig(evidence=FOOTPRINTS)

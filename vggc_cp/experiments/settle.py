@@ -273,7 +273,7 @@ def _round0(case: SettleCase, transitions: int, doubts: int) -> SettleRecord:
 
 def _measure(case: SettleCase, trace, r: int, arm: str, added: int, episodes: int):
     """Learn ``trace`` (default options, without its states) and evaluate the graph as a
-    robustness cell is evaluated; returns the record and the :class:`~vggc_cp.pipeline.Learned`."""
+    robustness cell is evaluated; returns the record and the :class:`~vggc_cp.learned.Learned`."""
     from vggc_cp.evaluate import evaluate_trace
     from vggc_cp.pipeline import learn_graph
 

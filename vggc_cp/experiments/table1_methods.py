@@ -117,7 +117,7 @@ def _visual_problem(trace: Trace, job: CellJob):
 
 def _solved(problem, best: SolveResult, seconds: dict, **extra) -> MethodRun:
     """The method run of a selected result, with its solution JSON."""
-    from vggc_cp.pipeline import solution_record
+    from vggc_cp.learned import solution_record
 
     return MethodRun(best, solution_record(problem, best, seconds=seconds, **extra), seconds)
 

@@ -5,7 +5,7 @@ the order of ``flatnonzero(roles == PICK)`` and ``flatnonzero(roles == PLACE)``.
 evidence is registered under a name with two functions:
 
 * ``distances(trace, options, progress) -> (dist_pick, dist_place)``, ``options`` the
-  :class:`~vggc_cp.pipeline.LearnConfig` of the run (each evidence reads its own settings
+  :class:`~vggc_cp.learned.LearnConfig` of the run (each evidence reads its own settings
   from it);
 * ``settings(options) -> dataclass``: the settings it ran under, recorded in the solution
   file's ``distances`` field.
