@@ -11,7 +11,7 @@ import pytest
 from vggc_cp.errors import VggcError
 from vggc_cp.learned import FOOTPRINTS, LearnConfig
 from vggc_cp.pipeline import evidence_problem, run_candidate
-from vggc_cp.solvers.pairs import CodedProblem
+from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.trace import load_trace
 from vggc_cp.vision.footprints import action_footprints, footprint_codes, footprint_distances
 

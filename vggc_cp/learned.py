@@ -27,10 +27,10 @@ import numpy as np
 from vggc_cp.errors import VggcError, lookup
 from vggc_cp.graph import TaskGraph
 from vggc_cp.solvers.base import Problem, SolveResult
+from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.solvers.confidence import Confidence, WarningRule
 from vggc_cp.solvers.doubts import Doubt
 from vggc_cp.solvers.merge import PATH_SELECTIONS, ThresholdPath
-from vggc_cp.solvers.pairs import CodedProblem
 from vggc_cp.trace import Trace
 from vggc_cp.vision.distances import DistanceConfig
 from vggc_cp.vision.evidence import evidence_names, get_evidence

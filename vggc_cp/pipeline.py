@@ -56,6 +56,7 @@ from vggc_cp.learned import (
     Learned,
 )
 from vggc_cp.solvers.base import Problem, Readings, SiteReads, SolveResult
+from vggc_cp.solvers.coded import CodedProblem, coded_threshold_grid
 from vggc_cp.solvers.confidence import (
     Confidence,
     assess,
@@ -65,7 +66,7 @@ from vggc_cp.solvers.confidence import (
 from vggc_cp.solvers.doubts import Doubt
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
-from vggc_cp.solvers.pairs import CodedProblem, coded_threshold_grid, coded_threshold_path
+from vggc_cp.solvers.pairs import coded_threshold_path
 from vggc_cp.solvers.verdict import graph_doubts, runner_up, verdict
 from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS

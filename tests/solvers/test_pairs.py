@@ -6,16 +6,15 @@ import numpy as np
 import pytest
 from conftest import fruit_episode, make_trace
 
-from vggc_cp.solvers.confidence import heldout_prediction
-from vggc_cp.solvers.merge import congruence_merge, noise_scale, threshold_path
-from vggc_cp.solvers.pairs import (
+from vggc_cp.solvers.coded import (
     CodedProblem,
-    coded_merge,
     coded_noise_scale,
     coded_threshold_grid,
-    coded_threshold_path,
     weighted_quantile,
 )
+from vggc_cp.solvers.confidence import heldout_prediction
+from vggc_cp.solvers.merge import congruence_merge, noise_scale, threshold_path
+from vggc_cp.solvers.pairs import coded_merge, coded_threshold_path
 
 NAMES = ("pick_1", "pick_2", "pick_3", "place_1", "place_2", "place_3")
 

@@ -22,7 +22,7 @@ leaves out a ``1 / folds`` share of the units: for ``r < folds`` the units ``u``
 ``round(units / folds)`` units (at least one; ``numpy.random.default_rng(seed)``). Each re-run
 merges the kept observations at the chosen threshold ``t*`` (the evidence and threshold do
 not change; :func:`~vggc_cp.solvers.merge.congruence_merge`, or the candidate-pair merge of a
-:class:`~vggc_cp.solvers.pairs.CodedProblem`) and *changes* the graph when its partition and
+:class:`~vggc_cp.solvers.coded.CodedProblem`) and *changes* the graph when its partition and
 the chosen one, restricted to the kept observations, are not the same set of groups, or
 when more than half of the observations it left out lie in chosen nodes that none of its
 kept observations is in (the left-out part, read as a new recording, would be mostly
@@ -72,9 +72,10 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from vggc_cp.solvers.base import Problem, kept_refusals
+from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.solvers.mdl import TIE_NATS
 from vggc_cp.solvers.merge import congruence_merge
-from vggc_cp.solvers.pairs import CodedProblem, coded_merge
+from vggc_cp.solvers.pairs import coded_merge
 from vggc_cp.trace import PICK, PLACE
 
 
@@ -390,7 +391,7 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
     Parameters
     ----------
     problem : Problem or CodedProblem
-        A :class:`~vggc_cp.solvers.pairs.CodedProblem` is merged on its candidate pairs.
+        A :class:`~vggc_cp.solvers.coded.CodedProblem` is merged on its candidate pairs.
     threshold : float
     episode_of : ndarray of int, shape (N,)
         Episode of every observation; episode ``e`` is held out in fold ``e % folds``.
@@ -502,7 +503,7 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
     Parameters
     ----------
     problem : Problem or CodedProblem
-        A :class:`~vggc_cp.solvers.pairs.CodedProblem` is merged on its candidate pairs.
+        A :class:`~vggc_cp.solvers.coded.CodedProblem` is merged on its candidate pairs.
     threshold : float
         The chosen threshold ``t*``.
     labels : ndarray of int, shape (N,)

@@ -35,6 +35,7 @@ import numpy as np
 from vggc_cp.recorded import recorded_facts
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.broken_facts import broken_facts, facts_check
+from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_lone, doubt_readings
 from vggc_cp.solvers.doubts import (
@@ -46,7 +47,6 @@ from vggc_cp.solvers.doubts import (
 )
 from vggc_cp.solvers.lone_episodes import lone_doubts, lone_episodes
 from vggc_cp.solvers.merge import ThresholdPath
-from vggc_cp.solvers.pairs import CodedProblem
 from vggc_cp.solvers.read_doubts import dense_problem, episode_doubts, read_doubts
 from vggc_cp.trace import Trace
 
