@@ -10,9 +10,9 @@ cone-like mesh with a green cap, lemon a yellow ellipsoid, banana a yellow capsu
 are blue cubes. The held object hangs between the two fingers of a gripper behind the table.
 The ``randomized`` look (:mod:`vggc_cp.sim.looks`) adds tomato (red, flattened, green
 calyx) and pear (yellow), and varies colours, sizes, camera, light and the table's texture.
-The ``robot`` look replaces the fixed gripper by a Franka Panda arm (``pybullet_data``) whose
-hand rests above the region it last acted on (joints from PyBullet's inverse kinematics, no
-physics), holding the held object, and adds a mug (the distractor) that
+The ``robot`` look replaces the fixed gripper by a Franka Panda arm (``pybullet_data``,
+:mod:`vggc_cp.sim.arm`) whose hand rests above the region it last acted on (joints from
+PyBullet's inverse kinematics, no physics), holding the held object, and adds a mug (the distractor) that
 :meth:`Scene.move_distractor` puts on the table outside every region.
 """
 
@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from vggc_cp.errors import VggcError
+from vggc_cp.sim.arm import ARM_CLEARANCE, arm_base, grasp_point, load_arm, pose_arm
 from vggc_cp.sim.arrange import Arrangement
 from vggc_cp.sim.dynamics import Benchmark
 from vggc_cp.sim.looks import CLASS_RGBA, Look, clean_look, png_bytes, texture_image
@@ -50,27 +51,6 @@ HELD_Z = 0.14
 #: Distance of the gripper behind the table's back edge (m).
 GRIPPER_BACK = -0.01
 
-#: The arm's base: this far (m) behind the layout table's back edge, at x = 0 -- or, where a
-#: region lies more than ``ARM_REACH_X`` to the side, moved along the back edge (on a rail)
-#: just enough to reach it.
-ARM_BACK = 0.22
-ARM_REACH_X = 0.40
-#: Free height (m) between the top of what stands on the region and the bottom of the held
-#: object (or the fingertips, with an empty hand) when the hand rests above a region.
-ARM_CLEARANCE = 0.04
-#: Panda joints 1-7 before the inverse kinematics (also its null-space rest pose): elbow up,
-#: hand down. Every rest starts from it, so a pose depends on its target only.
-ARM_REST = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785)
-_ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
-_ARM_FINGERS = (9, 10)
-_ARM_GRASP_LINK = 11  # panda_grasptarget: between the finger pads
-_ARM_LIMITS = ((-2.9, 2.9), (-1.8, 1.8), (-2.9, 2.9), (-3.0, -0.07), (-2.9, 2.9), (-0.08, 3.8),
-               (-2.9, 2.9))
-#: Largest finger opening (m, per finger).
-_ARM_FINGER_OPEN = 0.04
-ARM_RGBA = (0.92, 0.92, 0.90, 1.0)
-ARM_DARK_RGBA = (0.25, 0.25, 0.27, 1.0)
-_ARM_DARK_LINKS = (6,)  # the flange (link 7)
 _MUG_INSIDE = (0.12, 0.1, 0.08, 1.0)
 
 # Table, region and marker colours are the look's (vggc_cp.sim.looks).
@@ -446,42 +426,14 @@ class Scene:
                 body, rest = make(obj.kind, obj.rgba, obj.scale)
                 self._bodies.append(body)
                 self._rest.append(rest)
-        self._arm = -1 if look.arm is None or look.arm_hidden else self._load_arm(look.arm)
+        self._arm = (-1 if look.arm is None or look.arm_hidden
+                     else load_arm(self._p, self._cid, look.arm))
         self._mug = -1
         #: Where the distractor stands: ``(x, y, yaw)``, or None (no distractor, or not yet
         #: placed: it starts out of sight).
         self.distractor_spot: tuple[float, float, float] | None = None
         if look.distractor is not None:
             self._mug = self._build_mug()
-
-    def _load_arm(self, model: str) -> int:
-        """Load the arm ``model`` (a URDF under ``pybullet_data``) with its coarse meshes
-        (the collision meshes, about 3,500 triangles, drawn as its visual: the full visual
-        meshes, about 100,000, make the tiny renderer several times slower), coloured, not
-        colliding with anything."""
-        from vggc_cp.sim.looks import ARM_MODEL
-
-        if model != ARM_MODEL:
-            raise ValueError(f"unknown arm {model!r} (known: {ARM_MODEL})")
-        import pybullet_data
-
-        p, cid = self._p, self._cid
-        root = Path(pybullet_data.getDataPath()) / Path(model).parent
-        text = (Path(pybullet_data.getDataPath()) / model).read_text()
-        text = text.replace("meshes/visual/", "meshes/collision/")
-        text = text.replace("package://meshes/", f"{root / 'meshes'}/")
-        with tempfile.TemporaryDirectory(prefix="vggc-arm-") as tmp:
-            path = Path(tmp) / "arm.urdf"
-            path.write_text(text)
-            arm = p.loadURDF(str(path), [0.0, 0.0, 0.0], useFixedBase=True,
-                             physicsClientId=cid)
-        if arm < 0:
-            raise VggcError(f"PyBullet could not load the arm model {model}")
-        for link in range(-1, p.getNumJoints(arm, physicsClientId=cid)):
-            rgba = ARM_DARK_RGBA if link in _ARM_DARK_LINKS else ARM_RGBA
-            p.changeVisualShape(arm, link, rgbaColor=list(rgba), physicsClientId=cid)
-            p.setCollisionFilterGroupMask(arm, link, 0, 0, physicsClientId=cid)
-        return arm
 
     def _build_mug(self) -> int:
         """The distractor: a cylinder, a dark opening on top and a handle (out of sight
@@ -573,43 +525,17 @@ class Scene:
             lift = ARM_CLEARANCE + self._rest[arr.held]
         return float(cx), float(cy), self._stack_top(arr, r) + lift
 
-    def _arm_base(self, x: float) -> tuple[float, float, float]:
-        bx = min(max(0.0, x - ARM_REACH_X), x + ARM_REACH_X)
-        return bx, self.layout.half_extent[1] + ARM_BACK, 0.0
-
     def _pose_arm(self, arr: Arrangement) -> None:
-        """Hide the fixed gripper; pose the arm above ``arr.last_region`` (inverse
-        kinematics from :data:`ARM_REST`, hand pointing down, fingers along x) and put the
-        held object between its fingers."""
-        p, cid, arm = self._p, self._cid, self._arm
+        """Hide the fixed gripper; pose the arm above ``arr.last_region``
+        (:func:`vggc_cp.sim.arm.pose_arm`) and put the held object between its fingers."""
+        p, cid = self._p, self._cid
         p.resetBasePositionAndOrientation(self._gripper, [0.0, 0.0, -10.0], [0, 0, 0, 1],
                                           physicsClientId=cid)
         target = self.arm_target(arr)
-        base = self._arm_base(0.0 if target is None else target[0])
-        p.resetBasePositionAndOrientation(arm, list(base),
-                                          p.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2]),
-                                          physicsClientId=cid)
-        for j, v in zip(_ARM_JOINTS, ARM_REST):
-            p.resetJointState(arm, j, v, physicsClientId=cid)
-        if target is not None:
-            lo = [a for a, _ in _ARM_LIMITS] + [0.0, 0.0]
-            hi = [b for _, b in _ARM_LIMITS] + [_ARM_FINGER_OPEN] * 2
-            q = p.calculateInverseKinematics(
-                arm, _ARM_GRASP_LINK, list(target),
-                p.getQuaternionFromEuler([math.pi, 0.0, -math.pi / 2]),
-                lowerLimits=lo, upperLimits=hi, jointRanges=[b - a for a, b in zip(lo, hi)],
-                restPoses=list(ARM_REST) + [_ARM_FINGER_OPEN] * 2, maxNumIterations=200,
-                residualThreshold=1e-5, physicsClientId=cid)
-            for j, v in zip(_ARM_JOINTS, q):
-                p.resetJointState(arm, j, v, physicsClientId=cid)
-        opening = _ARM_FINGER_OPEN
+        base = arm_base(0.0 if target is None else target[0], self.layout.half_extent[1])
+        grasp = pose_arm(p, cid, self._arm, base, target,
+                         self._rest[arr.held] if arr.held >= 0 else None)
         if arr.held >= 0:
-            opening = min(_ARM_FINGER_OPEN, self._rest[arr.held] + 0.002)
-        for j in _ARM_FINGERS:
-            p.resetJointState(arm, j, opening, physicsClientId=cid)
-        if arr.held >= 0:
-            grasp = p.getLinkState(arm, _ARM_GRASP_LINK, computeForwardKinematics=True,
-                                   physicsClientId=cid)[4]
             _, _, jyaw = arr.offsets[arr.held]
             self._put(self._bodies[arr.held], grasp, math.pi / 2 + jyaw)
 
@@ -617,9 +543,7 @@ class Scene:
         """Where the arm's grasp point is now (world, m); the robot look only."""
         if self._arm < 0:
             raise ValueError("this scene has no arm")
-        pos = self._p.getLinkState(self._arm, _ARM_GRASP_LINK, computeForwardKinematics=True,
-                                   physicsClientId=self._cid)[4]
-        return tuple(float(v) for v in pos)
+        return grasp_point(self._p, self._cid, self._arm)
 
     def project(self, xyz) -> tuple[float, float]:
         """Pixel ``(column, row)`` of the world point ``xyz`` in this scene's camera."""
