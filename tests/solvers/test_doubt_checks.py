@@ -98,29 +98,3 @@ def test_an_edge_other_episodes_show_too_is_not_at_risk():
     m = moved / (sizes + moved)
     want = np.mean([1 - (1 - m[u]) * (1 - m[v]) for u in range(6) for v in range(6) if u != v])
     assert plan_risk([d], labels, src, act, dst) == pytest.approx(want)
-
-
-def test_an_edge_only_a_doubtful_episode_shows_flags_the_graph_whatever_the_risk():
-    """random-898 robot: one episode read two regions off showed the one transition of its
-    graph that no other episode showed; 7 % of plans at risk, under the bar, so it was a note
-    and the graph quiet -- with an edge the task lacks (AnyPath 99.6 %)."""
-    labels, src, act, dst, _ = _chain(10, 10)
-    first = len(labels)        # the doubtful episode: 8 -> 9 by another action than the walk's
-    labels, src = np.append(labels, [8, 9]), np.append(src, first)
-    act, dst = np.append(act, 9), np.append(dst, first + 1)
-    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
-    problem = SimpleNamespace(src=src, act=act, dst=dst)
-    d = Doubt(SPLIT, (8,), ((8,), (first,)), {
-        "episode": [first, first + 1], "moved_to": 1, "moved_path": [1, 2],
-        "read_sites": ["pick_3"], "read_kappa": 0.3})
-    assert sole_edges([d], labels, src, act, dst) == {(8, 9, 9)}
-    assert plan_risk([d], labels, src, act, dst) < MAX_PLAN_RISK
-    flagged = doubt_readings(quiet, [d], labels, problem)
-    assert flagged.suspect and "1 transition(s) of the graph only such episodes show" in \
-        flagged.reasons[0]
-    # the same episode where the walk shows that transition too: a note, the graph quiet
-    shown = np.flatnonzero((labels[src] == 8) & (labels[dst] == 9))[0]
-    act[shown] = 9
-    assert sole_edges([d], labels, src, act, dst) == set()
-    noted = doubt_readings(quiet, [d], labels, problem)
-    assert not noted.suspect and noted.notes

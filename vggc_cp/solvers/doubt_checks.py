@@ -163,13 +163,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
     and that, were they misplaced, would fail more than :data:`MAX_PLAN_RISK` of the plans
     between two observations (with ``labels`` only): plans that start or end at a misplaced
     render (:func:`misplaced_share`) or, given the ``problem`` (its transitions), that also
-    take an edge only those episodes show (:func:`plan_risk`) -- or, given the ``problem``,
-    that alone show an edge of the graph (:func:`sole_edges`): were they misplaced, that
-    edge is no transition of the task, and a graph with an edge the task lacks fails every
-    plan along it, however few take it (random-898 robot: one episode read two regions
-    off, one edge only it showed, 7 % of plans at risk and the graph quiet; AnyPath 99.6 %).
-    Fewer, and no such edge, the graph stays usable either way: the episode is a note (it
-    joins the reasons when another check flags). Re-runs and the description length
+    take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable either way: the episode is a note
+    (it joins the reasons when another check flags). Re-runs and the description length
     cannot see either: both take the reading as given. The reason names the nodes (the
     episode), the sites and what to record.
     """
@@ -188,27 +183,23 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]
         more = f" (and {len(moves) - 1} more such episode(s))" if len(moves) > 1 else ""
-        sole: set = set()
         if labels is None:
             risk = 0.0
         elif problem is None:
             risk = 1.0 - (1.0 - misplaced_share(moves, labels)) ** 2
         else:
             risk = plan_risk(moves, labels, problem.src, problem.act, problem.dst)
-            sole = sole_edges(moves, labels, problem.src, problem.act, problem.dst)
         also = "" if problem is None else " or take a transition only such episodes show"
-        edges = (f"; {len(sole)} transition(s) of the graph only such episodes show would "
-                 f"then be none, and every plan along one fails" if sole else "")
         reason = (
             f"the episode of observations {first}-{last} might be another path of the graph, "
             f"from node {ev['moved_to']} instead of node {ev.get('moved_from', d.nodes[0])}"
             f"{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
             f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between "
-            f"two observations start or end at a misplaced one{also}{edges}; record an "
-            f"episode from that episode's start that acts there (`vggc-cp suggest SOLUTION "
-            f"TRACE -o next.json`)")
-        conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK or sole
+            f"two observations start or end at a misplaced one{also}; record an episode from "
+            f"that episode's start that acts there (`vggc-cp suggest SOLUTION TRACE -o "
+            f"next.json`)")
+        conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
                 else conf.noted(reason))
     return conf
 

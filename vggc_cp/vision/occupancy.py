@@ -61,7 +61,6 @@ from vggc_cp.vision.support import supported
 from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
 from vggc_cp.vision.untouched import (
     agreement,
-    away_poses,
     held_out_frames,
     placed_starts,
     pose_groups,
@@ -394,9 +393,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     mates = action_mates(trace, ov, colour, twin, site_overlap) if mates is None else mates
     episode = trace.episode_index()
     # the hand's pose: the action that led to a frame, or, where the hand rests at the place
-    # it acted on (``rests``), pooling more frames, the slot and kind of that action; per
-    # site also every frame the hand is away from it, pooled (away_poses); each site takes
-    # the one whose reading agrees best with labels it did not learn from
+    # it acted on (``rests``), pooling more frames, the slot and kind of that action; each
+    # site takes the one whose reading agrees best with labels it did not learn from
     pose_sets = [poses(trace.actions)]
     if rests:
         grouped = pose_groups(kinds, twin, mates)
@@ -444,8 +442,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         # a footprint presence that agrees with every label cannot be bettered: not read again
         if x is not None and own < 1.0:
             best = None
-            # and the frames whose hand is away from the site, pooled (away_poses)
-            for pose in (*pose_sets, away_poses(pose_sets[0], is_acting)):
+            for pose in pose_sets:
                 window = site_window(x, labels, pose, EMPTY, support)
                 if window is None:
                     continue

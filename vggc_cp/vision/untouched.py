@@ -16,12 +16,7 @@ kind of that action (:func:`pose_groups`: the hand rests alike after every pick 
 whatever it lifted); :func:`vggc_cp.vision.occupancy.settle` lets each site take the one
 whose reading agrees best with labels it did not learn from. There, too, an episode's first
 frame takes the pose whose mean frame it looks most like (:func:`placed_starts`): the hand
-starts an episode resting at some place, and the frame shows which. A third set pools every
-frame whose hand is away from the site into one pose (:func:`away_poses`): in a short
-recording no one pose holds labelled looks of both kinds from two episodes, and the frames
-a reading is asked about are all of that kind -- a frame right after an action at the site
-is what the action states -- while the frames right after the site's own actions, the arm
-over it every time, are the ones that would teach the arm.
+starts an episode resting at some place, and the frame shows which.
 
 **Window.** Among the labelled frames of one pose the arm is the same; the site's pixels
 differ by what it holds. ``W(p)``, the mean over the poses of ``|mean occupied - mean empty|``
@@ -76,8 +71,6 @@ from vggc_cp.vision.blobs import heaviest_component
 #: Fewest labelled frames of each kind a pose needs to teach the reading (of separate
 #: episodes, where :func:`pose_readings` is given them).
 MIN_LOOKS = 2
-#: The pose of every frame whose hand is away from the site (:func:`away_poses`).
-AWAY = -2
 #: Odds at which a pose's labelled frames must show a separation for the pose to read the
 #: site: ``z^2 / 2 >= ln 20`` for the difference of the means over its standard error, the
 #: bar of the warning's description-length margin.
@@ -98,24 +91,6 @@ def poses(actions: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
     out[1:] = actions if group is None else np.where(actions >= 0,
                                                     group[np.maximum(actions, 0)], -1)
     return out
-
-
-def away_poses(pose: np.ndarray, acting: np.ndarray) -> np.ndarray:
-    """``pose`` with every frame whose hand is away from the site pooled into one pose,
-    :data:`AWAY`: the frames led to by an action that does not act at the site (``acting``,
-    boolean over the actions), the first frames of episodes included unless
-    :func:`placed_starts` put them at an action that does. Those are the frames a reading
-    is asked about -- a frame right after an action at the site is what that action states
-    -- and pooled, their labelled looks teach a window on what the site holds, where one
-    pose's few labelled looks cannot, and where the frames right after its own actions (the
-    arm above it every time) would teach the arm.
-
-    >>> away_poses(np.array([-1, 0, 1, 2, 1]), np.array([False, True, False])).tolist()
-    [-2, -2, 1, -2, 1]
-    """
-    pose = np.asarray(pose)
-    at_site = (pose >= 0) & np.asarray(acting, dtype=bool)[np.maximum(pose, 0)]
-    return np.where(at_site, pose, AWAY)
 
 
 def placed_starts(x: np.ndarray, pose: np.ndarray) -> np.ndarray:
