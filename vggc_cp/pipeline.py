@@ -72,12 +72,8 @@ from vggc_cp.trace import Trace
 from vggc_cp.vision.attention import ATTENTION_BACKENDS
 from vggc_cp.vision.distances import DistanceConfig
 from vggc_cp.vision.evidence import footprint_evidence, get_evidence
-from vggc_cp.vision.footprints import (
-    action_footprints,
-    footprint_codes,
-    site_readings,
-    site_reads,
-)
+from vggc_cp.vision.footprints import action_footprints, footprint_codes
+from vggc_cp.vision.holdings import site_readings, site_reads
 
 
 def threshold_grid(problem: Problem, steps: int = 24, top_quantile: float = 0.9) -> np.ndarray:

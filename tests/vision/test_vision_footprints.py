@@ -16,8 +16,8 @@ from vggc_cp.vision.footprints import (
     footprint_distances,
     overlaps,
     site_maps,
-    site_readings,
 )
+from vggc_cp.vision.holdings import site_readings
 from vggc_cp.vision.working import normalise_frames
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"

@@ -32,7 +32,7 @@ as the true one is the shorter code, however different the scenes it merges (a t
 identical objects, random-396: 16 nodes for 126 states). Only stated facts are coded: the
 readings of sites no action touches were tried (every site's symbol) and made splits pay
 wherever an arm or a covered slot misleads them. Sites alike on every observation (the
-actions of one slot) are one site (:func:`vggc_cp.vision.footprints.site_readings`).
+actions of one slot) are one site (:func:`vggc_cp.vision.holdings.site_readings`).
 
 **Where the actions cannot choose, the trusted readings do.** Graphs whose description
 lengths lie within :data:`TIE_NATS` (``ln 20``) of the least are a tie: the actions and stated

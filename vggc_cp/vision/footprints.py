@@ -199,7 +199,7 @@ class Footprints:
         Where the trace's actions state what a site holds
         (:func:`vggc_cp.vision.occupancy.settle`) and the site's own reading (its presence
         and colour before the actions settle them) agrees: the facts
-        :func:`site_readings` offers the description length. A stated fact rests on which
+        :func:`vggc_cp.vision.holdings.site_readings` offers the description length. A stated fact rests on which
         actions act at one slot (:mod:`vggc_cp.vision.slots`); where the images contradict
         it, one of the two is wrong.
     kappa : ndarray of float64, shape (A,), or None
@@ -530,72 +530,6 @@ def footprint_nuisance(presence: np.ndarray, posterior: np.ndarray, counts: np.n
     out = np.zeros(len(counts))
     out[taken] = np.median(per_action, axis=0)[taken]
     return out
-
-
-def site_readings(fp: Footprints) -> np.ndarray:
-    """What the actions state every taken site holds in every observation, as symbols,
-    shape (N, S), int64.
-
-    0 where the actions do not state it (the site is read from the images there, and an arm,
-    a shaking camera or a covered slot may mislead the reading) or where the site's own
-    reading contradicts what they state (``fp.stated``), 1 where the site is empty,
-    ``2 + c`` where it holds an object of colour ``c``. Sites stated alike in every
-    observation (the pick and place of one slot, the classes of one region) are kept once, so
-    a place counts once however many actions act there
-    (:func:`vggc_cp.solvers.mdl.reading_length`). All zeros without ``fp.stated``.
-
-    >>> fp = Footprints(*[None] * 2, np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), None,
-    ...                 np.ones((2, 3, 1)), np.zeros(3, np.int64), None, np.array([3, 2, 1]),
-    ...                 stated=np.array([[True, True, True], [True, True, False]]))
-    >>> site_readings(fp).tolist()                    # sites 0 and 1 state alike: one column
-    [[1, 2], [0, 1]]
-    """
-    taken = fp.taken
-    if fp.stated is None:
-        return np.zeros((len(fp.presence), 1), dtype=np.int64)
-    rows = np.where(fp.stated[:, taken], 1 + _held(fp), 0)
-    return np.unique(rows.astype(np.int64), axis=1)
-
-
-def site_reads(fp: Footprints) -> tuple[np.ndarray, ...] | None:
-    """What every taken site holds in every observation, stated or read, and how far each
-    site's reading can be trusted: ``(held, stated, kappa, action, trust, trust_low)`` of
-    shapes (N, S), (N, S), (S,), (S,), (N, S), (N, S) (the fields of
-    :class:`~vggc_cp.solvers.base.SiteReads`; ``trust`` None without ``fp.trust``,
-    ``trust_low`` without ``fp.trust_low``) and ``stacked`` (shape (S,), None without
-    ``fp.stacked``); None without ``fp.stated``.
-
-    ``held`` is 0 where the site is empty and ``1 + c`` where it holds colour ``c``;
-    ``stated`` where the actions state it (``fp.stated``); ``kappa`` is ``fp.kappa``;
-    ``action`` the taken action of each site (``fp.taken``); ``trust`` is ``fp.trust``.
-
-    >>> fp = Footprints(*[None] * 2, np.array([[1.0, 0.2], [0.0, 0.9]]), None,
-    ...                 np.ones((2, 2, 1)), np.zeros(2, np.int64), None, np.array([3, 2]),
-    ...                 stated=np.array([[True, False], [True, False]]),
-    ...                 kappa=np.array([np.nan, 0.3]))
-    >>> held, stated, kappa, action, trust, trust_low, stacked = site_reads(fp)
-    >>> held.tolist(), stated.tolist(), kappa.tolist(), trust
-    ([[1, 0], [0, 1]], [[True, False], [True, False]], [nan, 0.3], None)
-    """
-    if fp.stated is None:
-        return None
-    taken = fp.taken
-    kappa = (np.full(len(taken), np.nan) if fp.kappa is None
-             else np.asarray(fp.kappa, dtype=np.float64)[taken])
-    trust = None if fp.trust is None else np.asarray(fp.trust, dtype=np.float64)[:, taken]
-    low = (None if fp.trust_low is None
-           else np.asarray(fp.trust_low, dtype=np.float64)[:, taken])
-    stacked = None if fp.stacked is None else np.asarray(fp.stacked, dtype=bool)[taken]
-    return (_held(fp), fp.stated[:, taken].copy(), kappa, taken.astype(np.int64), trust, low,
-            stacked)
-
-
-def _held(fp: Footprints) -> np.ndarray:
-    """What every taken site holds in every observation as the settled presence and colour
-    say: 0 empty, ``1 + c`` colour ``c``; int64 shape (N, S)."""
-    taken = fp.taken
-    held = (fp.presence[:, taken] >= 0.5) * (1 + fp.posterior[:, taken].argmax(axis=-1))
-    return held.astype(np.int64)
 
 
 def footprint_distance_matrix(presence: np.ndarray, posterior: np.ndarray, taken: np.ndarray,
