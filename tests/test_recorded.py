@@ -96,7 +96,7 @@ def test_a_trace_without_the_record_states_nothing():
 def test_problems_carry_the_refusals_to_the_merge(appended):
     from vggc_cp.solvers.base import Problem
     from vggc_cp.solvers.coded import CodedProblem
-    from vggc_cp.solvers.confidence import subproblem
+    from vggc_cp.solvers.heldout import subproblem
 
     _, new, _ = appended
     facts = recorded_facts(new)

@@ -12,7 +12,7 @@ from vggc_cp.solvers.coded import (
     coded_threshold_grid,
     weighted_quantile,
 )
-from vggc_cp.solvers.confidence import heldout_prediction
+from vggc_cp.solvers.heldout import heldout_prediction
 from vggc_cp.solvers.merge import congruence_merge, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import coded_merge, coded_threshold_path
 

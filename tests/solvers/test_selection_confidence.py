@@ -13,13 +13,12 @@ from vggc_cp.solvers.confidence import (
     WarningRule,
     assess,
     changed_nodes,
-    heldout_prediction,
     plateau_length,
     resample,
     resampling_units,
     same_partition,
-    subproblem,
 )
+from vggc_cp.solvers.heldout import heldout_prediction, subproblem
 from vggc_cp.solvers.mdl import description_length, reading_length, select_mdl
 from vggc_cp.trace import compute_roles
 
@@ -380,7 +379,7 @@ def test_the_margin_is_judged_in_nats_over_the_whole_trace():
 def test_contradicted_transitions_name_the_chosen_nodes_they_dispute():
     """A fold graph's node stands for the chosen node most of its kept observations are in;
     a contradicted transition whose predicted and observed chosen nodes differ names them."""
-    from vggc_cp.solvers.confidence import disputed_pairs
+    from vggc_cp.solvers.heldout import disputed_pairs
 
     labels = np.array([0, 0, 1, 1, 2, 2, 3])
     kept = np.array([0, 1, 2, 3, 4])                  # 5 and 6 left out

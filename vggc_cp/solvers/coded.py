@@ -138,7 +138,7 @@ class CodedProblem:
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
         ends kept, the same tables. Returns it and the kept indices (as
-        :func:`vggc_cp.solvers.confidence.subproblem`)."""
+        :func:`vggc_cp.solvers.heldout.subproblem`)."""
         idx = np.flatnonzero(keep)
         new = np.full(self.n_obs, -1, dtype=np.int64)
         new[idx] = np.arange(len(idx))

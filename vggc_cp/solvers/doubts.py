@@ -427,7 +427,7 @@ class Flips:
 
 def disputed_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                     disputed, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
-    """Merge doubts that the held-out prediction names (:class:`~vggc_cp.solvers.confidence.
+    """Merge doubts that the held-out prediction names (:class:`~vggc_cp.solvers.heldout.
     HeldOut`'s ``disputed``): a graph learned without an episode predicted that one of its
     transitions ends in node ``A``, and the images put its end in node ``B``. ``A`` and ``B``
     might be one state (or the end's render was misplaced). Each pair (most transitions

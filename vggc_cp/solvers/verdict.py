@@ -92,7 +92,7 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
     margin is measured to): the window reaches it and the description length does not
     settle a decision (what questions the graph is that the two are nearly as probable).
     With ``disputed``, the node pairs that contradicted held-out transitions name
-    (``heldout``, the confidence's :class:`~vggc_cp.solvers.confidence.HeldOut`;
+    (``heldout``, the confidence's :class:`~vggc_cp.solvers.heldout.HeldOut`;
     :func:`~vggc_cp.solvers.doubts.disputed_doubts`); with ``toward_runner_up`` and
     ``differences``, the nodes the runner-up graph splits or joins
     (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
