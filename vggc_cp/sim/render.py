@@ -12,8 +12,8 @@ The ``randomized`` look (:mod:`vggc_cp.sim.looks`) adds tomato (red, flattened, 
 calyx) and pear (yellow), and varies colours, sizes, camera, light and the table's texture.
 The ``robot`` look replaces the fixed gripper by a Franka Panda arm (``pybullet_data``,
 :mod:`vggc_cp.sim.arm`) whose hand rests above the region it last acted on (joints from
-PyBullet's inverse kinematics, no physics), holding the held object, and adds a mug (the distractor) that
-:meth:`Scene.move_distractor` puts on the table outside every region.
+PyBullet's inverse kinematics, no physics), holding the held object, and adds a mug (the
+distractor) that :meth:`Scene.move_distractor` puts on the table outside every region.
 """
 
 from __future__ import annotations

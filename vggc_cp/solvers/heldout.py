@@ -91,7 +91,8 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
         if len(sub.act) == 0:
             continue
         labels, _ = (coded_merge if coded else congruence_merge)(sub, threshold)
-        counts += fold_prediction(problem, kept, labels, sub, train)  # (a transition is in one episode)
+        # (a transition lies in one episode, so in one fold)
+        counts += fold_prediction(problem, kept, labels, sub, train)
     predicted, contradicted, total = (int(c) for c in counts)
     if total == 0:
         return None
