@@ -393,16 +393,18 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
         if len(obs) < 2:
             continue
         best_gain, best_cut = 1e-9, None
-        for side in _cuts(rows[obs]):
-            placed = _place(rows[obs], side)
-            if (_deterministic(labels, obs, side, src, act, dst, n_act)
-                    and _deterministic(labels, obs, placed, src, act, dst, n_act)):
-                found = {u: (obs, placed)}
-            elif joint:                             # the cuts it forces, if any
+        sub = rows[obs]
+        for side in _cuts(sub):
+            found = None
+            # a cut refused with its undecided observations on neither side is refused
+            # wherever they go: they are placed only for one that stands
+            if _deterministic(labels, obs, side, src, act, dst, n_act):
+                placed = _place(sub, side)
+                if _deterministic(labels, obs, placed, src, act, dst, n_act):
+                    found = {u: (obs, placed)}
+            if found is None and joint:             # the cuts it forces, if any
                 found = _joint_cut(labels, u, side, rows, src, act, dst, n_act)
-                if found is None:
-                    continue
-            else:
+            if found is None:
                 continue
             gain = sum(code.length(part) - code.length(part[sv == 0])
                        - code.length(part[sv == 1]) for part, sv in found.values())
