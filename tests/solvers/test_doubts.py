@@ -11,6 +11,7 @@ from conftest import make_trace
 
 from vggc_cp.errors import SolutionError
 from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.closure import PartitionClosure
 from vggc_cp.solvers.doubt_text import format_doubts
 from vggc_cp.solvers.doubts import (
     MERGE,
@@ -22,7 +23,7 @@ from vggc_cp.solvers.doubts import (
     parse_doubts,
     runner_up_doubts,
 )
-from vggc_cp.solvers.merge import PartitionClosure, threshold_path
+from vggc_cp.solvers.merge import threshold_path
 from vggc_cp.solvers.read_doubts import episode_doubts, observation_episodes, read_doubts
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"

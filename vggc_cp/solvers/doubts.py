@@ -8,7 +8,7 @@ observations are one state. Two kinds of decision can be close calls:
   thresholds of the path joins (most observations of each in one node there), and pairs
   whose average-linkage distance ``d(A, B)`` is at most ``t* * ratio**window`` (``ratio``:
   the grid's step); the ``max_pairs`` closest of them are examined. The join is closed on the chosen partition as the merge would close it
-  (:class:`~vggc_cp.solvers.merge.PartitionClosure`: determinism and co-determinism,
+  (:class:`~vggc_cp.solvers.closure.PartitionClosure`: determinism and co-determinism,
   transitively). When Exactly-One forbids the closure, the pair is a candidate only when
   ``d(A, B) <= t*``: the images put the two nodes together and only the constraints keep
   them apart, so some other decision conflicts with it (``forbidden: "exactly_one"``; or
@@ -90,8 +90,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.closure import PartitionClosure
 from vggc_cp.solvers.mdl import description_length
-from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath, noise_scale
+from vggc_cp.solvers.merge import ThresholdPath, noise_scale
 from vggc_cp.solvers.read_splits import combined_readings, split_by_readings
 
 MERGE = "merge"

@@ -31,8 +31,9 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.closure import PartitionClosure
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
-from vggc_cp.solvers.merge import PartitionClosure, ThresholdPath
+from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.vision.trust import READ_Z, kappa_lower
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
@@ -158,7 +159,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
 
     * no episode visits both (nothing in the sequence sets them apart),
     * joining them, closed as the merge closes it
-      (:class:`~vggc_cp.solvers.merge.PartitionClosure`), breaks neither Exactly-One nor the
+      (:class:`~vggc_cp.solvers.closure.PartitionClosure`), breaks neither Exactly-One nor the
       hand's colour, and no site is stated (by the actions) to hold two different things in
       one of the joined nodes,
     * the sites at which most of ``A``'s and most of ``B``'s observations hold different
