@@ -276,3 +276,13 @@ def test_drawn_tasks_are_tabled_by_kind():
     assert "Drawn tasks by kind" in rtab.table_markdown(rows)
     assert rtab.kind_markdown(rows[3:]) == ""
     assert "Drawn tasks by kind" not in rtab.table_markdown(rows[3:])
+
+
+def test_a_cells_code_key_covers_every_module_of_the_learning_packages():
+    """A module split out of another (the held-out prediction, the partition closure) is part
+    of the key without being listed; the CLI and the tables are not."""
+    names = {p.as_posix().rsplit("/vggc_cp/", 1)[1] for p in rob.code_files()}
+    assert {"solvers/heldout.py", "solvers/closure.py", "vision/holdings.py",
+            "learned.py"} <= names
+    assert not any(n.startswith(("cli/", "experiments/")) for n in names)
+    assert rob.code_digest() == rob.code_digest() and len(rob.code_digest()) == 12

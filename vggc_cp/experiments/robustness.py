@@ -78,15 +78,11 @@ CLEAN, RANDOMIZED, ROBOT = "clean", "randomized", "robot"
 DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 #: Runs with fewer observations per true state than this are marked sparse in the tables.
 MIN_OBS_PER_STATE = 2.0
-#: Modules whose source is part of a cell's key (changed code recomputes the cells).
-CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.solvers.merge", "vggc_cp.solvers.pairs",
-                "vggc_cp.solvers.mdl", "vggc_cp.solvers.confidence", "vggc_cp.solvers.doubts",
-                "vggc_cp.vision.evidence", "vggc_cp.vision.footprints",
-                "vggc_cp.vision.occupancy", "vggc_cp.vision.slots", "vggc_cp.vision.untouched",
-                "vggc_cp.vision.blobs", "vggc_cp.vision.colours", "vggc_cp.vision.density",
-                "vggc_cp.vision.registration",
-                "vggc_cp.vision.working", "vggc_cp.vision.distances",
-                "vggc_cp.evaluate.metrics")
+#: Modules and packages whose source is part of a cell's key (changed code recomputes the
+#: cells); a package stands for every module under it, so a module split out of another, or
+#: a new one, is covered without being listed.
+CODE_MODULES = ("vggc_cp.pipeline", "vggc_cp.learned", "vggc_cp.trace", "vggc_cp.solvers",
+                "vggc_cp.vision", "vggc_cp.evaluate.metrics")
 #: Columns of ``robustness.csv``, in order (measured I2P columns follow when present).
 ROW_FIELDS = ("benchmark", "family", "look", "seed", "split", "transitions", "observations",
               "true_states", "nodes", "nodes_ratio", "exec", "opt_path", "any_path",
@@ -279,18 +275,23 @@ def i2p_key(cfg: RobustnessConfig) -> dict:
                      "train": TrainConfig().as_dict()})
 
 
-def _source_path(name: str) -> Path:
-    """The source file of the package's module ``name`` (read, not imported)."""
-    parts = name.split(".")
-    path = Path(__file__).parents[1].joinpath(*parts[1:])
-    return path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+def code_files() -> list[Path]:
+    """The source files of :data:`CODE_MODULES` (read, not imported), sorted within a
+    package."""
+    root = Path(__file__).parents[1]
+    out = []
+    for name in CODE_MODULES:
+        path = root.joinpath(*name.split(".")[1:])
+        out += sorted(path.rglob("*.py")) if path.is_dir() else [path.with_suffix(".py")]
+    return out
 
 
 def code_digest() -> str:
     """SHA-256 (12 hex digits) of the source of :data:`CODE_MODULES`."""
     h = hashlib.sha256()
-    for name in CODE_MODULES:
-        h.update(name.encode() + b"\0" + _source_path(name).read_bytes())
+    root = Path(__file__).parents[1]
+    for path in code_files():
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
     return h.hexdigest()[:12]
 
 
