@@ -8,10 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
+from vggc_cp.graph import TaskGraph
+from vggc_cp.sim.explore import random_walk
 from vggc_cp.sim.tasks import get_benchmark
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
-from vggc_cp.solvers.suggest import episodes_document, suggest_episodes
-from vggc_cp.trace import load_trace
+from vggc_cp.solvers.suggest import episodes_document, hand_classes, suggest_episodes
+from vggc_cp.trace import Trace, load_trace
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
 
@@ -169,3 +171,42 @@ def test_a_node_never_seen_to_act_is_probed_with_its_role_s_actions():
     for p in proposals:      # everything but the probe is what the trace did
         assert all(_legal(bench, trace.states[p.start_observation], p.actions[:-1])), p
         assert "no action sets the sides apart" in p.why
+
+
+def test_a_place_probe_at_a_read_site_needs_what_the_node_holds():
+    """Two colours: a read doubt between two place states (the hand full) whose sites carry
+    places of both colours. A place of the colour the hand does not hold is refused for the
+    hand's reason and says nothing of the site, so only places of the colour the node's own
+    places show are proposed (:func:`hand_classes`); a place of that colour is legal exactly
+    where the site is free."""
+    bench = get_benchmark("multifruit-2x3")
+    walk = random_walk(bench, 150, np.random.default_rng(0))
+    states = np.array(walk.states)
+    trace = Trace(np.zeros((len(states), 4, 4, 3), np.uint8), np.asarray(walk.actions),
+                  tuple(bench.action_names), states, {"benchmark": "multifruit-2x3"})
+    labels = _true_labels(trace)
+    places = sorted(n for n in bench.action_names if n.startswith("place"))
+    classes = hand_classes(TaskGraph.from_labels(labels, trace.roles(), *trace.transitions(),
+                                                 trace.action_names))
+    assert len(set(classes.values())) == 2  # red places, yellow places
+    held = {}
+    for o in np.flatnonzero(trace.roles() == 1):
+        held.setdefault(int(labels[o]), str(states[o]).split("|")[1])
+    a = next(u for u, h in held.items() if h == "r")
+    b = next(u for u, h in held.items() if h == "y")
+    doubt = Doubt(MERGE, (a, b), ((int(np.flatnonzero(labels == a)[0]),),
+                                  (int(np.flatnonzero(labels == b)[0]),)),
+                  {"read_sites": places, "read_kappa": 0.2})
+    proposals = [p for p in suggest_episodes(trace.without_states(), labels, [doubt],
+                                             max_episodes=60) if "reading" in p.why]
+    assert {p.probe_node for p in proposals} == {a, b}
+    for p in proposals:
+        colour = "red" if held[p.probe_node] == "r" else "yellow"
+        assert p.actions[-1].split("_")[1] == colour
+        valid, after = bench.apply(str(states[p.start_observation]), p.actions)
+        assert all(valid[:-1])  # the plan runs
+        before = after[-2] if len(after) > 1 else str(states[p.start_observation])
+        site = int(p.actions[-1].rsplit("_", 1)[1])
+        # the hand holds the probe's colour there: legal exactly where the site is free
+        assert before.split("|")[1] == held[p.probe_node]
+        assert valid[-1] == (before.split("|")[0][site] == "-")

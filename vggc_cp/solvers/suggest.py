@@ -13,7 +13,9 @@ proposes episodes a robot can run:
   - merge doubt that only a reading of the images settles (``read_sites`` in its evidence,
     :func:`~vggc_cp.solvers.read_doubts.read_doubts`): from each node, an action at one of those
     sites that its role can take; legal or not, it states what the site holds there, which
-    no reading can be wrong about. Then, as for every merge doubt:
+    no reading can be wrong about -- a place only where the hand holds what it needs (the
+    node's own places show which, :func:`hand_classes`): one refused for the hand's reason
+    says nothing of the site. Then, as for every merge doubt:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
@@ -51,7 +53,7 @@ import numpy as np
 
 from vggc_cp.graph import TaskGraph, bfs_distances, shortest_plan
 from vggc_cp.solvers.doubts import MERGE
-from vggc_cp.trace import action_kind
+from vggc_cp.trace import PLACE, action_kind
 
 
 @dataclass(frozen=True)
@@ -288,16 +290,60 @@ def _role_actions(graph: TaskGraph, trace, node: int) -> list[str]:
                                                                        trace.action_names[k]))]
 
 
+def hand_classes(graph: TaskGraph) -> dict[str, int]:
+    """Place actions that need one thing in the hand, as the graph shows it: the places taken
+    from one node share its hand, transitively; ``{action name: class}`` for every place
+    the graph takes (a place never taken is in none).
+
+    >>> from vggc_cp.trace import PICK, PLACE
+    >>> names = ("pick_a_0", "place_a_0", "place_a_1", "place_b_1")
+    >>> g = TaskGraph.from_labels(np.array([0, 1, 2, 1, 3]), [PICK, PLACE, PICK, PLACE, PICK],
+    ...                           np.array([0, 1, 3]), np.array([0, 1, 2]), np.array([1, 2, 4]),
+    ...                           names)
+    >>> hand_classes(g)
+    {'place_a_0': 0, 'place_a_1': 0}
+    """
+    parent: dict[int, int] = {}
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for u in graph.members:
+        places = [a for a, _ in graph.successors(u)
+                  if action_kind(graph.action_names[a]) == PLACE]
+        for a in places:
+            parent.setdefault(a, a)
+        for a in places[1:]:
+            parent[find(a)] = find(places[0])
+    roots = {r: i for i, r in enumerate(sorted({find(a) for a in parent}))}
+    return {graph.action_names[a]: roots[find(a)] for a in sorted(parent)}
+
+
 def _read_probes(graph: TaskGraph, doubt, node: int) -> list[str]:
     """The actions at a read doubt's sites (its evidence's ``read_sites``) that ``node``'s
     role can take (a pick from a node whose hand is empty, a place from one that holds
-    something), those the node was never seen to take first; none for another doubt."""
+    something), those the node was never seen to take first; none for another doubt.
+
+    A place whose hand another class of places needs (:func:`hand_classes`) is left out:
+    refused, it says what the hand holds, not what the site holds (the learner ignores it,
+    :mod:`vggc_cp.vision.resets`), so it settles nothing (multifruit-4x6 robot: a place of
+    the other colour from the start state was proposed for ten doubts, and seventeen of
+    twenty requests recorded nothing). Places of the node's own class come first."""
     names = (doubt.evidence or {}).get("read_sites")
     if not isinstance(names, list):
         return []
     role, taken = graph.node_role.get(node), _actions_of(graph, node)
     fits = [n for n in names if isinstance(n, str) and n in graph.action_names
             and action_kind(n) == role]
+    if role == PLACE:
+        classes = hand_classes(graph)
+        mine = {classes[n] for n in taken if n in classes}
+        if mine:
+            fits = [n for n in fits if classes.get(n, -1) in mine or n not in classes]
+            return sorted(fits, key=lambda n: (n not in classes, n in taken, n))
     return sorted(fits, key=lambda n: (n in taken, n))
 
 
