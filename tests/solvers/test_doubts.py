@@ -346,6 +346,33 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     assert "kappa 0.90, >= " in format_doubts([d])[1]
 
 
+def test_an_episode_is_not_moved_onto_a_node_that_takes_what_the_recording_refused_there():
+    """A refusal (:mod:`vggc_cp.recorded`: an episode requested from observation 6's state
+    whose first action could not be taken) of an action the other path's node takes rules
+    that path out: the doubt goes. A refusal of an action neither takes leaves it."""
+    from dataclasses import replace
+
+    problem, path, labels = _episode_on_a_read(0.3)
+    assert len(episode_doubts(problem, path, labels)) == 1
+    taken_by_b = NAMES.index("pick_1")          # 'B' -pick_1-> 'HB' in the trace
+    assert episode_doubts(replace(problem, refused=((6, taken_by_b),)), path, labels) == ()
+    neither = NAMES.index("pick_3")
+    (d,) = episode_doubts(replace(problem, refused=((6, neither),)), path, labels)
+    assert d.evidence["episode"] == [6, 7]
+
+
+def test_an_episode_is_not_moved_away_from_an_observation_a_reset_says_shows_its_state():
+    """A reset (:mod:`vggc_cp.recorded`: observation 6's episode was started in the state of
+    observation 0, as a recording made on request is) keeps the two in one node: moving the
+    episode to 'B' would part them, so no doubt. A reset to an observation of 'B' is kept by
+    the move, and the doubt stays."""
+    problem, path, labels = _episode_on_a_read(0.3)
+    assert labels[0] == labels[6] and labels[3] != labels[6]
+    assert episode_doubts(problem, path, labels, resets=((0, 6),)) == ()
+    (d,) = episode_doubts(problem, path, labels, resets=((3, 6),))
+    assert d.evidence["moved_to"] == labels[3]
+
+
 def test_an_episode_whose_first_node_is_its_own_is_moved_by_the_node_it_shares():
     """multifruit-2x3 robot s242 in small: the last episode's first frame is a node of its
     own, its second sits in 'HA''s node. Joining the first to 'B' would join 'HA' and 'HB',

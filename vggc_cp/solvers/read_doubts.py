@@ -307,7 +307,7 @@ class WalkGraph:
 
 def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                    rule: DoubtRule | None = None, max_kappa: float = READ_KAPPA,
-                   z: float = READ_Z) -> tuple[Doubt, ...]:
+                   z: float = READ_Z, resets=()) -> tuple[Doubt, ...]:
     """Episodes that only an untrustworthy reading of the images puts on their path.
 
     An episode's actions, walked on the learned graph from another node of its first
@@ -320,7 +320,11 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
 
     * no site that the actions state in one of its frames holds another value, stated,
       in the other path's node at that step, nor differs from what most of that node's
-      observations hold, and
+      observations hold, no frame had an action refused (:mod:`vggc_cp.recorded`) that
+      the other path's node takes, no frame was reset to (or from) an observation of
+      another episode that is not in the other path's node (``resets``: the recording
+      states the two show one state; an episode recorded on request from an episode's
+      start pins it, and is pinned by it), and
     * the sites at which its frames differ from what most observations of the other
       path's nodes hold are read at every such frame (not stated), and the best of those
       readings agrees with the stated observations beyond chance by less than
@@ -360,6 +364,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         The least agreement beyond chance that settles a placement (:data:`READ_KAPPA`).
     z : float
         As for :func:`read_doubts`.
+    resets : sequence of (int, int)
+        The recording's resets (:attr:`~vggc_cp.recorded.RecordedFacts.resets`).
 
     Returns
     -------
@@ -376,9 +382,20 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     act_of = np.full(problem.n_obs, -1, dtype=np.int64)
     act_of[problem.src] = problem.act
     site_rows = np.arange(held.shape[1])
+    # what the recording says was refused where (vggc_cp.recorded): a node that takes it is
+    # no place for that observation
+    refused_at: dict[int, set[int]] = {}
+    for o, k in getattr(problem, "refused", ()):
+        refused_at.setdefault(int(o), set()).add(int(k))
+    # and which observations it says show one state: a move may not part them
+    shown_as: dict[int, set[int]] = {}
+    for a, b in resets:
+        shown_as.setdefault(int(a), set()).add(int(b))
+        shown_as.setdefault(int(b), set()).add(int(a))
     candidates = []
     for chain in episode_chains(problem):
         here = labels[chain]
+        in_chain = set(chain.tolist())
         # the split doubt's node: the first of the episode's nodes that other episodes visit
         shared = here[np.bincount(here, minlength=nodes.n)[here] < sizes[here]]
         if len(chain) < 2 or not len(shared):
@@ -388,6 +405,12 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             moved = graph.walk(int(other), act_of[chain[:-1]], here)
             if moved is None or (moved == here).all():
                 continue
+            if any((int(v), k) in graph.ahead for o, v in zip(chain.tolist(), moved.tolist())
+                   for k in refused_at.get(o, ())):
+                continue  # the other path takes an action the recording refused there
+            if shown_as and any(labels[p] != v for o, v in zip(chain.tolist(), moved.tolist())
+                                for p in shown_as.get(o, ()) if p not in in_chain):
+                continue  # it would part what the recording says shows one state
             differ = held[chain] != majority[moved]
             # another stated value in the other node at a stated site, or a stated site
             # that the other node's observations mostly hold otherwise: ruled out

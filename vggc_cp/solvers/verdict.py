@@ -81,7 +81,8 @@ def runner_up(path: ThresholdPath, dls) -> int | None:
 
 def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.ndarray,
                  dls=(), heldout=None, toward_runner_up: bool = False, disputed: bool = False,
-                 differences: bool = False, read: bool = False) -> tuple[Doubt, ...]:
+                 differences: bool = False, read: bool = False, resets=()
+                 ) -> tuple[Doubt, ...]:
     """The doubts of the graph ``labels`` chosen on ``path``
     (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem of descriptor codes, on its
     dense matrices up to :data:`DOUBTS_MAX_OBS` observations (none beyond: the matrices
@@ -98,12 +99,13 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
     (:func:`~vggc_cp.solvers.doubts.runner_up_doubts`); with ``read``, the node pairs only an
     untrustworthy reading of the images sets apart
     (:func:`~vggc_cp.solvers.read_doubts.read_doubts`), then the episodes only such a reading
-    puts on their path (:func:`~vggc_cp.solvers.read_doubts.episode_doubts`)."""
+    puts on their path (:func:`~vggc_cp.solvers.read_doubts.episode_doubts`; ``resets``, the
+    recording's, keep what they join together)."""
     if _too_large(problem):
         return ()
     if read:                    # a problem of codes: densified only if a doubt is found
         pairs = read_doubts(problem, path, labels)
-        return (*pairs, *episode_doubts(problem, path, labels))
+        return (*pairs, *episode_doubts(problem, path, labels, resets=resets))
     problem = dense_problem(problem)
     if disputed:
         return () if heldout is None else disputed_doubts(problem, path, labels,
@@ -155,7 +157,9 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
     doubts = graph_doubts(problem, path, labels)
     conf = corroborate(confidence, doubts, rule.max_nats)
     conf = doubt_forbidden(conf, doubts, labels, rule.max_nats)
-    read = graph_doubts(problem, path, labels, read=True)
+    facts = recorded_facts(trace) if trace is not None else None
+    read = graph_doubts(problem, path, labels, read=True,
+                        resets=facts.resets if facts else ())
     if read:
         # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
         # their path): flagged, or noted where the episodes would misplace few plans; first
@@ -177,7 +181,6 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
             doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.limit]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
     # flagged and listed first
-    facts = recorded_facts(trace) if trace is not None else None
     if facts:
         broken = broken_facts(facts, trace.actions, trace.action_names, labels)
         if broken:
