@@ -53,8 +53,7 @@ transition (:data:`FIXED_CHECKS`).
 in the fold re-runs the left-out observations are placed in the node of least mean distance
 (their own role), and every left-out transition ``(o, a, o')`` is *predicted* when the edge
 ``(node(o), a)`` exists and leads to ``node(o')``, *contradicted* when it exists and leads
-elsewhere; a transition from an observation farther than the threshold from every kept one
-is a situation the fold never saw, and counts as unseen.
+elsewhere.
 The description-length margin to a graph of another size, the plateau of thresholds giving
 the chosen partition and the observations per node are reported too, and enter the verdict
 through the fixed checks (recomputed on the tuning split, those checks warned on 7 of 57
@@ -454,7 +453,7 @@ def resample(problem: Problem, threshold: float, labels: np.ndarray, episode_of:
             lab = np.arange(sub.n_obs, dtype=np.int64)
         if runs < folds_here:
             wrong: list = []
-            counts += fold_prediction(problem, kept, lab, sub, train, wrong, threshold)
+            counts += fold_prediction(problem, kept, lab, sub, train, wrong)
             for pair in disputed_pairs(labels, kept, lab, wrong):
                 disputed[pair] = disputed.get(pair, 0) + 1
         runs += 1

@@ -6,12 +6,7 @@ part the merge runs at the chosen threshold on the rest of the trace (:func:`sub
 placed in the node (of its role) of least mean distance to the node's members, and every
 left-out transition ``(o, a, o')`` is *predicted* when the edge ``(node(o), a)`` exists and
 leads to ``node(o')``, *contradicted* when it exists and leads elsewhere, *unseen* when it
-does not exist, or when ``o`` is farther than the threshold from every kept observation of
-its role (:func:`heldout_prediction`, :func:`fold_prediction`). Such an ``o`` is a situation
-the fold's recording never shows: the merge could join it to no node on what the images say,
-so the node of least distance is a guess, and the graph is not contradicted when that guess
-has the action lead elsewhere (a right graph of fruit-2x3 from 50 transitions, one state in
-one episode only, was flagged so: 3 of its 50 held-out transitions). The contradicted ones
+does not exist (:func:`heldout_prediction`, :func:`fold_prediction`). The contradicted ones
 name chosen nodes that might be one state (:func:`disputed_pairs`, :class:`HeldOut`'s
 ``disputed``). :mod:`vggc_cp.solvers.confidence` runs it in its fold re-runs and judges
 its shares among the fixed checks.
@@ -97,7 +92,7 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
             continue
         labels, _ = (coded_merge if coded else congruence_merge)(sub, threshold)
         # (a transition lies in one episode, so in one fold)
-        counts += fold_prediction(problem, kept, labels, sub, train, threshold=threshold)
+        counts += fold_prediction(problem, kept, labels, sub, train)
     predicted, contradicted, total = (int(c) for c in counts)
     if total == 0:
         return None
@@ -105,13 +100,10 @@ def heldout_prediction(problem: Problem, threshold: float, episode_of: np.ndarra
                    (total - predicted - contradicted) / total, total, folds)
 
 
-def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray, held: np.ndarray,
-              threshold: float = np.inf) -> tuple[dict[int, int], set[int]]:
-    """Node of every held-out observation: the node (of its role) of least mean distance;
-    and the held-out observations farther than ``threshold`` from every kept one of their
-    role (unseen situations, module docstring)."""
+def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray,
+              held: np.ndarray) -> dict[int, int]:
+    """Node of every held-out observation: the node (of its role) of least mean distance."""
     out: dict[int, int] = {}
-    far: set[int] = set()
     kept_roles = problem.roles[kept]
     coded = isinstance(problem, CodedProblem)
     for role in (PICK, PLACE):
@@ -127,37 +119,27 @@ def _localize(problem: Problem, kept: np.ndarray, labels: np.ndarray, held: np.n
             np.add.at(counts, (codes[problem.local[members]], inv), 1.0)
             mean = table[codes[problem.local[queries]]] @ counts
             mean /= counts.sum(axis=0)
-            present = np.unique(codes[problem.local[members]])
-            nearest = table[np.ix_(codes[problem.local[queries]], present)].min(axis=1)
         else:
             dist = problem.dist_pick if role == PICK else problem.dist_place
             onehot = np.zeros((len(members), len(ids)))
             onehot[np.arange(len(members)), inv] = 1.0
-            block = dist[np.ix_(problem.local[queries], problem.local[members])]
-            mean = block @ onehot
+            mean = dist[np.ix_(problem.local[queries], problem.local[members])] @ onehot
             mean /= onehot.sum(axis=0)
-            nearest = block.min(axis=1)
         for q, k in zip(queries, np.argmin(mean, axis=1)):
             out[int(q)] = int(ids[k])
-        far.update(int(q) for q in queries[nearest > threshold])
-    return out, far
+    return out
 
 
 def fold_prediction(problem: Problem, kept: np.ndarray, lab: np.ndarray, sub: Problem,
-                    train: np.ndarray, wrong: list | None = None,
-                    threshold: float = np.inf) -> np.ndarray:
+             train: np.ndarray, wrong: list | None = None) -> np.ndarray:
     """Predicted, contradicted and total left-out transitions of one fold re-run; with
-    ``wrong``, each contradicted one's predicted node (of ``lab``) and ``o'`` are appended.
-    A transition from an observation farther than ``threshold`` from every kept one of its
-    role is unseen (module docstring)."""
+    ``wrong``, each contradicted one's predicted node (of ``lab``) and ``o'`` are appended."""
     edges = {(int(u), int(a)): int(v) for u, a, v in zip(lab[sub.src], sub.act, lab[sub.dst])}
-    node_of, far = _localize(problem, kept, lab, ~train, threshold)
+    node_of = _localize(problem, kept, lab, ~train)
     held = ~train[problem.src] & ~train[problem.dst]  # both ends left out (a block's edge)
     predicted = contradicted = total = 0
     for s, a, d in zip(problem.src[held], problem.act[held], problem.dst[held]):
         total += 1
-        if int(s) in far:
-            continue
         v = edges.get((node_of[s], int(a)))
         if v is None:
             continue
