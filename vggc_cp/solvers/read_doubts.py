@@ -385,7 +385,7 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     # what the recording says was refused where (vggc_cp.recorded): a node that takes it is
     # no place for that observation
     refused_at: dict[int, set[int]] = {}
-    for o, k in getattr(problem, "refused", ()):
+    for o, k in problem.refused:
         refused_at.setdefault(int(o), set()).add(int(k))
     # and which observations it says show one state: a move may not part them
     shown_as: dict[int, set[int]] = {}
