@@ -54,6 +54,7 @@ import numpy as np
 from vggc_cp.graph import TaskGraph, bfs_distances, shortest_plan
 from vggc_cp.solvers.doubts import MERGE
 from vggc_cp.trace import PLACE, action_kind
+from vggc_cp.vision.resets import components
 
 
 @dataclass(frozen=True)
@@ -144,12 +145,13 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     starts = [first for first, _ in trace.episodes()]
     router = _Router(graph, labels, starts)
     start_set = set(starts)
+    classes = hand_classes(graph)
     out: list[Proposal] = []
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
         for side, (fixed, target, tail, probe_node, probe, why) in _probes(
-                graph, trace, labels, doubt, per_doubt, start_set):
+                graph, trace, labels, doubt, per_doubt, start_set, classes):
             if fixed is not None:
                 start, plan = fixed, []
             else:
@@ -172,7 +174,8 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     return (firsts + rest)[:max_episodes]
 
 
-def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int]):
+def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int],
+            classes: dict[str, int]):
     """Yield ``(side, (start, target, tail, probe node, probe action, why))``: the episode
     starts at observation ``start`` (when not None) or at the best start for a plan to node
     ``target``; then ``tail`` actions, then the probe. ``side`` names the direction tested
@@ -182,7 +185,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         for x in (a, b):
             # only the images' reading at some sites sets the two apart (read_doubts): act
             # there from each, so that the actions state what those sites hold
-            for name in _read_probes(graph, doubt, x)[:per_doubt]:
+            for name in _read_probes(graph, doubt, x, classes)[:per_doubt]:
                 yield x, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: only the images' reading of {name}'s site "
                           f"tells them apart; {name} from node {x} states what it holds "
@@ -227,7 +230,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # an episode only the images' reading put on its path (episode_doubts): act at those
         # sites from its start, and from the node as the graph reaches it
         first = int(episode[0])
-        for name in _read_probes(graph, doubt, u)[:per_doubt]:
+        for name in _read_probes(graph, doubt, u, classes)[:per_doubt]:
             yield 1, (first, None, (), u, name,
                       f"split doubt {u}: the episode from observation {first} might start at "
                       f"node {ev.get('moved_to')}; {name} from its start states what that site "
@@ -303,33 +306,26 @@ def hand_classes(graph: TaskGraph) -> dict[str, int]:
     >>> hand_classes(g)
     {'place_a_0': 0, 'place_a_1': 0}
     """
-    parent: dict[int, int] = {}
-
-    def find(a: int) -> int:
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
+    pairs, places = [], set()
     for u in graph.members:
-        places = [a for a, _ in graph.successors(u)
-                  if action_kind(graph.action_names[a]) == PLACE]
-        for a in places:
-            parent.setdefault(a, a)
-        for a in places[1:]:
-            parent[find(a)] = find(places[0])
-    roots = {r: i for i, r in enumerate(sorted({find(a) for a in parent}))}
-    return {graph.action_names[a]: roots[find(a)] for a in sorted(parent)}
+        mine = [a for a, _ in graph.successors(u)
+                if action_kind(graph.action_names[a]) == PLACE]
+        places.update(mine)
+        pairs += [(mine[0], a) for a in mine[1:]]
+    comp = components(len(graph.action_names), pairs)
+    taken = sorted(places)
+    ids = {c: i for i, c in enumerate(dict.fromkeys(int(comp[a]) for a in taken))}
+    return {graph.action_names[a]: ids[int(comp[a])] for a in taken}
 
 
-def _read_probes(graph: TaskGraph, doubt, node: int) -> list[str]:
+def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int]) -> list[str]:
     """The actions at a read doubt's sites (its evidence's ``read_sites``) that ``node``'s
     role can take (a pick from a node whose hand is empty, a place from one that holds
     something), those the node was never seen to take first; none for another doubt.
 
-    A place whose hand another class of places needs (:func:`hand_classes`) is left out:
-    refused, it says what the hand holds, not what the site holds (the learner ignores it,
-    :mod:`vggc_cp.vision.resets`), so it settles nothing (multifruit-4x6 robot: a place of
+    A place whose hand another class of places needs (``classes``, :func:`hand_classes`) is
+    left out: refused, it says what the hand holds, not what the site holds (the learner
+    ignores it, :mod:`vggc_cp.vision.resets`), so it settles nothing (multifruit-4x6 robot: a place of
     the other colour from the start state was proposed for ten doubts, and seventeen of
     twenty requests recorded nothing). Places of the node's own class come first."""
     names = (doubt.evidence or {}).get("read_sites")
@@ -339,7 +335,6 @@ def _read_probes(graph: TaskGraph, doubt, node: int) -> list[str]:
     fits = [n for n in names if isinstance(n, str) and n in graph.action_names
             and action_kind(n) == role]
     if role == PLACE:
-        classes = hand_classes(graph)
         mine = {classes[n] for n in taken if n in classes}
         if mine:
             fits = [n for n in fits if classes.get(n, -1) in mine or n not in classes]
