@@ -58,6 +58,46 @@ def test_doubts_draws_one_row_per_doubt(trace, tmp_path, capsys):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow  # matplotlib's first figure
+def test_doubts_draws_the_first_n_and_says_of_how_many(trace, tmp_path, capsys):
+    """A solution lists more doubts than a sheet should hold (up to DoubtRule.listed):
+    ``--first N`` draws the N most pressing and says how many there are; ``--first 0`` all;
+    a negative N is refused in one line."""
+    _, labels = _solution(trace, tmp_path)
+    sol, _ = _solution(trace, tmp_path, [_merge_doubt(trace, labels)] * 3, "d.json")
+    out = tmp_path / "doubts.png"
+    assert main(["doubts", str(sol), str(SHIPPED), "-o", str(out), "--first", "2"]) == 0
+    assert "(2 of 3 doubt(s))" in capsys.readouterr().out
+    small = out.read_bytes()
+    assert main(["doubts", str(sol), str(SHIPPED), "-o", str(out), "--first", "0"]) == 0
+    assert "(3 doubt(s))" in capsys.readouterr().out
+    assert out.read_bytes() != small
+    assert main(["doubts", str(sol), str(SHIPPED), "-o", str(tmp_path / "x.png"),
+                 "--first", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert "--first" in err and "Traceback" not in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_solve_prints_the_first_doubts_and_counts_the_rest(trace, tmp_path, capsys):
+    """The doubts table after a solve holds SHOWN_DOUBTS rows; the rest are counted and
+    left to the solution (``suggest`` reads them all)."""
+    from vggc_cp.cli.solve_cmds import _print_doubts
+    from vggc_cp.solvers.doubt_text import SHOWN_DOUBTS
+    from vggc_cp.solvers.doubts import parse_doubts
+
+    _, labels = _solution(trace, tmp_path)
+    doubts = parse_doubts([_merge_doubt(trace, labels)] * (SHOWN_DOUBTS + 3))
+    _print_doubts(doubts)
+    out = capsys.readouterr().out
+    assert f"{SHOWN_DOUBTS + 3} decision(s)" in out
+    assert "... and 3 more in the solution" in out
+    assert sum(line.lstrip().startswith(f"{SHOWN_DOUBTS - 1} ") for line in out.splitlines()) == 1
+    assert not any(line.lstrip().startswith(f"{SHOWN_DOUBTS} ") for line in out.splitlines())
+    _print_doubts(doubts[:SHOWN_DOUBTS])
+    assert "more in the solution" not in capsys.readouterr().out
+
+
 def test_a_read_doubt_is_outlined_where_its_sites_lie(trace, tmp_path):
     """The sheet outlines a read doubt's sites: the footprint sites of the actions it names,
     summed (an action the trace does not have counts nothing); a doubt without read sites,

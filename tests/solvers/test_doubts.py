@@ -219,6 +219,8 @@ def test_rule_validates():
         DoubtRule(window=0)
     with pytest.raises(ValueError, match="max_nats"):
         DoubtRule(max_nats=0.0)
+    with pytest.raises(ValueError, match="listed"):
+        DoubtRule(limit=10, listed=9)
 
 
 def _read_apart(kappa: float, stated_both: bool = False):
@@ -258,6 +260,29 @@ def test_nodes_only_an_untrusted_reading_sets_apart_are_a_doubt():
     for kappa, stated in ((0.9, False), (0.2, True)):
         problem, path, labels = _read_apart(kappa, stated)
         assert read_doubts(problem, path, labels, z=0.0) == ()
+
+
+def test_the_verdict_lists_read_doubts_beyond_those_its_checks_judge(monkeypatch):
+    """The checks judge the first ``limit`` read doubts of each kind; the solution lists up
+    to ``listed`` (what ``suggest`` proposes episodes for), the judged ones first. With a
+    limit of 1: one pair judged (its reason counts no other), both listed."""
+    import vggc_cp.solvers.verdict as verdict_mod
+    from vggc_cp.solvers.confidence import Confidence
+
+    problem, path, labels = _read_apart(0.2)
+    both = read_doubts(problem, path, labels)
+    assert len(both) == 2
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    dls = [0.0] * len(path.results)
+    monkeypatch.setattr(verdict_mod, "DoubtRule", lambda: DoubtRule(limit=1, listed=2))
+    conf, doubts = verdict_mod.verdict(problem, path, labels, quiet, dls)
+    assert [d.nodes for d in doubts[:2]] == [d.nodes for d in both]
+    assert conf.suspect and "more such pair" not in conf.reasons[0]
+    monkeypatch.setattr(verdict_mod, "DoubtRule", lambda: DoubtRule(limit=2, listed=2))
+    conf, _ = verdict_mod.verdict(problem, path, labels, quiet, dls)
+    assert "(and 1 more such pair(s))" in conf.reasons[0]
+    monkeypatch.setattr(verdict_mod, "DoubtRule", lambda: DoubtRule(limit=1, listed=1))
+    assert len(verdict_mod.verdict(problem, path, labels, quiet, dls)[1]) == 1
 
 
 def test_a_kappa_is_trusted_as_far_as_its_stated_frames_show_it():

@@ -421,7 +421,7 @@ def _cuts(best) -> str:
 def _print_doubts(doubts) -> None:
     """The doubts table after the summary (``vggc-cp doubts`` draws them, ``suggest``
     proposes episodes to settle them)."""
-    from vggc_cp.solvers.doubt_text import format_doubts
+    from vggc_cp.solvers.doubt_text import SHOWN_DOUBTS, format_doubts
 
     if not doubts:
         print("doubts         none: the images and the actions settle every decision")
@@ -430,6 +430,9 @@ def _print_doubts(doubts) -> None:
           f"(draw: vggc-cp doubts; settle: vggc-cp suggest)")
     for line in format_doubts(doubts):
         print(f"  {line}")
+    if len(doubts) > SHOWN_DOUBTS:
+        print(f"  ... and {len(doubts) - SHOWN_DOUBTS} more in the solution (vggc-cp suggest "
+              f"reads them all)")
 
 
 

@@ -13,6 +13,8 @@ def register(sub) -> None:
     p.add_argument("trace", help="the trace .npz it was learned on")
     p.add_argument("-o", "--output", required=True,
                    help="image to write (.png); nothing is written when there is no doubt")
+    p.add_argument("--first", type=int, default=10, metavar="N",
+                   help="draw the N most pressing doubts (a solution lists up to 40); 0: all")
     p.set_defaults(func=cmd_doubts)
 
     p = sub.add_parser("suggest", help="propose episodes to record that would settle a "
@@ -55,15 +57,19 @@ def cmd_doubts(args) -> int:
     from vggc_cp.sim.sheet import pair_sheet
     from vggc_cp.solvers.doubt_text import doubt_caption
 
+    if args.first < 0:
+        raise VggcError(f"--first must be at least 0 (0: all), got {args.first}")
     _solution, doubts, trace = _load(args)
     if not doubts:
         print(f"{args.solution}: no doubts (the images and the actions settle every decision, "
               f"or the solution predates doubts); nothing written")
         return 0
+    drawn = doubts[:args.first] if args.first else doubts
     rows = [(list(d.observations[0]), list(d.observations[1]), doubt_caption(k, d))
-            for k, d in enumerate(doubts)]
-    pair_sheet(trace, rows, args.output, _read_outlines(trace, doubts))
-    print(f"wrote {args.output} ({len(doubts)} doubt(s))")
+            for k, d in enumerate(drawn)]
+    pair_sheet(trace, rows, args.output, _read_outlines(trace, drawn))
+    of = f" of {len(doubts)}" if len(drawn) < len(doubts) else ""
+    print(f"wrote {args.output} ({len(drawn)}{of} doubt(s))")
     return 0
 
 

@@ -52,7 +52,12 @@ def doubt_caption(k: int, d: Doubt) -> str:
     return "; ".join(parts)
 
 
-def format_doubts(doubts, limit: int = 10) -> list[str]:
+#: Rows of the doubts table ``vggc-cp solve`` prints (a solution lists more, up to
+#: :attr:`~vggc_cp.solvers.doubts.DoubtRule.listed`).
+SHOWN_DOUBTS = 10
+
+
+def format_doubts(doubts, limit: int = SHOWN_DOUBTS) -> list[str]:
     """A short table of doubts (at most ``limit`` rows), one line each::
 
         #  kind   nodes     observations       distance/t*  steps  dl nats/tr  apart/together

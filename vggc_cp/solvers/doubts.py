@@ -112,7 +112,13 @@ class DoubtRule:
         Description-length change (nats) that settles a decision on its own (3: odds of
         20 to 1).
     limit : int
-        Most doubts kept.
+        Most doubts of each kind the checks judge (the re-runs', the readings' pairs, the
+        readings' episodes).
+    listed : int
+        Most doubts a solution lists (those checks' and every further one, most pressing
+        first): what ``vggc-cp suggest`` can propose episodes for -- two rounds of its
+        default 20 where one probe settles one doubt (multifruit-4x6 robot: 28 episodes
+        read at one pose's bound, of which a list of ``limit`` let one round pin 8).
     typical : int
         Observations listed per side (the most typical: least mean distance to their side).
     max_pairs : int
@@ -122,6 +128,7 @@ class DoubtRule:
     window: int = 3
     max_nats: float = 3.0
     limit: int = 10
+    listed: int = 40
     typical: int = 3
     max_pairs: int = 400
 
@@ -132,6 +139,8 @@ class DoubtRule:
             raise ValueError(f"max_nats must be positive, got {self.max_nats}")
         if self.limit < 0 or self.typical < 1 or self.max_pairs < 0:
             raise ValueError("limit and max_pairs must be >= 0 and typical >= 1")
+        if self.listed < self.limit:
+            raise ValueError(f"listed ({self.listed}) must be at least limit ({self.limit})")
 
 
 @dataclass(frozen=True)

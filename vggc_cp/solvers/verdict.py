@@ -28,6 +28,7 @@ Nothing here reads ground-truth states.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from itertools import zip_longest
 
 import numpy as np
@@ -81,8 +82,8 @@ def runner_up(path: ThresholdPath, dls) -> int | None:
 
 def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.ndarray,
                  dls=(), heldout=None, toward_runner_up: bool = False, disputed: bool = False,
-                 differences: bool = False, read: bool = False, resets=()
-                 ) -> tuple[Doubt, ...]:
+                 differences: bool = False, read: bool = False, resets=(),
+                 rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
     """The doubts of the graph ``labels`` chosen on ``path``
     (:func:`~vggc_cp.solvers.doubts.find_doubts`); for a problem of descriptor codes, on its
     dense matrices up to :data:`DOUBTS_MAX_OBS` observations (none beyond: the matrices
@@ -104,8 +105,8 @@ def graph_doubts(problem: Problem | CodedProblem, path: ThresholdPath, labels: n
     if _too_large(problem):
         return ()
     if read:                    # a problem of codes: densified only if a doubt is found
-        pairs = read_doubts(problem, path, labels)
-        return (*pairs, *episode_doubts(problem, path, labels, resets=resets))
+        pairs = read_doubts(problem, path, labels, rule=rule)
+        return (*pairs, *episode_doubts(problem, path, labels, rule=rule, resets=resets))
     problem = dense_problem(problem)
     if disputed:
         return () if heldout is None else disputed_doubts(problem, path, labels,
@@ -158,18 +159,22 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
     conf = corroborate(confidence, doubts, rule.max_nats)
     conf = doubt_forbidden(conf, doubts, labels, rule.max_nats)
     facts = recorded_facts(trace) if trace is not None else None
+    # listed up to rule.listed (what suggest can propose episodes for); judged on the first
+    # rule.limit of each kind
     read = graph_doubts(problem, path, labels, read=True,
-                        resets=facts.resets if facts else ())
+                        resets=facts.resets if facts else (),
+                        rule=replace(rule, limit=rule.listed))
     if read:
-        # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
-        # their path): flagged, or noted where the episodes would misplace few plans; first
-        conf = doubt_readings(conf, read, labels, problem)
-        pairs = {d.nodes for d in read}
-        # the pairs and the episodes in turn, so that the list keeps some of each
         kinds = ([d for d in read if "episode" not in d.evidence],
                  [d for d in read if "episode" in d.evidence])
+        # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
+        # their path): flagged, or noted where the episodes would misplace few plans; first
+        conf = doubt_readings(conf, (*kinds[0][:rule.limit], *kinds[1][:rule.limit]), labels,
+                              problem)
+        pairs = {d.nodes for d in read}
+        # the pairs and the episodes in turn, so that the list keeps some of each
         read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
-        doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:rule.limit]
+        doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:rule.listed]
     # episodes that share no node with any other, beyond chance: their images may have been
     # read wrong throughout, which no bound on the readings sees; flagged, listed first
     lone = lone_episodes(problem, labels)
@@ -178,14 +183,14 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         if not _too_large(problem):
             found = lone_doubts(problem, path, labels, lone)
             named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.limit]
+            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
     # flagged and listed first
     if facts:
         broken = broken_facts(facts, trace.actions, trace.action_names, labels)
         if broken:
             conf = facts_check(conf, broken)
-            doubts = (*broken, *doubts)[:max(rule.limit, len(broken))]
+            doubts = (*broken, *doubts)[:max(rule.listed, len(broken))]
     # warned or noted (the re-runs change nodes) with no close call near t*: the decisions
     # on the way to the runner-up graph, so the verdict says what is doubtful
     asked = conf.suspect or bool(conf.notes)
