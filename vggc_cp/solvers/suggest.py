@@ -12,10 +12,13 @@ proposes episodes a robot can run:
 
   - merge doubt that only a reading of the images settles (``read_sites`` in its evidence,
     :func:`~vggc_cp.solvers.read_doubts.read_doubts`): from each node, an action at one of those
-    sites that its role can take; legal or not, it states what the site holds there, which
-    no reading can be wrong about -- a place only where the hand holds what it needs (the
-    node's own places show which, :func:`hand_classes`): one refused for the hand's reason
-    says nothing of the site. Then, as for every merge doubt:
+    sites that the learned graph takes there, or one step on (:func:`_read_probes`): where
+    the reading is right it is legal and states what the site holds, which no reading can
+    be wrong about; where it is wrong, the refusal contradicts the node. Only where the graph
+    has none, an action of the node's role at the sites, legal or not -- a place only where
+    the hand holds what it needs (the node's own places show which, :func:`hand_classes`):
+    one refused for the hand's reason says nothing of the site. Then, as for every merge
+    doubt:
   - merge doubt (``A`` and ``B`` might be one state): an action taken from ``A`` in the trace
     and never from ``B``, tried from ``B`` (and the other way round). If it is legal there,
     ``B`` affords what ``A`` affords: one more reason to merge them; if it is illegal (the
@@ -27,8 +30,8 @@ proposes episodes a robot can run:
     one node?
   - split doubt that only a reading of the images settles (an episode put on its path by
     that reading, :func:`~vggc_cp.solvers.read_doubts.episode_doubts`): from the episode's
-    start, and from ``N`` as the graph reaches it, an action at one of those sites that
-    ``N``'s role can take. Then, as for every split doubt:
+    start, and from ``N`` as the graph reaches it, the same probes at those sites as for a
+    read merge doubt of ``N``. Then, as for every split doubt:
   - split doubt (node ``N``, sides ``P`` and ``Q``): ``N`` is entered as the trace entered
     a typical observation of one side (the same predecessor node and action, or the same
     episode start), then an action taken from the other side only is tried, and (the
@@ -40,8 +43,8 @@ probed with the actions of its role, the ones the trace takes most often first, 
 (blocks-2 robot s179: a split doubt of two episode ends had no probe, and nothing was recorded).
 
 Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
-settle per transition (``1 / len(actions)``), then by the doubt's rank, then by start
-observation -- the best of every (doubt, direction) first, so that no side of a doubt is
+settle per transition (``1 / len(actions)``), then by the doubt's rank (a read doubt's probes
+at its sites before the other probes of its doubt), then by start observation -- the best of every (doubt, direction) first, so that no side of a doubt is
 left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
 """
 
@@ -150,7 +153,7 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
-        for side, (fixed, target, tail, probe_node, probe, why) in _probes(
+        for side, read, (fixed, target, tail, probe_node, probe, why) in _probes(
                 graph, trace, labels, doubt, per_doubt, start_set, classes):
             if fixed is not None:
                 start, plan = fixed, []
@@ -159,12 +162,14 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
                 if r is None:
                     continue
                 start, plan = r
-            out.append(((k, side), Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
-    # the best episode of every (doubt, side) first, then the others; each part by length
-    order = sorted(out, key=lambda gp: (len(gp[1].actions), gp[1].doubt,
-                                        gp[1].start_observation, gp[1].actions))
+            out.append(((k, side), not read,
+                        Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
+    # the best episode of every (doubt, side) first, then the others; each part by length,
+    # then a read doubt's probes at its sites before the others of its doubt
+    order = sorted(out, key=lambda gp: (len(gp[2].actions), gp[2].doubt, gp[1],
+                                        gp[2].start_observation, gp[2].actions))
     firsts, rest, groups, seen = [], [], set(), set()
-    for group, p in order:
+    for group, _, p in order:
         key = (p.start_observation, p.actions)
         if key in seen:
             continue
@@ -176,30 +181,30 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
 
 def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int],
             classes: dict[str, int]):
-    """Yield ``(side, (start, target, tail, probe node, probe action, why))``: the episode
+    """Yield ``(side, read, (start, target, tail, probe node, probe action, why))``: the episode
     starts at observation ``start`` (when not None) or at the best start for a plan to node
     ``target``; then ``tail`` actions, then the probe. ``side`` names the direction tested
-    (the node probed, or the half of a split node entered)."""
+    (the node probed, or the half of a split node entered); ``read``, a probe at a read
+    doubt's sites (:func:`_read_probes`)."""
     if doubt.kind == MERGE:
         a, b = doubt.nodes
         for x in (a, b):
             # only the images' reading at some sites sets the two apart (read_doubts): act
             # there from each, so that the actions state what those sites hold
-            for name in _read_probes(graph, doubt, x, classes)[:per_doubt]:
-                yield x, (None, x, (), x, name,
+            for tail, v, name, edge in _read_probes(graph, doubt, x, classes)[:per_doubt]:
+                yield x, True, (None, x, tail, v, name,
                           f"merge doubt {a}+{b}: only the images' reading of {name}'s site "
-                          f"tells them apart; {name} from node {x} states what it holds "
-                          f"there (legal: it holds what {name} needs; illegal: it does not)")
+                          f"tells them apart; {_probe_words(x, tail, v, name, edge)}")
         acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
         only_a = sorted(set(acts_a) - set(acts_b))
         only_b = sorted(set(acts_b) - set(acts_a))
         for x, y, only in ((b, a, only_a), (a, b, only_b)):
             for name in only[:per_doubt]:
-                yield x, (None, x, (), x, name,
+                yield x, False, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
-                yield x, (None, y, (), y, name,
+                yield x, False, (None, y, (), y, name,
                           f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
         if only_a or only_b:
@@ -210,7 +215,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
             for name in shared[:per_doubt]:
                 for x in (a, b):
-                    yield x, (None, x, (), x, name,
+                    yield x, False, (None, x, (), x, name,
                               f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
             return
@@ -218,7 +223,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # role's most common actions from each, legal or not, tell
         for name in _role_actions(graph, trace, a)[:per_doubt]:
             for x in (a, b):
-                yield x, (None, x, (), x, name,
+                yield x, False, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: no action was taken from either; {name} "
                           f"from {x}: do they afford alike, and lead to one node?")
         return
@@ -230,15 +235,16 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # an episode only the images' reading put on its path (episode_doubts): act at those
         # sites from its start, and from the node as the graph reaches it
         first = int(episode[0])
-        for name in _read_probes(graph, doubt, u, classes)[:per_doubt]:
-            yield 1, (first, None, (), u, name,
+        for tail, v, name, edge in _read_probes(graph, doubt, u, classes)[:per_doubt]:
+            yield 1, True, (first, None, tail, v, name,
                       f"split doubt {u}: the episode from observation {first} might start at "
-                      f"node {ev.get('moved_to')}; {name} from its start states what that site "
-                      f"holds there, legal or not, which tells node {u} from node "
-                      f"{ev.get('moved_to')}")
-            yield 0, (None, u, (), u, name,
-                      f"split doubt {u}: {name} from node {u} as the graph reaches it: what the "
-                      f"site holds in the node's other observations")
+                      f"node {ev.get('moved_to')}; from its start, "
+                      f"{_probe_words(u, tail, v, name, edge)}, which tells node {u} from "
+                      f"node {ev.get('moved_to')}")
+            yield 0, True, (None, u, tail, v, name,
+                      f"split doubt {u}: from node {u} as the graph reaches it, "
+                      f"{_probe_words(u, tail, v, name, edge)}: what the site holds in the "
+                      f"node's other observations")
     if isinstance(ev.get("only_a"), list) and isinstance(ev.get("only_b"), list):
         # the actions each whole side took and the other never did (find_doubts)
         names = set(graph.action_names)
@@ -265,18 +271,18 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         start, target, tail, o = entry
         if alike:
             for name in shared:
-                yield s, (start, target, tail, u, name,
+                yield s, False, (start, target, tail, u, name,
                           f"split doubt {u}: node {u} entered as the trace entered observation "
                           f"{o} (one side), then {name}; no action sets the sides apart in the "
                           f"trace: does it do here what it does from the other side?")
             continue
         for name in only[s][:per_doubt]:
-            yield s, (start, target, tail, u, name,
+            yield s, False, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, taken in the trace from the other side only: "
                    f"legal and alike -> one state; illegal -> two")
         for name in only[1 - s][:per_doubt]:
-            yield s, (start, target, tail, u, name,
+            yield s, False, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
@@ -318,28 +324,56 @@ def hand_classes(graph: TaskGraph) -> dict[str, int]:
     return {graph.action_names[a]: ids[int(comp[a])] for a in taken}
 
 
-def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int]) -> list[str]:
-    """The actions at a read doubt's sites (its evidence's ``read_sites``) that ``node``'s
-    role can take (a pick from a node whose hand is empty, a place from one that holds
-    something), those the node was never seen to take first; none for another doubt.
+def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int]
+                 ) -> list[tuple[tuple[str, ...], int, str, bool]]:
+    """Ways to state what a read doubt's sites (its evidence's ``read_sites``) hold at
+    ``node``: ``(tail, probe node, probe, edge)``, the actions ``tail`` then ``probe``,
+    taken from ``probe_node`` (where the graph predicts ``tail`` leads); none for another
+    doubt.
 
-    A place whose hand another class of places needs (``classes``, :func:`hand_classes`) is
-    left out: refused, it says what the hand holds, not what the site holds (the learner
-    ignores it, :mod:`vggc_cp.vision.resets`), so it settles nothing (multifruit-4x6 robot: a place of
-    the other colour from the start state was proposed for ten doubts, and seventeen of
-    twenty requests recorded nothing). Places of the node's own class come first."""
+    The graph's own edges first (``edge`` True): an action at a site that ``node`` takes
+    (``tail`` empty), then one that a node one of its actions leads to takes (that action in
+    ``tail``). Where the doubted reading is right, such a probe is legal, and a legal action
+    states what its site holds -- the frames of the new episode up to it, and, through the
+    reset that starts it, the observation it starts from; where the reading is wrong, the
+    refusal contradicts the node itself. Only where the graph has no such way, the actions
+    of the node's role at the sites (``edge`` False), legal or not: a refused pick rules one
+    value out, which settles the site only where one is left, and a refused place settles
+    nothing of a site that several colours may fill (multifruit-4x6 robot s0: 15 of 20 such
+    probes, place_yellow_0 from the start state, were refused and recorded nothing). A place
+    whose hand another class of places needs (``classes``, :func:`hand_classes`) is left
+    out: refused, it says what the hand holds, not what the site holds (the learner ignores
+    it, :mod:`vggc_cp.vision.resets`). Each probe action once, by its shortest way."""
     names = (doubt.evidence or {}).get("read_sites")
     if not isinstance(names, list):
         return []
-    role, taken = graph.node_role.get(node), _actions_of(graph, node)
-    fits = [n for n in names if isinstance(n, str) and n in graph.action_names
-            and action_kind(n) == role]
+    at_sites = {n for n in names if isinstance(n, str) and n in graph.action_names}
+    taken = _actions_of(graph, node)
+    out = [((), node, n, True) for n in sorted(at_sites & set(taken))]
+    for first, v in sorted(taken.items()):
+        out += [((first,), v, n, True) for n in sorted(at_sites & set(_actions_of(graph, v)))]
+    if out:
+        seen: set[str] = set()
+        return [p for p in out if not (p[2] in seen or seen.add(p[2]))]
+    role = graph.node_role.get(node)
+    fits = [n for n in at_sites if action_kind(n) == role]
     if role == PLACE:
         mine = {classes[n] for n in taken if n in classes}
         if mine:
             fits = [n for n in fits if classes.get(n, -1) in mine or n not in classes]
-            return sorted(fits, key=lambda n: (n not in classes, n in taken, n))
-    return sorted(fits, key=lambda n: (n in taken, n))
+    return [((), node, n, False) for n in sorted(fits, key=lambda n: (n not in classes, n))]
+
+
+def _probe_words(node: int, tail: tuple[str, ...], probe_node: int, name: str,
+                 edge: bool) -> str:
+    """What a read probe does, in words (:func:`_read_probes`)."""
+    then = f"{' '.join(tail)} (to node {probe_node}), then " if tail else ""
+    if edge:
+        return (f"{then}{name}, which the graph takes from node {probe_node}, states what "
+                f"its site holds (legal: as read at node {node}; refused: the reading is "
+                f"wrong)")
+    return (f"{then}{name} from node {probe_node} states what its site holds there (legal: "
+            f"it holds what {name} needs; illegal: it does not)")
 
 
 def _entry(trace, labels, side, start_set):
