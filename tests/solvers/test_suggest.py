@@ -251,3 +251,25 @@ def test_a_place_probe_at_a_read_site_needs_what_the_node_holds():
         # the hand holds the probe's colour there: legal exactly where the site is free
         assert before.split("|")[1] == held[p.probe_node]
         assert valid[-1] == (before.split("|")[0][site] == "-")
+
+
+def test_read_probes_are_the_node_s_edges_then_the_other_node_s_then_its_role_s():
+    """:func:`_read_probes` on a small graph: node 0 (hand empty) takes pick_a_0 to node 1,
+    which takes place_a_1; node 3 takes pick_b_5. At read site pick_b_5: node 0 has no way
+    of its own, so node 3's edge is tried from node 0 (``by`` 3); without the other node, the
+    role's action, legal or not (``by`` None). At place_a_1: node 0's own way, one step on."""
+    from vggc_cp.solvers.suggest import _read_probes
+
+    names = ("pick_a_0", "pick_b_5", "place_a_1")
+    graph = TaskGraph.from_labels(np.array([0, 1, 2, 3, 4]), [0, 1, 0, 0, 1],
+                                  np.array([0, 1, 3]), np.array([0, 2, 1]),
+                                  np.array([1, 2, 4]), names)
+    classes = hand_classes(graph)
+    doubt = Doubt(MERGE, (0, 3), ((0,), (3,)), {"read_sites": ["pick_b_5"]})
+    assert _read_probes(graph, doubt, 0, classes, 3) == [((), 0, "pick_b_5", 3)]
+    assert _read_probes(graph, doubt, 0, classes) == [((), 0, "pick_b_5", None)]
+    assert _read_probes(graph, doubt, 3, classes, 0) == [((), 3, "pick_b_5", 3)]
+    doubt = Doubt(MERGE, (0, 3), ((0,), (3,)), {"read_sites": ["place_a_1", "pick_b_5"]})
+    assert _read_probes(graph, doubt, 0, classes, 3) == [(("pick_a_0",), 1, "place_a_1", 0),
+                                                        ((), 0, "pick_b_5", 3)]
+    assert _read_probes(graph, Doubt(MERGE, (0, 3), ((0,), (3,)), {}), 0, classes, 3) == []

@@ -43,9 +43,10 @@ probed with the actions of its role, the ones the trace takes most often first, 
 (blocks-2 robot s179: a split doubt of two episode ends had no probe, and nothing was recorded).
 
 Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
-settle per transition (``1 / len(actions)``), then by the doubt's rank (a read doubt's probes
-at its sites before the other probes of its doubt), then by start observation -- the best of every (doubt, direction) first, so that no side of a doubt is
-left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
+settle per transition (``1 / len(actions)``), then by the doubt's rank, then in the order the
+list above gives a doubt's probes (a read doubt's at its sites first; a probe from the node
+tested before the one that confirms it) -- the best of every (doubt, direction) first, so
+that no side of a doubt is left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
 """
 
 from __future__ import annotations
@@ -153,8 +154,8 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
-        for side, read, (fixed, target, tail, probe_node, probe, why) in _probes(
-                graph, trace, labels, doubt, per_doubt, start_set, classes):
+        for j, (side, (fixed, target, tail, probe_node, probe, why)) in enumerate(_probes(
+                graph, trace, labels, doubt, per_doubt, start_set, classes)):
             if fixed is not None:
                 start, plan = fixed, []
             else:
@@ -162,12 +163,11 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
                 if r is None:
                     continue
                 start, plan = r
-            out.append(((k, side), not read,
-                        Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
+            out.append(((k, side), j, Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
     # the best episode of every (doubt, side) first, then the others; each part by length,
-    # then a read doubt's probes at its sites before the others of its doubt
-    order = sorted(out, key=lambda gp: (len(gp[2].actions), gp[2].doubt, gp[1],
-                                        gp[2].start_observation, gp[2].actions))
+    # then in the order _probes gives a doubt's probes (a read doubt's at its sites first,
+    # a probe from the node tested before the one that confirms it)
+    order = sorted(out, key=lambda gp: (len(gp[2].actions), gp[2].doubt, gp[1]))
     firsts, rest, groups, seen = [], [], set(), set()
     for group, _, p in order:
         key = (p.start_observation, p.actions)
@@ -181,30 +181,31 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
 
 def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int],
             classes: dict[str, int]):
-    """Yield ``(side, read, (start, target, tail, probe node, probe action, why))``: the episode
+    """Yield ``(side, (start, target, tail, probe node, probe action, why))``, the most
+    telling first (the order :func:`suggest_episodes` breaks ties of length in): the episode
     starts at observation ``start`` (when not None) or at the best start for a plan to node
     ``target``; then ``tail`` actions, then the probe. ``side`` names the direction tested
-    (the node probed, or the half of a split node entered); ``read``, a probe at a read
-    doubt's sites (:func:`_read_probes`)."""
+    (the node probed, or the half of a split node entered)."""
     if doubt.kind == MERGE:
         a, b = doubt.nodes
         for x in (a, b):
             # only the images' reading at some sites sets the two apart (read_doubts): act
             # there from each, so that the actions state what those sites hold
-            for tail, v, name, edge in _read_probes(graph, doubt, x, classes)[:per_doubt]:
-                yield x, True, (None, x, tail, v, name,
+            y = b if x == a else a
+            for tail, v, name, by in _read_probes(graph, doubt, x, classes, y)[:per_doubt]:
+                yield x, (None, x, tail, v, name,
                           f"merge doubt {a}+{b}: only the images' reading of {name}'s site "
-                          f"tells them apart; {_probe_words(x, tail, v, name, edge)}")
+                          f"tells them apart; {_probe_words(x, tail, v, name, by)}")
         acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
         only_a = sorted(set(acts_a) - set(acts_b))
         only_b = sorted(set(acts_b) - set(acts_a))
         for x, y, only in ((b, a, only_a), (a, b, only_b)):
             for name in only[:per_doubt]:
-                yield x, False, (None, x, (), x, name,
+                yield x, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
-                yield x, False, (None, y, (), y, name,
+                yield x, (None, y, (), y, name,
                           f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
         if only_a or only_b:
@@ -215,7 +216,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
             for name in shared[:per_doubt]:
                 for x in (a, b):
-                    yield x, False, (None, x, (), x, name,
+                    yield x, (None, x, (), x, name,
                               f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
             return
@@ -223,7 +224,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # role's most common actions from each, legal or not, tell
         for name in _role_actions(graph, trace, a)[:per_doubt]:
             for x in (a, b):
-                yield x, False, (None, x, (), x, name,
+                yield x, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: no action was taken from either; {name} "
                           f"from {x}: do they afford alike, and lead to one node?")
         return
@@ -235,15 +236,17 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # an episode only the images' reading put on its path (episode_doubts): act at those
         # sites from its start, and from the node as the graph reaches it
         first = int(episode[0])
-        for tail, v, name, edge in _read_probes(graph, doubt, u, classes)[:per_doubt]:
-            yield 1, True, (first, None, tail, v, name,
+        moved = ev.get("moved_to")
+        moved = int(moved) if isinstance(moved, int) else None
+        for tail, v, name, by in _read_probes(graph, doubt, u, classes, moved)[:per_doubt]:
+            yield 1, (first, None, tail, v, name,
                       f"split doubt {u}: the episode from observation {first} might start at "
                       f"node {ev.get('moved_to')}; from its start, "
-                      f"{_probe_words(u, tail, v, name, edge)}, which tells node {u} from "
+                      f"{_probe_words(u, tail, v, name, by)}, which tells node {u} from "
                       f"node {ev.get('moved_to')}")
-            yield 0, True, (None, u, tail, v, name,
+            yield 0, (None, u, tail, v, name,
                       f"split doubt {u}: from node {u} as the graph reaches it, "
-                      f"{_probe_words(u, tail, v, name, edge)}: what the site holds in the "
+                      f"{_probe_words(u, tail, v, name, by)}: what the site holds in the "
                       f"node's other observations")
     if isinstance(ev.get("only_a"), list) and isinstance(ev.get("only_b"), list):
         # the actions each whole side took and the other never did (find_doubts)
@@ -271,18 +274,18 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         start, target, tail, o = entry
         if alike:
             for name in shared:
-                yield s, False, (start, target, tail, u, name,
+                yield s, (start, target, tail, u, name,
                           f"split doubt {u}: node {u} entered as the trace entered observation "
                           f"{o} (one side), then {name}; no action sets the sides apart in the "
                           f"trace: does it do here what it does from the other side?")
             continue
         for name in only[s][:per_doubt]:
-            yield s, False, (start, target, tail, u, name,
+            yield s, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, taken in the trace from the other side only: "
                    f"legal and alike -> one state; illegal -> two")
         for name in only[1 - s][:per_doubt]:
-            yield s, False, (start, target, tail, u, name,
+            yield s, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
@@ -324,54 +327,78 @@ def hand_classes(graph: TaskGraph) -> dict[str, int]:
     return {graph.action_names[a]: ids[int(comp[a])] for a in taken}
 
 
-def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int]
-                 ) -> list[tuple[tuple[str, ...], int, str, bool]]:
+def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int],
+                 other: int | None = None) -> list[tuple[tuple[str, ...], int, str, int | None]]:
     """Ways to state what a read doubt's sites (its evidence's ``read_sites``) hold at
-    ``node``: ``(tail, probe node, probe, edge)``, the actions ``tail`` then ``probe``,
-    taken from ``probe_node`` (where the graph predicts ``tail`` leads); none for another
-    doubt.
+    ``node``: ``(tail, probe node, probe, by)``, the actions ``tail`` then ``probe``, taken
+    from ``probe_node`` (where the graph predicts ``tail`` leads); ``by``, the node whose
+    edges they are (None: no edge's); none for another doubt.
 
-    The graph's own edges first (``edge`` True): an action at a site that ``node`` takes
-    (``tail`` empty), then one that a node one of its actions leads to takes (that action in
-    ``tail``). Where the doubted reading is right, such a probe is legal, and a legal action
-    states what its site holds -- the frames of the new episode up to it, and, through the
-    reset that starts it, the observation it starts from; where the reading is wrong, the
-    refusal contradicts the node itself. Only where the graph has no such way, the actions
-    of the node's role at the sites (``edge`` False), legal or not: a refused pick rules one
-    value out, which settles the site only where one is left, and a refused place settles
-    nothing of a site that several colours may fill (multifruit-4x6 robot s0: 15 of 20 such
-    probes, place_yellow_0 from the start state, were refused and recorded nothing). A place
-    whose hand another class of places needs (``classes``, :func:`hand_classes`) is left
-    out: refused, it says what the hand holds, not what the site holds (the learner ignores
-    it, :mod:`vggc_cp.vision.resets`). Each probe action once, by its shortest way."""
+    The graph's own edges first: an action at a site that ``node`` takes (``tail`` empty),
+    then one that a node one of its actions leads to takes (that action in ``tail``). Where
+    the doubted reading is right, such a probe is legal, and a legal action states what its
+    site holds -- the frames of the new episode up to it, and, through the reset that starts
+    it, the observation it starts from; where the reading is wrong, the refusal contradicts
+    the node itself. Then the same ways of ``other``, the node the doubt says ``node`` might
+    be, tried from ``node``: legal, ``node`` holds there what ``other`` holds (a lone episode
+    whose own nodes act nowhere near the read sites, multifruit-4x6 robot s2: a place the
+    start state takes, then the pick at the read site, joins it to its state). Only where
+    neither has such a way, the actions of the node's role at the sites, legal or not: a
+    refused pick rules one value out, which settles the site only where one is left, and a
+    refused place settles nothing of a site that several colours may fill (multifruit-4x6
+    robot s0: 15 of 20 such probes, place_yellow_0 from the start state, were refused and
+    recorded nothing). A place whose hand another class of places needs (``classes``,
+    :func:`hand_classes`) is left out: refused, it says what the hand holds, not what the
+    site holds (the learner ignores it, :mod:`vggc_cp.vision.resets`). Each probe action
+    once, by its first way."""
     names = (doubt.evidence or {}).get("read_sites")
     if not isinstance(names, list):
         return []
     at_sites = {n for n in names if isinstance(n, str) and n in graph.action_names}
     taken = _actions_of(graph, node)
-    out = [((), node, n, True) for n in sorted(at_sites & set(taken))]
-    for first, v in sorted(taken.items()):
-        out += [((first,), v, n, True) for n in sorted(at_sites & set(_actions_of(graph, v)))]
+    mine = {classes[n] for n in taken if n in classes}
+
+    def hand_fits(n: str) -> bool:      # not a place another hand needs
+        return not mine or n not in classes or classes[n] in mine
+
+    out = [(t, v, n, node) for t, v, n in _edge_ways(graph, node, at_sites)]
+    if other is not None and other != node and other in graph.members:
+        out += [(t, taken.get(t[0], node) if t else node, n, other)
+                for t, _, n in _edge_ways(graph, other, at_sites)
+                if hand_fits((*t, n)[0])]
     if out:
         seen: set[str] = set()
         return [p for p in out if not (p[2] in seen or seen.add(p[2]))]
     role = graph.node_role.get(node)
     fits = [n for n in at_sites if action_kind(n) == role]
     if role == PLACE:
-        mine = {classes[n] for n in taken if n in classes}
-        if mine:
-            fits = [n for n in fits if classes.get(n, -1) in mine or n not in classes]
-    return [((), node, n, False) for n in sorted(fits, key=lambda n: (n not in classes, n))]
+        fits = [n for n in fits if hand_fits(n)]
+    return [((), node, n, None) for n in sorted(fits, key=lambda n: (n not in classes, n))]
+
+
+def _edge_ways(graph: TaskGraph, x: int, at_sites: set[str]
+               ) -> list[tuple[tuple[str, ...], int, str]]:
+    """``(tail, node, action)``: the actions at ``at_sites`` that ``x`` takes (no tail),
+    then those a node one of its actions leads to takes (that action the tail), by name."""
+    taken = _actions_of(graph, x)
+    out = [((), x, n) for n in sorted(at_sites & set(taken))]
+    for first, v in sorted(taken.items()):
+        out += [((first,), v, n) for n in sorted(at_sites & set(_actions_of(graph, v)))]
+    return out
 
 
 def _probe_words(node: int, tail: tuple[str, ...], probe_node: int, name: str,
-                 edge: bool) -> str:
+                 by: int | None) -> str:
     """What a read probe does, in words (:func:`_read_probes`)."""
     then = f"{' '.join(tail)} (to node {probe_node}), then " if tail else ""
-    if edge:
+    if by == node:
         return (f"{then}{name}, which the graph takes from node {probe_node}, states what "
                 f"its site holds (legal: as read at node {node}; refused: the reading is "
                 f"wrong)")
+    if by is not None:
+        return (f"{then}{name}, as the graph takes it from node {by}"
+                f"{' one step on' if tail else ''}, states what its site holds (legal: node "
+                f"{node} holds there what node {by} holds; refused: they differ)")
     return (f"{then}{name} from node {probe_node} states what its site holds there (legal: "
             f"it holds what {name} needs; illegal: it does not)")
 
