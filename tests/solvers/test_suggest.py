@@ -28,6 +28,17 @@ def _legal(bench, state, actions):
     return valid
 
 
+def _walk_trace(benchmark: str, steps: int, seed: int):
+    """A random walk of ``benchmark`` as a trace with blank images: ``(bench, trace,
+    states)``."""
+    bench = get_benchmark(benchmark)
+    walk = random_walk(bench, steps, np.random.default_rng(seed))
+    states = np.array(walk.states)
+    trace = Trace(np.zeros((len(states), 4, 4, 3), np.uint8), np.asarray(walk.actions),
+                  tuple(bench.action_names), states, {"benchmark": benchmark})
+    return bench, trace, states
+
+
 def _split_busiest_pick_state(trace):
     """The true labels with the later renders of the most visited pick state made a node of
     their own (an over-split); returns the labels, the state, its observations and the two
@@ -150,11 +161,7 @@ def test_a_read_site_a_place_node_cannot_act_on_is_stated_one_step_on():
     (multifruit-4x6 robot s0: 15 of 20 such probes recorded nothing). The first probe from
     the node is the graph's way to state it: a place the node takes, then the pick at the
     site that the node it leads to takes -- which executes, and lifts what the site holds."""
-    bench = get_benchmark("multifruit-2x3")
-    walk = random_walk(bench, 300, np.random.default_rng(1))
-    states = np.array(walk.states)
-    trace = Trace(np.zeros((len(states), 4, 4, 3), np.uint8), np.asarray(walk.actions),
-                  tuple(bench.action_names), states, {"benchmark": "multifruit-2x3"})
+    bench, trace, states = _walk_trace("multifruit-2x3", 300, 1)
     labels = _true_labels(trace)
     graph = TaskGraph.from_labels(labels, trace.roles(), *trace.transitions(),
                                   trace.action_names)
@@ -220,11 +227,7 @@ def test_a_place_probe_at_a_read_site_needs_what_the_node_holds():
     hand's reason and says nothing of the site, so only places of the colour the node's own
     places show are proposed (:func:`hand_classes`); a place of that colour is legal exactly
     where the site is free."""
-    bench = get_benchmark("multifruit-2x3")
-    walk = random_walk(bench, 150, np.random.default_rng(0))
-    states = np.array(walk.states)
-    trace = Trace(np.zeros((len(states), 4, 4, 3), np.uint8), np.asarray(walk.actions),
-                  tuple(bench.action_names), states, {"benchmark": "multifruit-2x3"})
+    bench, trace, states = _walk_trace("multifruit-2x3", 150, 0)
     labels = _true_labels(trace)
     places = sorted(n for n in bench.action_names if n.startswith("place"))
     classes = hand_classes(TaskGraph.from_labels(labels, trace.roles(), *trace.transitions(),
