@@ -395,7 +395,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     candidates = []
     for chain in episode_chains(problem):
         here = labels[chain]
-        in_chain = set(chain.tolist())
+        frames = chain.tolist()
+        in_chain = set(frames)
         # the split doubt's node: the first of the episode's nodes that other episodes visit
         shared = here[np.bincount(here, minlength=nodes.n)[here] < sizes[here]]
         if len(chain) < 2 or not len(shared):
@@ -405,10 +406,10 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             moved = graph.walk(int(other), act_of[chain[:-1]], here)
             if moved is None or (moved == here).all():
                 continue
-            if any((int(v), k) in graph.ahead for o, v in zip(chain.tolist(), moved.tolist())
-                   for k in refused_at.get(o, ())):
+            walked = list(zip(frames, moved.tolist()))
+            if any((v, k) in graph.ahead for o, v in walked for k in refused_at.get(o, ())):
                 continue  # the other path takes an action the recording refused there
-            if shown_as and any(labels[p] != v for o, v in zip(chain.tolist(), moved.tolist())
+            if shown_as and any(labels[p] != v for o, v in walked
                                 for p in shown_as.get(o, ()) if p not in in_chain):
                 continue  # it would part what the recording says shows one state
             differ = held[chain] != majority[moved]

@@ -104,9 +104,16 @@ class _Router:
         self.start_of: dict[int, int] = {}
         for o in sorted(starts):
             self.start_of.setdefault(int(labels[o]), int(o))
+        self._routes: dict[int, tuple[int, list[str]] | None] = {}
 
     def route(self, target: int) -> tuple[int, list[str]] | None:
-        """``(start observation, plan action names)`` to ``target``, or None."""
+        """``(start observation, plan action names)`` to ``target``, or None (each target's
+        searched once: many probes of many doubts lead to one node)."""
+        if target not in self._routes:
+            self._routes[target] = self._search(target)
+        return self._routes[target]
+
+    def _search(self, target: int) -> tuple[int, list[str]] | None:
         dist = bfs_distances(self.graph, target, reverse=True)
         best = min(((dist[u], o, u) for u, o in self.start_of.items() if u in dist),
                    default=None)
@@ -365,7 +372,7 @@ def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int],
     if other is not None and other != node and other in graph.members:
         out += [(t, taken.get(t[0], node) if t else node, n, other)
                 for t, _, n in _edge_ways(graph, other, at_sites)
-                if hand_fits((*t, n)[0])]
+                if hand_fits(t[0] if t else n)]   # the action taken from node
     if out:
         seen: set[str] = set()
         return [p for p in out if not (p[2] in seen or seen.add(p[2]))]
