@@ -223,17 +223,18 @@ def test_rule_validates():
         DoubtRule(limit=10, listed=9)
 
 
-def _read_apart(kappa: float, stated_both: bool = False):
+def _read_apart(kappa: float, stated_both: bool = False, stated_first: bool = False):
     """Two episodes, each '1' -pick_1-> 'H', that the images keep apart (distance 1). Site 0
     (pick_1's) is stated alike in both; site 1 (place_2's) is only read: occupied in the
     first episode, empty in the second, with agreement ``kappa`` beyond chance (or stated
-    so in both, ``stated_both``). Returns the problem, its merge path and the labels."""
+    so in both, ``stated_both``; in the first only, ``stated_first``). Returns the problem,
+    its merge path and the labels."""
     from vggc_cp.solvers.base import Readings, SiteReads
 
     trace = make_trace([["1", "pick_1", "H"], ["1", "pick_1", "H"]], NAMES)
     src, act, dst = trace.transitions()
     held = np.array([[1, 1], [0, 1], [1, 0], [0, 0]])
-    stated = np.array([[True, stated_both]] * 4)
+    stated = np.array([[True, stated_both or (stated_first and o < 2)] for o in range(4)])
     sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 4]))
     readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
     problem = Problem(trace.roles(), src, act, dst, NAMES, 1.0 - np.eye(2), 1.0 - np.eye(2),
@@ -260,6 +261,35 @@ def test_nodes_only_an_untrusted_reading_sets_apart_are_a_doubt():
     for kappa, stated in ((0.9, False), (0.2, True)):
         problem, path, labels = _read_apart(kappa, stated)
         assert read_doubts(problem, path, labels, z=0.0) == ()
+
+
+def test_a_read_doubt_says_where_each_node_is_stated_and_what_acts_there():
+    """Site 1 (place_2's) stated in the first episode only: the pairs stay doubts (no site
+    is stated in both nodes), and each names the read sites its nodes are stated at
+    (``read_told``, one list per node: the first episode's node at place_2, the other at
+    none) and the actions the recording shows changing each read site (``read_acting``:
+    none changes place_2's; pick_1 changes its own, which sets nothing apart)."""
+    problem, path, labels = _read_apart(0.2, stated_first=True)
+    doubts = read_doubts(problem, path, labels)
+    assert len(doubts) == 2
+    for d in doubts:
+        told = dict(zip(d.nodes, d.evidence["read_told"]))
+        first = {int(labels[0]), int(labels[1])}
+        assert told == {
+            u: (["place_2"] if u in first else []) for u in d.nodes}
+        assert d.evidence["read_acting"] == {"place_2": []}
+
+
+def test_site_actions_are_those_seen_changing_a_stated_site():
+    """:class:`SiteActions`: an action counts for a site where both frames around it state
+    the site and hold different things there."""
+    from vggc_cp.solvers.read_doubts import SiteActions, _NodeReads
+
+    problem, path, labels = _read_apart(0.2, stated_both=True)
+    nodes = _NodeReads.of(problem, path, labels, DoubtRule())
+    acting = SiteActions(nodes, problem)
+    assert acting.named(np.array([0, 1])) == {"pick_1": ["pick_1"], "place_2": []}
+    assert acting.names(np.array([1, 0])) == ["pick_1", "place_2"]
 
 
 def test_the_verdict_lists_read_doubts_beyond_those_its_checks_judge(monkeypatch):

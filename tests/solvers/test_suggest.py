@@ -276,3 +276,68 @@ def test_read_probes_are_the_node_s_edges_then_the_other_node_s_then_its_role_s(
     assert _read_probes(graph, doubt, 0, classes, 3) == [(("pick_a_0",), 1, "place_a_1", 0),
                                                         ((), 0, "pick_b_5", 3)]
     assert _read_probes(graph, Doubt(MERGE, (0, 3), ((0,), (3,)), {}), 0, classes, 3) == []
+
+
+def test_a_read_pair_is_probed_at_one_site_from_each_node_not_stated_there():
+    """:func:`_pair_units` on the small graph of the test above: a read pair falls only where
+    one site is stated in both nodes. Node 0 stated at pick_b_5 already: one probe, from
+    node 3, its own edge there. Neither stated: one probe from each at that site (node 0 by
+    node 3's way). A site whose reading an action of node 0 is seen to change
+    (``read_acting``) is probed with that action, taken from node 0 itself."""
+    from vggc_cp.solvers.suggest import _pair_units
+
+    names = ("pick_a_0", "pick_b_5", "place_a_1")
+    graph = TaskGraph.from_labels(np.array([0, 1, 2, 3, 4]), [0, 1, 0, 0, 1],
+                                  np.array([0, 1, 3]), np.array([0, 2, 1]),
+                                  np.array([1, 2, 4]), names)
+    classes = hand_classes(graph)
+
+    def doubt(**ev):
+        return Doubt(MERGE, (0, 3), ((0,), (3,)), {"read_sites": ["pick_b_5"], **ev})
+
+    assert _pair_units(graph, doubt(), classes) == []      # no read_told: per node, as before
+    assert _pair_units(graph, doubt(read_told=[["pick_b_5"], []]), classes) == [
+        ("pick_b_5", [(3, ((), 3, "pick_b_5", 3))])]
+    assert _pair_units(graph, doubt(read_told=[[], []]), classes) == [
+        ("pick_b_5", [(0, ((), 0, "pick_b_5", 3)), (3, ((), 3, "pick_b_5", 3))])]
+    acted = doubt(read_sites=["place_a_1"], read_told=[[], ["place_a_1"]],
+                  read_acting={"place_a_1": ["pick_a_0"]})
+    assert _pair_units(graph, acted, classes) == [("place_a_1", [(0, ((), 0, "pick_a_0", 0))])]
+
+
+def test_a_read_pair_is_not_crowded_out_by_cheaper_probes_of_other_doubts():
+    """A read pair whose nodes a plan reaches, ranked first, then an episode doubt per
+    episode with one-action probes from its start: with room for as many episodes as there
+    are episode doubts, the pair still gets its probe at the site its one node is not stated
+    at -- the best unit of every doubt comes first, the doubts in their rank, not the
+    shortest probes of all -- and that probe is legal where the reading is right."""
+    trace = load_trace(SHIPPED)
+    bench = get_benchmark(trace.meta["benchmark"])
+    labels = _true_labels(trace)
+    graph = TaskGraph.from_labels(labels, trace.roles(), *trace.transitions(),
+                                  trace.action_names)
+    starts = {int(labels[first]) for first, _ in trace.episodes()}
+    picks = sorted(n for n in trace.action_names if n.startswith("pick"))
+    # a pick state no episode starts in (a plan leads there), and one it might be
+    a = next(u for u in sorted(graph.members) if u not in starts and graph.node_role[u] == 0
+             and {graph.action_names[k] for k, _ in graph.successors(u)} & set(picks))
+    b = next(u for u in sorted(graph.members) if u != a and graph.node_role[u] == 0)
+    site = sorted({graph.action_names[k] for k, _ in graph.successors(a)} & set(picks))[0]
+    obs = np.flatnonzero(labels == a)
+    pair = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(np.flatnonzero(labels == b)[:2])),
+                 {"read_sites": [site], "read_kappa": 0.2, "read_told": [[], [site]]})
+    episodes = []
+    for first, last in trace.episodes():
+        u = int(labels[first])
+        episodes.append(Doubt(SPLIT, (u,), ((first,), (first,)),
+                              {"episode": [first, last], "moved_to": u,
+                               "read_sites": [n for n in picks if n != site],
+                               "read_kappa": 0.3}))
+    proposals = suggest_episodes(trace.without_states(), labels, [pair, *episodes],
+                                 max_episodes=len(episodes))
+    assert len(proposals) == len(episodes)
+    assert min(len(p.actions) for p in proposals) == 1 < len(proposals[0].actions)
+    (mine,) = [p for p in proposals if p.doubt == 0]
+    assert mine.probe_node == a and mine.actions[-1] == site
+    assert f"node {b} is stated there already" in mine.why
+    assert all(_legal(bench, trace.states[mine.start_observation], mine.actions))

@@ -175,9 +175,11 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     stated frames (kappa near 1: two states that differ only where no action of theirs
     acts). Evidence: that of :func:`find_doubts` for the closure's join, plus
     ``read_sites`` (the separating sites' actions), ``read_kappa`` (the best of their
-    kappas), ``read_kappa_low`` (the best of their lower bounds, which decided) and
-    ``forced``. Ranked by ``read_kappa_low - max_kappa`` (all negative); at most
-    ``rule.limit``.
+    kappas), ``read_kappa_low`` (the best of their lower bounds, which decided),
+    ``forced``, ``read_told`` (per node, of ``nodes``, the separating sites the actions state
+    in one of its observations: the doubt falls once one is stated in both) and
+    ``read_acting`` (:class:`SiteActions`: per separating site, the actions seen changing
+    it). Ranked by ``read_kappa_low - max_kappa`` (all negative); at most ``rule.limit``.
 
     Parameters
     ----------
@@ -228,6 +230,7 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     problem = dense_problem(problem)
     closure = PartitionClosure(problem, labels)
     flips = Flips(problem, path, labels)
+    acting = SiteActions(nodes, problem)
     found = []
     for best, u, w, sep in candidates:
         groups, _why = closure.join(u, w)
@@ -241,10 +244,38 @@ def read_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             rule.typical, lambda steps, ev, b=best: round(b - max_kappa, 4),
             read_sites=sorted(problem.action_names[int(nodes.action[k])] for k in sep),
             read_kappa=round(float(trust[sep].max()), 4), read_kappa_low=round(best, 4),
-            forced=sum(len(g) - 1 for g in groups) - 1))
+            forced=sum(len(g) - 1 for g in groups) - 1, read_acting=acting.named(sep),
+            read_told=[acting.names(sep[told_any[x, sep]]) for x in (u, w)]))
         if len(found) == rule.limit:
             break
     return tuple(found)
+
+
+class SiteActions:
+    """The actions the recording shows changing what each site holds: a transition between
+    two frames that both state the site (:attr:`~vggc_cp.solvers.base.SiteReads.stated`)
+    and hold different things there. Any of them, taken, states the site for the frames
+    around it as the site's own action does (the footprints state a site over the run
+    between two actions that act on it), so that a probe of a read doubt may be any of
+    them (:mod:`vggc_cp.solvers.suggest`)."""
+
+    def __init__(self, nodes: _NodeReads, problem: Problem):
+        held, stated = nodes.held, nodes.stated
+        src, dst = np.asarray(problem.src), np.asarray(problem.dst)
+        changed = stated[src] & stated[dst] & (held[src] != held[dst])
+        act = np.asarray(problem.act)
+        self._names = problem.action_names
+        self._site = nodes.action
+        self._acting = [np.unique(act[changed[:, k]]) for k in range(held.shape[1])]
+
+    def names(self, sites: np.ndarray) -> list[str]:
+        """The names of ``sites`` (site indices), sorted."""
+        return sorted(self._names[int(self._site[k])] for k in sites)
+
+    def named(self, sites: np.ndarray) -> dict[str, list[str]]:
+        """``{site name: names of the actions seen changing it}`` for ``sites``."""
+        return {self._names[int(self._site[k])]: [self._names[int(a)] for a in self._acting[k]]
+                for k in sorted(sites, key=lambda k: self._names[int(self._site[k])])}
 
 
 def dense_problem(problem):
@@ -347,7 +378,8 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     path, plus ``episode`` (its first and last observation), ``moved_from`` (the episode's
     first node), ``moved_to`` (``M``),
     ``moved_path`` (the other path's nodes, one per observation of the episode),
-    ``read_sites``, ``read_kappa``, ``read_kappa_low`` as for :func:`read_doubts`. Ranked
+    ``read_sites``, ``read_kappa``, ``read_kappa_low``, ``read_acting`` as for
+    :func:`read_doubts`. Ranked
     by ``read_kappa_low - max_kappa``; the episode with the least trustworthy reading
     first, one doubt per episode, at most ``rule.limit``.
 
@@ -437,6 +469,7 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     candidates.sort(key=lambda c: (c[0], c[1]))
     problem = dense_problem(problem)
     flips = Flips(problem, path, labels)
+    acting = SiteActions(nodes, problem)
     found = []
     for best, _first, chain, u, other, moved, sep, point in candidates[:rule.limit]:
         mine = chain[labels[chain] == u]
@@ -450,5 +483,6 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             moved_to=other,
             moved_path=[int(v) for v in moved],
             read_sites=sorted(problem.action_names[int(a)] for a in nodes.action[sep]),
-            read_kappa=round(point, 4), read_kappa_low=round(best, 4)))
+            read_kappa=round(point, 4), read_kappa_low=round(best, 4),
+            read_acting=acting.named(np.flatnonzero(sep))))
     return tuple(found)

@@ -11,8 +11,14 @@ proposes episodes a robot can run:
 * **probe** -- one action whose outcome tells the two readings apart:
 
   - merge doubt that only a reading of the images settles (``read_sites`` in its evidence,
-    :func:`~vggc_cp.solvers.read_doubts.read_doubts`): from each node, an action at one of those
-    sites that the learned graph takes there, or one step on (:func:`_read_probes`): where
+    :func:`~vggc_cp.solvers.read_doubts.read_doubts`): it falls once one of those sites is
+    stated in both nodes, so the probes come as a unit per site (:func:`_pair_units`): from
+    each node not yet stated there (``read_told``), an action at that site -- its own or one
+    the recording shows changing it (``read_acting``) -- that the learned graph takes
+    there, or one step on (:func:`_read_probes`); one probe where the other node is stated
+    there already (random-2 robot, tuning: every pair was stated on one side). Where
+    ``read_told`` is not known, or no site has a way for both, from each node an action
+    at one of those sites as before. Where
     the reading is right it is legal and states what the site holds, which no reading can
     be wrong about; where it is wrong, the refusal contradicts the node. Only where the graph
     has none, an action of the node's role at the sites, legal or not -- a place only where
@@ -42,11 +48,15 @@ A node never seen to act (its observations end episodes) affords nothing the gra
 probed with the actions of its role, the ones the trace takes most often first, legal or not
 (blocks-2 robot s179: a split doubt of two episode ends had no probe, and nothing was recorded).
 
-Each episode tests one doubtful (node, action) pair. Episodes are ranked by how much they
-settle per transition (``1 / len(actions)``), then by the doubt's rank, then in the order the
-list above gives a doubt's probes (a read doubt's at its sites first; a probe from the node
-tested before the one that confirms it) -- the best of every (doubt, direction) first, so
-that no side of a doubt is left untested for shorter probes of another. Only observations and actions are read, never ground-truth states.
+Each episode tests one doubtful (node, action) pair; a unit of episodes (the two sides of a
+read pair at one site) is proposed whole or not at all. First the best unit of every doubt
+(its cheapest at the read sites, where it has one: what settles a read doubt), the doubts in
+their rank -- the verdict flags a graph while any read pair stands, and before, the many
+one-action probes of episode doubts took every place (random-2 robot, tuning: 20 of 20, none
+for its four pairs); then the best of every other (doubt, direction); then the rest; these
+last by the transitions they add, then by the doubt's rank, then in the order the list above
+gives a doubt's probes (a probe from the node tested before the one that confirms it). Only
+observations and actions are read, never ground-truth states.
 """
 
 from __future__ import annotations
@@ -157,33 +167,50 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     router = _Router(graph, labels, starts)
     start_set = set(starts)
     classes = hand_classes(graph)
-    out: list[Proposal] = []
+    units: dict[tuple, tuple[tuple, int, list[Proposal | None]]] = {}
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
-        for j, (side, (fixed, target, tail, probe_node, probe, why)) in enumerate(_probes(
-                graph, trace, labels, doubt, per_doubt, start_set, classes)):
+        for j, (side, unit, read, (fixed, target, tail, probe_node, probe, why)) in enumerate(
+                _probes(graph, trace, labels, doubt, per_doubt, start_set, classes)):
             if fixed is not None:
                 start, plan = fixed, []
             else:
                 r = router.route(target)
-                if r is None:
-                    continue
-                start, plan = r
-            out.append(((k, side), j, Proposal(start, (*plan, *tail, probe), k, probe_node, why)))
-    # the best episode of every (doubt, side) first, then the others; each part by length,
-    # then in the order _probes gives a doubt's probes (a read doubt's at its sites first,
-    # a probe from the node tested before the one that confirms it)
-    order = sorted(out, key=lambda gp: (len(gp[2].actions), gp[2].doubt, gp[1]))
-    firsts, rest, groups, seen = [], [], set(), set()
-    for group, _, p in order:
-        key = (p.start_observation, p.actions)
-        if key in seen:
-            continue
-        seen.add(key)
-        (rest if group in groups else firsts).append(p)
-        groups.add(group)
-    return (firsts + rest)[:max_episodes]
+                start, plan = r if r is not None else (None, None)
+            p = None if plan is None else Proposal(start, (*plan, *tail, probe), k,
+                                                   probe_node, why)
+            key = (k, side, j if unit is None else unit)
+            units.setdefault(key, ((k, side), (not read, j), []))[2].append(p)
+    # a unit (the probes that settle something together: the two sides of a read pair at
+    # one site) is proposed whole or not at all. First the best unit of every doubt, the
+    # doubts in their rank (the verdict flags a graph while any read pair stands, so none
+    # may be crowded out by the short probes of many episodes); then the best of every
+    # other (doubt, side); then the rest. Each unit costs the transitions it adds; a
+    # doubt's best is its cheapest at the read sites where it has one (what settles a read
+    # doubt), else its cheapest; a side's best its cheapest; ties in the order _probes
+    # gives (a probe from the node tested before the one that confirms it); the last two
+    # parts by cost, then doubt, then that order.
+    def cost(u):
+        return sum(len(p.actions) for p in u[2])
+
+    whole = [(g, j, ps) for g, j, ps in units.values() if None not in ps]
+    best: dict[int, tuple] = {}
+    for u in sorted(whole, key=lambda u: (u[1][0], cost(u), u[1][1])):
+        best.setdefault(u[0][0], u)
+    sides, rest, groups = [], [], {u[0] for u in best.values()}
+    for u in sorted(whole, key=lambda u: (cost(u), u[2][0].doubt, u[1][1])):
+        if u is not best[u[0][0]]:
+            (rest if u[0] in groups else sides).append(u)
+            groups.add(u[0])
+    out: list[Proposal] = []
+    seen: set = set()
+    for _, _, ps in [best[k] for k in sorted(best)] + sides + rest:
+        new = [p for p in ps if (p.start_observation, p.actions) not in seen]
+        if new and len(out) + len(new) <= max_episodes:
+            seen.update((p.start_observation, p.actions) for p in new)
+            out += new
+    return out
 
 
 def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: set[int],
@@ -195,24 +222,35 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
     (the node probed, or the half of a split node entered)."""
     if doubt.kind == MERGE:
         a, b = doubt.nodes
-        for x in (a, b):
-            # only the images' reading at some sites sets the two apart (read_doubts): act
-            # there from each, so that the actions state what those sites hold
+        # only the images' reading at some sites sets the two apart (read_doubts): act at
+        # one of them from each node not yet stated there, so that the actions state what
+        # the site holds in both (which no reading can be wrong about)
+        pairs = _pair_units(graph, doubt, classes)[:per_doubt]
+        for site, unit in pairs:
+            for x, (tail, v, name, by) in unit:
+                y = b if x == a else a
+                also = (f" (node {y} is stated there already)" if len(unit) == 1 else
+                        f" (and from node {y}: both stated there settle it)")
+                yield "pair", site, True, (None, x, tail, v, name,
+                                     f"merge doubt {a}+{b}: only the images' reading of "
+                                     f"{site}'s site tells them apart{also}; "
+                                     f"{_probe_words(x, tail, v, name, by)}")
+        for x in (a, b) if not pairs else ():
             y = b if x == a else a
             for tail, v, name, by in _read_probes(graph, doubt, x, classes, y)[:per_doubt]:
-                yield x, (None, x, tail, v, name,
-                          f"merge doubt {a}+{b}: only the images' reading of {name}'s site "
-                          f"tells them apart; {_probe_words(x, tail, v, name, by)}")
+                yield x, None, True, (None, x, tail, v, name,
+                                f"merge doubt {a}+{b}: only the images' reading of {name}'s "
+                                f"site tells them apart; {_probe_words(x, tail, v, name, by)}")
         acts_a, acts_b = _actions_of(graph, a), _actions_of(graph, b)
         only_a = sorted(set(acts_a) - set(acts_b))
         only_b = sorted(set(acts_b) - set(acts_a))
         for x, y, only in ((b, a, only_a), (a, b, only_b)):
             for name in only[:per_doubt]:
-                yield x, (None, x, (), x, name,
+                yield x, None, False, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: {name} was taken from node {y}, never from "
                        f"node {x}; legal from {x}: they may be one state, illegal: they "
                        f"differ")
-                yield x, (None, y, (), y, name,
+                yield x, None, False, (None, y, (), y, name,
                           f"merge doubt {a}+{b}: {name} again from node {y}, which the trace "
                        f"saw take it: more renders of {y} doing what {x} was never seen to do")
         if only_a or only_b:
@@ -223,7 +261,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
             shared = sorted(acts_a, key=lambda n: (acts_a[n] == acts_b.get(n), n))
             for name in shared[:per_doubt]:
                 for x in (a, b):
-                    yield x, (None, x, (), x, name,
+                    yield x, None, False, (None, x, (), x, name,
                               f"merge doubt {a}+{b}: {name} leads from {a} to {acts_a[name]} and "
                            f"from {b} to {acts_b[name]}; repeated from {x}: one node or two?")
             return
@@ -231,7 +269,7 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         # role's most common actions from each, legal or not, tell
         for name in _role_actions(graph, trace, a)[:per_doubt]:
             for x in (a, b):
-                yield x, (None, x, (), x, name,
+                yield x, None, False, (None, x, (), x, name,
                           f"merge doubt {a}+{b}: no action was taken from either; {name} "
                           f"from {x}: do they afford alike, and lead to one node?")
         return
@@ -246,12 +284,12 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         moved = ev.get("moved_to")
         moved = int(moved) if isinstance(moved, int) else None
         for tail, v, name, by in _read_probes(graph, doubt, u, classes, moved)[:per_doubt]:
-            yield 1, (first, None, tail, v, name,
+            yield 1, None, True, (first, None, tail, v, name,
                       f"split doubt {u}: the episode from observation {first} might start at "
                       f"node {ev.get('moved_to')}; from its start, "
                       f"{_probe_words(u, tail, v, name, by)}, which tells node {u} from "
                       f"node {ev.get('moved_to')}")
-            yield 0, (None, u, tail, v, name,
+            yield 0, None, True, (None, u, tail, v, name,
                       f"split doubt {u}: from node {u} as the graph reaches it, "
                       f"{_probe_words(u, tail, v, name, by)}: what the site holds in the "
                       f"node's other observations")
@@ -281,18 +319,18 @@ def _probes(graph: TaskGraph, trace, labels, doubt, per_doubt: int, start_set: s
         start, target, tail, o = entry
         if alike:
             for name in shared:
-                yield s, (start, target, tail, u, name,
+                yield s, None, False, (start, target, tail, u, name,
                           f"split doubt {u}: node {u} entered as the trace entered observation "
                           f"{o} (one side), then {name}; no action sets the sides apart in the "
                           f"trace: does it do here what it does from the other side?")
             continue
         for name in only[s][:per_doubt]:
-            yield s, (start, target, tail, u, name,
+            yield s, None, False, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, taken in the trace from the other side only: "
                    f"legal and alike -> one state; illegal -> two")
         for name in only[1 - s][:per_doubt]:
-            yield s, (start, target, tail, u, name,
+            yield s, None, False, (start, target, tail, u, name,
                       f"split doubt {u}: node {u} entered as the trace entered observation {o} "
                       f"(one side), then {name}, which only that side took in the trace: "
                    f"more renders of that side doing what the other was never seen to do")
@@ -334,8 +372,51 @@ def hand_classes(graph: TaskGraph) -> dict[str, int]:
     return {graph.action_names[a]: ids[int(comp[a])] for a in taken}
 
 
+def _site_actions(doubt, site: str) -> set[str]:
+    """The actions that state what a read doubt's ``site`` holds: its own, and those the
+    recording shows changing it (the evidence's ``read_acting``)."""
+    acting = (doubt.evidence or {}).get("read_acting")
+    more = acting.get(site) if isinstance(acting, dict) else None
+    return {site, *(n for n in more if isinstance(n, str))} if isinstance(more, list) else {site}
+
+
+def _pair_units(graph: TaskGraph, doubt, classes: dict[str, int]
+                ) -> list[tuple[str, list[tuple[int, tuple]]]]:
+    """For a read merge doubt of nodes ``a`` and ``b``: ``(site, [(node, read probe), ...])``
+    per read site at which every one of the two not yet stated there (the evidence's
+    ``read_told``) has a way to act (:func:`_read_probes`, with the actions that state the
+    site): the doubt falls only where one site is stated in both nodes
+    (:func:`~vggc_cp.solvers.read_doubts.read_doubts`), so a probe of each node at
+    different sites settles nothing, and a node stated there already needs none. Sites
+    needing fewer probes first, then those whose probes are the graph's own ways, then
+    fewer actions; none without ``read_told``."""
+    ev = doubt.evidence or {}
+    names, told = ev.get("read_sites"), ev.get("read_told")
+    if not isinstance(names, list) or not (isinstance(told, list) and len(told) == 2
+                                           and all(isinstance(t, list) for t in told)):
+        return []
+    a, b = doubt.nodes
+    units = []
+    for site in (n for n in names if isinstance(n, str)):
+        unit = []
+        for x, y, stated in ((a, b, told[0]), (b, a, told[1])):
+            if site in stated:
+                continue
+            ways = _read_probes(graph, doubt, x, classes, y, _site_actions(doubt, site))
+            if not ways:
+                break
+            unit.append((x, ways[0]))
+        else:
+            if unit:
+                guess = sum(w[3] is None for _, w in unit)
+                units.append(((len(unit), guess, sum(len(w[0]) for _, w in unit), site),
+                              site, unit))
+    return [(site, unit) for _, site, unit in sorted(units)]
+
+
 def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int],
-                 other: int | None = None) -> list[tuple[tuple[str, ...], int, str, int | None]]:
+                 other: int | None = None, at: set[str] | None = None
+                 ) -> list[tuple[tuple[str, ...], int, str, int | None]]:
     """Ways to state what a read doubt's sites (its evidence's ``read_sites``) hold at
     ``node``: ``(tail, probe node, probe, by)``, the actions ``tail`` then ``probe``, taken
     from ``probe_node`` (where the graph predicts ``tail`` leads); ``by``, the node whose
@@ -357,11 +438,15 @@ def _read_probes(graph: TaskGraph, doubt, node: int, classes: dict[str, int],
     recorded nothing). A place whose hand another class of places needs (``classes``,
     :func:`hand_classes`) is left out: refused, it says what the hand holds, not what the
     site holds (the learner ignores it, :mod:`vggc_cp.vision.resets`). Each probe action
-    once, by its first way."""
+    once, by its first way. The actions at a site are its own and those the recording
+    shows changing it (:func:`_site_actions`); ``at``, when given, those of the sites to
+    state instead."""
     names = (doubt.evidence or {}).get("read_sites")
     if not isinstance(names, list):
         return []
-    at_sites = {n for n in names if isinstance(n, str) and n in graph.action_names}
+    if at is None:
+        at = {n for site in names if isinstance(site, str) for n in _site_actions(doubt, site)}
+    at_sites = {n for n in at if n in graph.action_names}
     taken = _actions_of(graph, node)
     mine = {classes[n] for n in taken if n in classes}
 
