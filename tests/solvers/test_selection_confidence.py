@@ -408,6 +408,30 @@ def test_a_node_of_one_render_kept_apart_only_by_the_hands_colour_is_warned():
     assert not doubt_forbidden(quiet, [Doubt("merge", (0, 1), ((0,), (4,)), base)], big).suspect
 
 
+def test_a_hand_colour_from_actions_seen_often_does_not_warn():
+    """Given the problem's transitions: the node of one render is entered by an action the
+    trace takes three times -- its colour comes from three looks, which one misread look does
+    not set: quiet. Entered by an action taken once: warned, as without the transitions."""
+    from types import SimpleNamespace
+
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_forbidden
+    from vggc_cp.solvers.doubts import Doubt
+
+    quiet = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    labels = np.array([0, 0, 2, 0, 1, 2, 3, 2, 3, 2])
+    d = Doubt("merge", (0, 1), ((0, 1), (4,)),
+              {"forbidden": "hand", "steps": -0.5, "dl_nats": -15.0})
+
+    def problem(into_1):  # transitions 2->3, 5->4 (into node 1), 7->6 ... by action
+        return SimpleNamespace(src=np.array([2, 5, 7, 9]), act=np.array([0, into_1, 0, 0]),
+                               dst=np.array([3, 4, 6, 8]), action_names=("a", "b"))
+
+    assert not doubt_forbidden(quiet, [d], labels, problem=problem(0)).suspect
+    assert doubt_forbidden(quiet, [d], labels, problem=problem(1)).suspect
+    assert doubt_forbidden(quiet, [d], labels).suspect
+
+
 def test_a_join_exactly_one_forbids_but_images_and_actions_favour_is_warned():
     """Whatever the nodes' sizes: another decision conflicts with the images and the
     actions there. Images against it (steps > 0) or actions not strongly for it: quiet."""

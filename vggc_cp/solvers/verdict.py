@@ -157,7 +157,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
     rule = DoubtRule()
     doubts = graph_doubts(problem, path, labels)
     conf = corroborate(confidence, doubts, rule.max_nats)
-    conf = doubt_forbidden(conf, doubts, labels, rule.max_nats)
+    conf = doubt_forbidden(conf, doubts, labels, rule.max_nats, problem)
     facts = recorded_facts(trace) if trace is not None else None
     # listed up to rule.listed (what suggest can propose episodes for); judged on the first
     # rule.limit of each kind
