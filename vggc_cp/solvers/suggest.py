@@ -167,7 +167,7 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     router = _Router(graph, labels, starts)
     start_set = set(starts)
     classes = hand_classes(graph)
-    units: dict[tuple, tuple[tuple, int, list[Proposal | None]]] = {}
+    units: dict[tuple, tuple[tuple, tuple[bool, int], list[Proposal | None]]] = {}
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
