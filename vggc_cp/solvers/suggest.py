@@ -16,7 +16,8 @@ proposes episodes a robot can run:
     each node not yet stated there (``read_told``), an action at that site -- its own or one
     the recording shows changing it (``read_acting``) -- that the learned graph takes
     there, or one step on (:func:`_read_probes`); one probe where the other node is stated
-    there already (random-2 robot, tuning: every pair was stated on one side). Where
+    there already (random-2 robot, tuning: each of its four pairs was stated at some read
+    site in one node at least). Where
     ``read_told`` is not known, or no site has a way for both, from each node an action
     at one of those sites as before. Where
     the reading is right it is legal and states what the site holds, which no reading can
