@@ -248,8 +248,8 @@ def doubt_forbidden(conf: Confidence, doubts, labels: np.ndarray, max_nats: floa
       most :data:`FEW_RENDERS` transitions: an action the trace shows more often has its
       colour from as many looks, which one misread look does not set (multifruit-4x6
       clean and randomized s312, s315, randomized s308: a place node of one render at an
-      episode's end, entered by a pick seen 4-9 times, kept apart from its twin by a
-      hand of the other colour -- two true states, warned; random-939 randomized: a node
+      episode's end, entered by a pick seen 4-9 times, kept apart from a node whose hand
+      holds the other colour -- two true states, warned; random-939 randomized: a node
       entered by a pick seen once, a miss, still warned).
 
     The reason names the nodes and what to record.
