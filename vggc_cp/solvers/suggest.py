@@ -107,6 +107,25 @@ class Proposal:
                 "why": self.why}
 
 
+@dataclass
+class _Unit:
+    """Probes proposed together (:func:`suggest_episodes`): ``doubt`` (its index) and
+    ``side`` (the direction tested), ``unread`` (no probe at the doubt's read sites),
+    ``order`` (where :func:`_probes` gave the first), ``proposals`` (None where no plan
+    reaches the probe's node)."""
+
+    doubt: int
+    side: object
+    unread: bool
+    order: int
+    proposals: list
+
+    @property
+    def cost(self) -> int:
+        """The transitions the unit adds."""
+        return sum(len(p.actions) for p in self.proposals)
+
+
 class _Router:
     """Shortest plans on the learned graph from the trace's episode starts."""
 
@@ -168,7 +187,7 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     router = _Router(graph, labels, starts)
     start_set = set(starts)
     classes = hand_classes(graph)
-    units: dict[tuple, tuple[tuple, tuple[bool, int], list[Proposal | None]]] = {}
+    units: dict[tuple, _Unit] = {}
     for k, doubt in enumerate(doubts):
         if any(u not in graph.members for u in doubt.nodes):
             continue
@@ -182,7 +201,7 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
             p = None if plan is None else Proposal(start, (*plan, *tail, probe), k,
                                                    probe_node, why)
             key = (k, side, j if unit is None else unit)
-            units.setdefault(key, ((k, side), (not read, j), []))[2].append(p)
+            units.setdefault(key, _Unit(k, side, not read, j, [])).proposals.append(p)
     # a unit (the probes that settle something together: the two sides of a read pair at
     # one site) is proposed whole or not at all. First the best unit of every doubt, the
     # doubts in their rank (the verdict flags a graph while any read pair stands, so none
@@ -192,22 +211,19 @@ def suggest_episodes(trace, labels, doubts, max_episodes: int = 20, per_doubt: i
     # doubt), else its cheapest; a side's best its cheapest; ties in the order _probes
     # gives (a probe from the node tested before the one that confirms it); the last two
     # parts by cost, then doubt, then that order.
-    def cost(u):
-        return sum(len(p.actions) for p in u[2])
-
-    whole = [(g, j, ps) for g, j, ps in units.values() if None not in ps]
-    best: dict[int, tuple] = {}
-    for u in sorted(whole, key=lambda u: (u[1][0], cost(u), u[1][1])):
-        best.setdefault(u[0][0], u)
-    sides, rest, groups = [], [], {u[0] for u in best.values()}
-    for u in sorted(whole, key=lambda u: (cost(u), u[2][0].doubt, u[1][1])):
-        if u is not best[u[0][0]]:
-            (rest if u[0] in groups else sides).append(u)
-            groups.add(u[0])
+    whole = [u for u in units.values() if None not in u.proposals]
+    best: dict[int, _Unit] = {}
+    for u in sorted(whole, key=lambda u: (u.unread, u.cost, u.order)):
+        best.setdefault(u.doubt, u)
+    sides, rest, groups = [], [], {(u.doubt, u.side) for u in best.values()}
+    for u in sorted(whole, key=lambda u: (u.cost, u.doubt, u.order)):
+        if u is not best[u.doubt]:
+            (rest if (u.doubt, u.side) in groups else sides).append(u)
+            groups.add((u.doubt, u.side))
     out: list[Proposal] = []
     seen: set = set()
-    for _, _, ps in [best[k] for k in sorted(best)] + sides + rest:
-        new = [p for p in ps if (p.start_observation, p.actions) not in seen]
+    for u in [best[k] for k in sorted(best)] + sides + rest:
+        new = [p for p in u.proposals if (p.start_observation, p.actions) not in seen]
         if new and len(out) + len(new) <= max_episodes:
             seen.update((p.start_observation, p.actions) for p in new)
             out += new
