@@ -320,8 +320,9 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     footprints pooled, never pool what the footprints tell apart. A class with fewer than
     two window examples cannot be read there: it follows the readable class of its
     footprint colour under whose footprint chroma its own (``footprint_points``) is
-    likeliest, or stays with the footprints' choice where its colour has none. Without
-    pooling, or with fewer than two readable classes, ``colour`` is returned as it is.
+    likeliest, or stays with the footprints' choice where its colour has none -- but never
+    with a class some site shows apart from it (``apart``). Without pooling, or with fewer
+    than two readable classes and no pair apart, ``colour`` is returned as it is.
 
     Parameters
     ----------
@@ -355,12 +356,14 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
     if not pooled(colour, classes, counts):
         return colour
     readable = [k for k in known if len(window_points[k]) >= 2]
-    if len(readable) < 2:
+    apart = apart or set()
+    if len(readable) < 2 and not apart:
         return colour
     first = {k: int(colour[(classes == k) & taken][0]) for k in known}
-    seen = dict(zip(readable, colour_classes([window_points[k] for k in readable],
-                                             bandwidth).tolist()))
-    seen = _split_apart(seen, apart or set())
+    seen = (dict(zip(readable, colour_classes([window_points[k] for k in readable],
+                                              bandwidth).tolist()))
+            if len(readable) >= 2 else {k: 0 for k in readable})
+    seen = _split_apart(seen, apart)
     for k in known:
         if k in seen:
             continue
@@ -368,6 +371,10 @@ def window_colours(colour: np.ndarray, classes: np.ndarray, counts: np.ndarray,
         lik = [float(np.median(kernel_loglik(footprint_points[k], footprint_points[r],
                                              bandwidth))) for r in near]
         seen[k] = seen[near[int(np.argmax(lik))]] if near else -1
+    # a class too few windows read follows a readable one, except one a site shows apart
+    # from it (multifruit-2x3 robot s327: no window read red, and the one site that showed
+    # red and yellow apart was overruled by yellow's lead)
+    seen = _split_apart(seen, apart)
     key = {k: (first[k], seen[k]) for k in known}
     ids = sorted(set(key.values()))
     out = np.full(len(colour), -1, dtype=np.int64)
