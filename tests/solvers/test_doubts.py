@@ -546,7 +546,7 @@ def test_an_episode_walks_back_where_it_returns_on_a_new_edge():
     from 3, and the episode returns to its first node, so the walk returns to 2 -- unless
     another action already joins 3 and 2 (Exactly-One), or the episode goes on to a node it
     never visited before (no edge says where)."""
-    from vggc_cp.solvers.read_doubts import WalkGraph
+    from vggc_cp.solvers.episodes import WalkGraph
 
     graph = WalkGraph(np.array([0, 1, 2]), np.array([0, 1, 0]), np.array([1, 0, 3]))
     assert graph.walk(2, np.array([0, 1]), np.array([0, 1, 0])).tolist() == [2, 3, 2]
@@ -560,7 +560,7 @@ def test_a_walk_that_would_split_one_node_of_the_episode_is_none():
     """The episode is at node 0 three times; walked from 2, an edge leads the second time to
     4, so where action 7 (no edge) returns the episode to node 0, the walk would return to 2
     or to 4: one node of the episode would be two of the walk."""
-    from vggc_cp.solvers.read_doubts import WalkGraph
+    from vggc_cp.solvers.episodes import WalkGraph
 
     graph = WalkGraph(np.array([2, 3]), np.array([0, 1]), np.array([3, 4]))
     here = np.array([0, 1, 0, 1, 0])

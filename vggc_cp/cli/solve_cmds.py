@@ -413,9 +413,13 @@ def _solve_merge(args) -> int:
 
 
 def _cuts(best) -> str:
-    """``"; N node(s) cut by the sites' readings"`` where the merge's graph was cut."""
-    cuts = int((best.stats or {}).get("read_splits", 0))
-    return f"; {cuts} node(s) cut where the sites' readings show two states" if cuts else ""
+    """``"; N node(s) cut by the sites' readings"`` where the merge's graph was cut, and
+    ``"; N lone episode(s) moved ..."`` where lone episodes were moved."""
+    stats = best.stats or {}
+    cuts, moved = int(stats.get("read_splits", 0)), int(stats.get("lone_moves", 0))
+    return ((f"; {cuts} node(s) cut where the sites' readings show two states" if cuts else "")
+            + (f"; {moved} lone episode(s) moved onto the path their actions walk"
+               if moved else ""))
 
 
 def _print_doubts(doubts) -> None:

@@ -10,7 +10,7 @@ of change of :mod:`vggc_cp.solvers.confidence`:
 * :func:`doubt_readings` -- nodes that only an untrustworthy reading of the images sets apart
   (:func:`vggc_cp.solvers.read_doubts.read_doubts`);
 * :func:`doubt_lone` -- episodes that visit no node another episode visits, beyond chance
-  (:func:`vggc_cp.solvers.lone_episodes.lone_episodes`).
+  (:func:`vggc_cp.solvers.episodes.lone_episodes`).
 """
 
 from __future__ import annotations
@@ -330,12 +330,12 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
 
 def doubt_lone(conf: Confidence, lone) -> Confidence:
     """``conf`` flagged when episodes that visit no node another episode visits are less
-    likely than :data:`~vggc_cp.solvers.lone_episodes.LONE_ALPHA` by chance
-    (:func:`~vggc_cp.solvers.lone_episodes.lone_episodes`): such an episode's images may have
+    likely than :data:`~vggc_cp.solvers.episodes.LONE_ALPHA` by chance
+    (:func:`~vggc_cp.solvers.episodes.lone_episodes`): such an episode's images may have
     been read wrong throughout, which no bound on the readings sees. The reason names the
     episode, the chance and what to record.
 
-    >>> from vggc_cp.solvers.lone_episodes import LoneEpisodes
+    >>> from vggc_cp.solvers.episodes import LoneEpisodes
     >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
     >>> lone = LoneEpisodes((np.array([9, 10, 11]),), 0.1, 0.01, 0.01)
     >>> doubt_lone(c, lone).suspect, doubt_lone(c, LoneEpisodes((), 0.0, 0.0, 1.0)).suspect

@@ -43,6 +43,7 @@ from vggc_cp.solvers.base import (
     hand_colours,
     register_solver,
 )
+from vggc_cp.solvers.episodes import move_lone_episodes
 from vggc_cp.solvers.read_splits import combined_readings, split_by_readings
 from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     PATH,
@@ -63,7 +64,8 @@ class MergeStats:
     ``vetoed_hand`` counts closures that would have put two place observations whose hands
     hold different colours in one node (:func:`~vggc_cp.solvers.base.hand_colours`);
     ``read_splits`` the nodes cut afterwards where the sites' readings show two states
-    (:func:`with_read_splits`).
+    (:func:`with_read_splits`), ``lone_moves`` the lone episodes moved then onto the path
+    their actions walk (:func:`~vggc_cp.solvers.episodes.move_lone_episodes`).
     """
 
     attempts: int
@@ -75,6 +77,7 @@ class MergeStats:
     vetoed_hand: int = 0
     vetoed_refused: int = 0
     read_splits: int = 0
+    lone_moves: int = 0
 
 
 class _Clusters:
@@ -451,19 +454,24 @@ def with_read_splits(problem: Problem, labels: np.ndarray, stats: MergeStats
     ``read_splits`` set: :func:`congruence_merge` and the coded merge (the merge solver and
     the confidence's re-runs) end here, and :func:`cut_path` cuts the path's graphs the same
     way, so the re-runs and the path compare one kind of graph."""
-    labels, cuts = _cut(problem, labels)
-    return labels, replace(stats, read_splits=cuts)
+    labels, cuts, moved = _cut(problem, labels)
+    return labels, replace(stats, read_splits=cuts, lone_moves=moved)
 
 
 def _cut(problem: Problem, labels: np.ndarray, rows: np.ndarray | None = None
-         ) -> tuple[np.ndarray, int]:
-    """:func:`~vggc_cp.solvers.read_splits.split_by_readings`, nodes numbered as the merge
+         ) -> tuple[np.ndarray, int, int]:
+    """:func:`~vggc_cp.solvers.read_splits.split_by_readings`, then, where the problem reads
+    sites, :func:`~vggc_cp.solvers.episodes.move_lone_episodes`, nodes numbered as the merge
     numbers them (:meth:`~vggc_cp.solvers.base.Problem.labels_from_colours`), so one
-    partition is one array whether cuts or merges made it."""
+    partition is one array whether cuts, moves or merges made it; with the cuts and the
+    moves made."""
     labels, cuts = split_by_readings(problem, labels, rows)
-    if cuts:
+    moved = 0
+    if rows is not None or combined_readings(problem) is not None:
+        labels, moved = move_lone_episodes(problem, labels)
+    if cuts or moved:
         labels = problem.labels_from_colours(labels[problem.pick_obs], labels[problem.place_obs])
-    return labels, cuts
+    return labels, cuts, moved
 
 
 def _solve_prefix(problem: Problem, threshold: float, d: np.ndarray, ci: list[int],
@@ -553,8 +561,8 @@ class ThresholdPath:
 
     def records(self) -> list[dict]:
         """One JSON-ready row per threshold (the solution file's ``grid``); where the
-        graphs were cut (:func:`cut_path`), ``read_splits`` and the merge's own node count
-        ``merged_nodes`` too."""
+        graphs were cut (:func:`cut_path`), ``read_splits``, ``lone_moves`` and the merge's
+        own node count ``merged_nodes`` too."""
         rows = [{"threshold": round(t, 6), "k_pick": r.k_pick, "k_place": r.k_place,
                  "nodes": r.n_nodes, "status": r.status, "J": r.J,
                  "seconds": round(r.seconds, 4), "selected": i == self.selected}
@@ -562,6 +570,7 @@ class ThresholdPath:
         if self.merged is not None:
             for row, r, m in zip(rows, self.results, self.merged):
                 row["read_splits"] = int(r.stats.get("read_splits", 0))
+                row["lone_moves"] = int(r.stats.get("lone_moves", 0))
                 row["merged_nodes"] = int(len(np.unique(m))) if m is not None else 0
         return rows
 
@@ -600,13 +609,13 @@ def cut_path(problem: Problem, thresholds: np.ndarray, merges: Sequence[SolveRes
     rows = combined_readings(problem)
     results = []
     for r in merges:
-        labels, cuts = ((r.labels, 0) if rows is None or r.labels is None
-                        else _cut(problem, r.labels, rows))
-        if cuts:
+        labels, cuts, moved = ((r.labels, 0, 0) if rows is None or r.labels is None
+                               else _cut(problem, r.labels, rows))
+        if cuts or moved:
             r = SolveResult(labels, len(np.unique(labels[problem.pick_obs])),
                             len(np.unique(labels[problem.place_obs])),
                             problem.visual_score(labels), r.status, r.solver, r.seconds,
                             r.bound, r.stats)
-        results.append(replace(r, stats={**r.stats, "read_splits": cuts}))
+        results.append(replace(r, stats={**r.stats, "read_splits": cuts, "lone_moves": moved}))
     return ThresholdPath(tuple(float(t) for t in thresholds), tuple(results), selected, rule,
                          time.perf_counter() - started, tuple(r.labels for r in merges))

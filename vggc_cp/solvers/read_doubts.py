@@ -33,6 +33,7 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.closure import PartitionClosure
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
+from vggc_cp.solvers.episodes import WalkGraph, episode_chains
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.vision.trust import READ_Z, kappa_lower
 
@@ -281,59 +282,6 @@ class SiteActions:
 def dense_problem(problem):
     """A problem of descriptor codes made dense (its matrices), any other as it is."""
     return problem.dense() if hasattr(problem, "dense") else problem
-
-
-def episode_chains(problem: Problem) -> list[np.ndarray]:
-    """Every episode's observations in the order its transitions link them (a problem's
-    transitions chain its observations: one successor and one predecessor at most)."""
-    n = problem.n_obs
-    nxt = np.full(n, -1, dtype=np.int64)
-    nxt[problem.src] = problem.dst
-    entered = np.zeros(n, dtype=bool)
-    entered[problem.dst] = True
-    out = []
-    for first in np.flatnonzero(~entered):
-        chain = [int(first)]
-        while nxt[chain[-1]] >= 0:
-            chain.append(int(nxt[chain[-1]]))
-        out.append(np.array(chain, dtype=np.int64))
-    return out
-
-
-class WalkGraph:
-    """The learned graph's edges: ``ahead[(u, a)]``, the nodes action ``a`` leads to from
-    ``u``, and ``labels_of[(u, v)]``, the actions between ``u`` and ``v``."""
-
-    def __init__(self, src: np.ndarray, act: np.ndarray, dst: np.ndarray):
-        self.ahead: dict[tuple[int, int], set[int]] = {}
-        self.labels_of: dict[tuple[int, int], set[int]] = {}
-        for s, a, d in zip(src.tolist(), act.tolist(), dst.tolist()):
-            self.ahead.setdefault((s, a), set()).add(d)
-            self.labels_of.setdefault((s, d), set()).add(a)
-
-    def walk(self, start: int, actions: np.ndarray, here: np.ndarray) -> np.ndarray | None:
-        """The nodes ``actions`` visit from ``start``, where the episode now visits the nodes
-        ``here``. An action that is an edge there leads where the edge does (None where it
-        leads to two nodes); one that is none returns, where the episode returns to a node it
-        visited before, to the node the walk visited then (None where the walk visited two
-        there: one node of the episode would be two of the walk) -- a new edge, allowed where
-        no other action joins the two nodes (Exactly-One); None otherwise."""
-        path = [start]
-        for k, a in enumerate(actions.tolist()):
-            ahead = self.ahead.get((path[-1], a))
-            if ahead is not None:
-                if len(ahead) != 1:
-                    return None
-                path.append(next(iter(ahead)))
-                continue
-            before = {path[j] for j in np.flatnonzero(here[:k + 1] == here[k + 1])}
-            if len(before) != 1:
-                return None
-            (back,) = before
-            if self.labels_of.get((path[-1], back), {a}) != {a}:
-                return None
-            path.append(back)
-        return np.array(path, dtype=np.int64)
 
 
 def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,

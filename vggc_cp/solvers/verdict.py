@@ -46,7 +46,8 @@ from vggc_cp.solvers.doubts import (
     find_doubts,
     runner_up_doubts,
 )
-from vggc_cp.solvers.lone_episodes import lone_doubts, lone_episodes
+from vggc_cp.solvers.episodes import lone_episodes
+from vggc_cp.solvers.lone_episodes import lone_doubts
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.solvers.read_doubts import dense_problem, episode_doubts, read_doubts
 from vggc_cp.trace import Trace

@@ -1,0 +1,69 @@
+"""Episodes on a learned graph (:mod:`vggc_cp.solvers.episodes`): lone episodes moved onto the
+path their actions walk. Chains, walks and the lone count are tested in ``test_doubts.py`` and
+``test_lone_episodes.py``; the merge's use of the move end to end on multifruit-4x6 robot s2
+in ``test_lone_episodes.py`` (slow)."""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import make_trace
+
+from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.episodes import lone_episodes, lone_walks, move_lone_episodes
+from vggc_cp.solvers.mdl import description_length
+
+NAMES = ("pick_1", "place_1", "pick_2", "place_2")
+HOME = ["A", "pick_1", "HA", "place_1", "A", "pick_2", "HB", "place_2", "A"]
+
+
+def _problem(episodes):
+    """The problem of ``episodes`` (states and actions) and the labels of its states."""
+    trace = make_trace(episodes, NAMES)
+    src, act, dst = trace.transitions()
+    states, roles = trace.states, trace.roles()
+    apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
+             for r in (0, 1)}
+    _, labels = np.unique(states, return_inverse=True)
+    return Problem(roles, src, act, dst, NAMES, apart[0], apart[1]), labels.astype(np.int64)
+
+
+def test_a_lone_episode_is_moved_onto_the_path_its_actions_walk():
+    """Six episodes from 'A'; a seventh takes pick_1 then place_1 as they do, but was read as
+    states 'X' and 'HX' of its own (a misread). One lone episode among seven is unlikely by
+    chance, its actions walk 'A' -pick_1-> 'HA' -place_1-> 'A', and the graph without two
+    nodes is shorter: the episode's frames go to 'A', 'HA', 'A', and its nodes are empty."""
+    misread = ["X", "pick_1", "HX", "place_1", "X"]
+    problem, labels = _problem([HOME] * 6 + [misread])
+    a, ha, x = int(labels[0]), int(labels[1]), int(labels[30])
+    ((length, start, path, moved_labels),) = lone_walks(problem, labels, np.array([30, 31, 32]))
+    assert start == a and path.tolist() == [a, ha, a]
+    assert length < description_length(problem, labels)
+    moved, n = move_lone_episodes(problem, labels)
+    assert n == 1 and moved.tolist() == moved_labels.tolist()
+    assert moved[30:].tolist() == [a, ha, a] and x not in moved
+    assert moved[:30].tolist() == labels[:30].tolist()
+    assert lone_episodes(problem, moved).chains == ()
+
+
+def test_lone_episodes_as_many_as_chance_gives_are_not_moved():
+    """Two episodes through disjoint parts, each with nodes of its own: every episode is
+    lone (share 1), as chance gives, so nothing moves, though the second's actions would
+    walk the first's path."""
+    problem, labels = _problem([["A", "pick_1", "HA", "place_1", "A"],
+                                ["X", "pick_1", "HX", "place_1", "X"]])
+    lone = lone_episodes(problem, labels)
+    assert len(lone.chains) == 2 and not lone.doubtful
+    moved, n = move_lone_episodes(problem, labels)
+    assert n == 0 and moved.tolist() == labels.tolist()
+
+
+def test_a_lone_episode_whose_actions_walk_nowhere_stays():
+    """The misread episode takes pick_2 then place_1, which no node of the other episodes
+    takes in a row from one of its nodes: no walk, nothing moved (the verdict's lone check
+    names it)."""
+    misread = ["X", "pick_2", "HX", "place_1", "Y"]
+    problem, labels = _problem([HOME] * 6 + [misread])
+    assert lone_episodes(problem, labels).doubtful
+    assert lone_walks(problem, labels, np.array([30, 31, 32])) == []
+    moved, n = move_lone_episodes(problem, labels)
+    assert n == 0 and moved.tolist() == labels.tolist()

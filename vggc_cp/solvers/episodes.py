@@ -1,0 +1,241 @@
+"""Episodes on a learned graph: their chains of observations, the paths their actions walk,
+and lone episodes moved onto the path they walk (beyond the paper).
+
+A problem's transitions chain its observations into episodes (:func:`episode_chains`); an
+episode's actions, walked on the learned graph from another node (:class:`WalkGraph`), may
+give another path of that graph. An episode none of whose nodes another episode visits is
+*lone* (:func:`lone_episodes`, :mod:`vggc_cp.solvers.lone_episodes` for the doubt it raises):
+in a right graph that happens about as often as the share of nodes only one episode visits
+allows, and more lone episodes than that are a reading of the images wrong for a whole
+episode -- an arm hiding a site in every frame, two colours swapped -- that runs the episode
+on a path of its own, parallel to the one it took (on the tuning split and draws 7-16, 15 runs
+had one, every one a wrong graph; multifruit-4x6 robot s2: one episode of seven frames, five
+nodes too many).
+
+:func:`move_lone_episodes` moves such an episode onto the path its actions walk on the rest
+of the graph where the lone episodes are more than chance gives (:data:`LONE_ALPHA`) and the
+move makes the description length of the whole graph shorter (:func:`~vggc_cp.solvers.mdl.
+description_length`, two-part MDL: the episode's nodes go, its transitions run on edges the
+graph has). The merge ends there, after the read cuts (:func:`vggc_cp.solvers.merge.
+with_read_splits`), so the path's graphs and the confidence's re-runs are one kind of graph.
+A lone episode that no walk fits, or whose move the code does not favour, stays, and the
+verdict's lone check (:func:`~vggc_cp.solvers.lone_episodes.lone_doubts`) names it. Only the
+problem's transitions and the description length are read, never ground-truth states.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vggc_cp.solvers.base import Problem
+from vggc_cp.solvers.mdl import description_length
+
+
+def episode_chains(problem: Problem) -> list[np.ndarray]:
+    """Every episode's observations in the order its transitions link them (a problem's
+    transitions chain its observations: one successor and one predecessor at most)."""
+    n = problem.n_obs
+    nxt = np.full(n, -1, dtype=np.int64)
+    nxt[problem.src] = problem.dst
+    entered = np.zeros(n, dtype=bool)
+    entered[problem.dst] = True
+    out = []
+    for first in np.flatnonzero(~entered):
+        chain = [int(first)]
+        while nxt[chain[-1]] >= 0:
+            chain.append(int(nxt[chain[-1]]))
+        out.append(np.array(chain, dtype=np.int64))
+    return out
+
+
+class WalkGraph:
+    """The learned graph's edges: ``ahead[(u, a)]``, the nodes action ``a`` leads to from
+    ``u``, and ``labels_of[(u, v)]``, the actions between ``u`` and ``v``."""
+
+    def __init__(self, src: np.ndarray, act: np.ndarray, dst: np.ndarray):
+        self.ahead: dict[tuple[int, int], set[int]] = {}
+        self.labels_of: dict[tuple[int, int], set[int]] = {}
+        for s, a, d in zip(src.tolist(), act.tolist(), dst.tolist()):
+            self.ahead.setdefault((s, a), set()).add(d)
+            self.labels_of.setdefault((s, d), set()).add(a)
+
+    def walk(self, start: int, actions: np.ndarray, here: np.ndarray) -> np.ndarray | None:
+        """The nodes ``actions`` visit from ``start``, where the episode now visits the nodes
+        ``here``. An action that is an edge there leads where the edge does (None where it
+        leads to two nodes); one that is none returns, where the episode returns to a node it
+        visited before, to the node the walk visited then (None where the walk visited two
+        there: one node of the episode would be two of the walk) -- a new edge, allowed where
+        no other action joins the two nodes (Exactly-One); None otherwise."""
+        path = [start]
+        for k, a in enumerate(actions.tolist()):
+            ahead = self.ahead.get((path[-1], a))
+            if ahead is not None:
+                if len(ahead) != 1:
+                    return None
+                path.append(next(iter(ahead)))
+                continue
+            before = {path[j] for j in np.flatnonzero(here[:k + 1] == here[k + 1])}
+            if len(before) != 1:
+                return None
+            (back,) = before
+            if self.labels_of.get((path[-1], back), {a}) != {a}:
+                return None
+            path.append(back)
+        return np.array(path, dtype=np.int64)
+
+
+
+#: The chance of the lone episodes below which they are a doubt (a 5 % test).
+LONE_ALPHA = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class LoneEpisodes:
+    """The episodes whose nodes no other episode visits, and how surprising they are.
+
+    Attributes
+    ----------
+    chains : tuple of ndarray of int
+        Each lone episode's observations, in order (episodes of two nodes or more).
+    share : float
+        ``q``: the share of the episodes' node visits (an episode and a node it visits) that
+        are to a node no other episode visits.
+    expected : float
+        ``lambda = sum_e q ** k_e``: the lone episodes expected by chance.
+    chance : float
+        The probability of at least ``len(chains)`` lone episodes under that Poisson law
+        (1 where there is none).
+    """
+
+    chains: tuple[np.ndarray, ...]
+    share: float
+    expected: float
+    chance: float
+
+    @property
+    def doubtful(self) -> bool:
+        """Lone episodes less likely than :data:`LONE_ALPHA` by chance."""
+        return bool(self.chains) and self.chance < LONE_ALPHA
+
+
+def poisson_tail(count: int, mean: float) -> float:
+    """``P(X >= count)`` for ``X`` Poisson with ``mean``.
+
+    >>> round(poisson_tail(1, 1.0), 4), poisson_tail(0, 0.3), round(poisson_tail(2, 0.05), 5)
+    (0.6321, 1.0, 0.00121)
+    """
+    if count <= 0:
+        return 1.0
+    below = sum(math.exp(-mean) * mean ** i / math.factorial(i) for i in range(count))
+    return float(max(1.0 - below, 0.0))
+
+
+def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
+    """The episodes (chains of transitions, :func:`episode_chains`)
+    of ``labels`` that visit no node another episode visits, and their chance (module
+    docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        Its transitions chain the observations into episodes.
+    labels : ndarray of int, shape (N,)
+
+    Returns
+    -------
+    LoneEpisodes
+
+    Examples
+    --------
+    Four episodes through nodes 0-1-2, and one through nodes 3-4 of its own:
+
+    >>> from vggc_cp.solvers.base import Problem
+    >>> src = np.array([0, 1, 3, 4, 6, 7, 9, 10, 12]); dst = src + 1
+    >>> act = np.array([0, 1, 0, 1, 0, 1, 0, 1, 2])
+    >>> roles = np.array([0, 1, 0] * 4 + [0, 1])
+    >>> p = Problem(roles, src, act, dst, ("pick", "place"), np.zeros((9, 9)), np.zeros((5, 5)))
+    >>> lone = lone_episodes(p, np.array([0, 1, 2] * 4 + [3, 4]))
+    >>> [c.tolist() for c in lone.chains], round(lone.share, 3), round(lone.chance, 3)
+    ([[12, 13]], 0.143, 0.032)
+    >>> lone.doubtful
+    True
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
+    if not chains:
+        return LoneEpisodes((), 0.0, 0.0, 1.0)
+    nodes = [np.unique(labels[c]) for c in chains]
+    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1)
+    own = [int(np.count_nonzero(visits[v] == 1)) for v in nodes]
+    share = sum(own) / sum(len(v) for v in nodes)
+    expected = float(sum(share ** len(v) for v in nodes))
+    lone = tuple(c for c, v, k in zip(chains, nodes, own) if k == len(v))
+    return LoneEpisodes(lone, float(share), expected, poisson_tail(len(lone), expected))
+
+
+
+def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray):
+    """Every path the actions of the episode ``chain`` (its observations in order) walk on the
+    graph of the other episodes (:meth:`WalkGraph.walk`), from a node of its first node's role
+    that it does not visit, through none of its nodes: ``(description length of the graph
+    with the episode moved there, start node, path, moved labels)``, by start node."""
+    labels = np.asarray(labels, dtype=np.int64)
+    roles = np.full(int(labels.max()) + 1, -1)
+    roles[labels] = np.asarray(problem.roles)
+    act_of = np.full(problem.n_obs, -1, dtype=np.int64)
+    act_of[problem.src] = problem.act
+    inside = np.zeros(problem.n_obs, dtype=bool)
+    inside[chain] = True
+    keep = ~inside[problem.src]
+    graph = WalkGraph(labels[problem.src[keep]], problem.act[keep], labels[problem.dst[keep]])
+    here = labels[chain]
+    mine = set(here.tolist())
+    out = []
+    for other in np.flatnonzero(roles == roles[here[0]]):
+        if int(other) in mine:
+            continue
+        moved = graph.walk(int(other), act_of[chain[:-1]], here)
+        if moved is None or mine & set(moved.tolist()):
+            continue
+        flipped = labels.copy()
+        flipped[chain] = moved
+        out.append((description_length(problem, flipped), int(other), moved, flipped))
+    return out
+
+
+def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray, int]:
+    """``labels`` with the lone episodes moved onto the path their actions walk (module
+    docstring), and how many were moved: where the lone episodes are less likely than
+    :data:`LONE_ALPHA` by chance, each in turn (in order of observation) goes to its walk of
+    least description length (ties: the lowest start node) if that is shorter than the
+    graph's as it is. Node numbers are kept (the moved episode's own nodes are left empty).
+
+    Examples
+    --------
+    Four episodes through nodes 0-1-2 and a fifth, the same actions, through nodes 3-4 of its
+    own: moved onto 0-1, the code is shorter by two nodes.
+
+    >>> src = np.array([0, 1, 3, 4, 6, 7, 9, 10, 12]); dst = src + 1
+    >>> act = np.array([0, 1, 0, 1, 0, 1, 0, 1, 0])
+    >>> roles = np.array([0, 1, 0] * 4 + [0, 1])
+    >>> p = Problem(roles, src, act, dst, ("pick", "place"), np.zeros((9, 9)), np.zeros((5, 5)))
+    >>> labels, moved = move_lone_episodes(p, np.array([0, 1, 2] * 4 + [3, 4]))
+    >>> labels.tolist()[-2:], moved
+    ([0, 1], 1)
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    lone = lone_episodes(problem, labels)
+    if not lone.doubtful:
+        return labels, 0
+    moved = 0
+    for chain in lone.chains:
+        walks = lone_walks(problem, labels, chain)
+        if not walks:
+            continue
+        length, _, _, flipped = min(walks, key=lambda w: (w[0], w[1]))
+        if length < description_length(problem, labels):
+            labels, moved = flipped, moved + 1
+    return labels, moved
