@@ -15,8 +15,10 @@
   path: no threshold rule fitted to a benchmark.
 * **Read cuts.** Every graph of the path, chosen or not, is then cut where the sites' readings
   show a node to hold two states and the cut keeps the graph deterministic and its code
-  shorter (:mod:`vggc_cp.solvers.read_splits`); the threshold stays the one chosen on the
-  merges' own graphs.
+  shorter (:mod:`vggc_cp.solvers.read_splits`), and an episode that runs on nodes of its
+  own, more such episodes than chance gives, is moved onto the path its actions walk on the
+  rest of the graph where that code is shorter too (:mod:`vggc_cp.solvers.episodes`); the
+  threshold stays the one chosen on the merges' own graphs.
 * **Confidence.** The chance that a recording of the same kind would change the graph: re-runs
   of the merge at the chosen threshold with a fifth of the episodes left out
   (:mod:`vggc_cp.solvers.confidence`); above 30 % the graph is flagged *suspect* with reasons.

@@ -103,6 +103,7 @@ def test_multifruit_4x6_robot_s2_episode_read_swapped_is_moved_onto_the_path_it_
     truth = [str(s) for s in trace.states]
     assert len(np.unique(labels)) == len(set(truth)) == 64
     assert learned.chosen.best.stats["lone_moves"] == 1
+    assert any(r["selected"] and r["lone_moves"] == 1 for r in learned.path_records())
     assert lone_episodes(learned.problem, labels).chains == ()
     assert not any("visits only nodes no other episode visits" in r
                    for r in learned.confidence.reasons)
