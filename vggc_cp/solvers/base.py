@@ -146,6 +146,16 @@ def kept_refusals(refused, new: np.ndarray) -> tuple[tuple[int, int], ...]:
     return tuple((int(new[o]), int(k)) for o, k in refused if new[o] >= 0)
 
 
+def kept_resets(resets, new: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """``resets`` on the observations a restriction keeps, both ends kept (``new``: the new
+    index of every observation, -1 where dropped).
+
+    >>> kept_resets(((0, 2), (1, 2)), np.array([-1, 0, 1]))
+    ((0, 1),)
+    """
+    return tuple((int(new[a]), int(new[b])) for a, b in resets if new[a] >= 0 and new[b] >= 0)
+
+
 def hand_colours(problem) -> np.ndarray:
     """Colour of what the hand holds in every observation, int64 shape (N,), from the
     problem's ``action_colour``: a pick lifts an object of its colour and the next place puts
@@ -200,6 +210,10 @@ class Problem:
         ``(o, k)``: action ``k`` was refused in the state of observation ``o``
         (:func:`vggc_cp.recorded.recorded_facts`); the congruence merge never puts ``o`` in
         one node with an observation that took ``k``.
+    resets : tuple of (int, int)
+        ``(a, b)``: observation ``b``, an episode's first, shows the state of observation
+        ``a`` (:func:`vggc_cp.recorded.recorded_facts`); such an episode cannot run on nodes
+        of its own (:func:`vggc_cp.solvers.episodes.lone_episodes`).
     """
 
     roles: np.ndarray
@@ -214,6 +228,7 @@ class Problem:
     action_colour: np.ndarray | None = None
     readings: Readings | None = None
     refused: tuple[tuple[int, int], ...] = ()
+    resets: tuple[tuple[int, int], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -231,10 +246,11 @@ class Problem:
                    ) -> Problem:
         """Build a problem from a trace (its ``states`` are not copied) and distances."""
         src, act, dst = trace.transitions()
+        facts = recorded_facts(trace)
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64),
                    action_colour=action_colour, readings=readings,
-                   refused=recorded_facts(trace).refusals)
+                   refused=facts.refusals, resets=facts.resets)
 
     @property
     def n_obs(self) -> int:

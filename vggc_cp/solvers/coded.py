@@ -22,7 +22,7 @@ import numpy as np
 
 from vggc_cp.graph import TaskGraph
 from vggc_cp.recorded import recorded_facts
-from vggc_cp.solvers.base import Problem, Readings, kept_refusals, set_role_index
+from vggc_cp.solvers.base import Problem, Readings, kept_refusals, kept_resets, set_role_index
 from vggc_cp.trace import PICK, PLACE
 
 
@@ -46,6 +46,8 @@ class CodedProblem:
         As :attr:`Problem.readings`.
     refused : tuple of (int, int)
         As :attr:`Problem.refused`.
+    resets : tuple of (int, int)
+        As :attr:`Problem.resets`.
     """
 
     roles: np.ndarray
@@ -62,6 +64,7 @@ class CodedProblem:
     action_colour: np.ndarray | None = None
     readings: Readings | None = None
     refused: tuple[tuple[int, int], ...] = ()
+    resets: tuple[tuple[int, int], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -86,11 +89,12 @@ class CodedProblem:
                    ) -> CodedProblem:
         """From a trace (its ``states`` are not copied), per-role codes and tables."""
         src, act, dst = trace.transitions()
+        facts = recorded_facts(trace)
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
                    np.asarray(tables[1], dtype=np.float64), tuple(notes), action_colour,
-                   readings, recorded_facts(trace).refusals)
+                   readings, facts.refusals, facts.resets)
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -133,7 +137,8 @@ class CodedProblem:
         return Problem(self.roles, self.src, self.act, self.dst, self.action_names,
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
                        self.table_place[np.ix_(self.codes_place, self.codes_place)],
-                       self.notes, self.action_colour, self.readings, self.refused)
+                       self.notes, self.action_colour, self.readings, self.refused,
+                       self.resets)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
@@ -151,7 +156,8 @@ class CodedProblem:
                            self.table_place, action_colour=self.action_colour,
                            readings=None if self.readings is None
                            else self.readings.restricted(idx),
-                           refused=kept_refusals(self.refused, new))
+                           refused=kept_refusals(self.refused, new),
+                           resets=kept_resets(self.resets, new))
         return sub, idx
 
 

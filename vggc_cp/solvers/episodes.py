@@ -136,7 +136,11 @@ def poisson_tail(count: int, mean: float) -> float:
 def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     """The episodes (chains of transitions, :func:`episode_chains`)
     of ``labels`` that visit no node another episode visits, and their chance (module
-    docstring).
+    docstring). An episode that a recorded reset starts (the problem's ``resets``) is
+    counted in no figure but the others' visits: its first node is one an earlier
+    observation's episode visits (a suggested round of 20 one-action episodes raised the
+    expected count of multifruit-4x6 robot s2 from 0.03 to 0.11, and its lone episode was
+    quiet, 69 nodes for 64).
 
     Parameters
     ----------
@@ -165,14 +169,20 @@ def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     """
     labels = np.asarray(labels, dtype=np.int64)
     chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
-    if not chains:
-        return LoneEpisodes((), 0.0, 0.0, 1.0)
     nodes = [np.unique(labels[c]) for c in chains]
-    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1)
-    own = [int(np.count_nonzero(visits[v] == 1)) for v in nodes]
-    share = sum(own) / sum(len(v) for v in nodes)
-    expected = float(sum(share ** len(v) for v in nodes))
-    lone = tuple(c for c, v, k in zip(chains, nodes, own) if k == len(v))
+    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1) if nodes \
+        else np.zeros(0, dtype=np.int64)
+    # an episode a recorded reset starts (its first frame shows an earlier observation's
+    # state) shares that node, or the graph breaks the fact (broken_facts): it visits the
+    # nodes of others, but is no episode that could be lone by chance
+    pinned = {int(b) for _, b in getattr(problem, "resets", ())}
+    free = [(c, v) for c, v in zip(chains, nodes) if int(c[0]) not in pinned]
+    if not free:
+        return LoneEpisodes((), 0.0, 0.0, 1.0)
+    own = [int(np.count_nonzero(visits[v] == 1)) for _, v in free]
+    share = sum(own) / sum(len(v) for _, v in free)
+    expected = float(sum(share ** len(v) for _, v in free))
+    lone = tuple(c for (c, v), k in zip(free, own) if k == len(v))
     return LoneEpisodes(lone, float(share), expected, poisson_tail(len(lone), expected))
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vggc_cp.solvers.base import Problem, kept_refusals
+from vggc_cp.solvers.base import Problem, kept_refusals, kept_resets
 from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.solvers.merge import congruence_merge
 from vggc_cp.solvers.pairs import coded_merge
@@ -58,7 +58,8 @@ def subproblem(problem: Problem, keep: np.ndarray) -> tuple[Problem, np.ndarray]
                   problem.action_names, problem.dist_pick[np.ix_(lp, lp)],
                   problem.dist_place[np.ix_(lq, lq)], action_colour=problem.action_colour,
                   readings=None if problem.readings is None else problem.readings.restricted(idx),
-                  refused=kept_refusals(problem.refused, new))
+                  refused=kept_refusals(problem.refused, new),
+                  resets=kept_resets(problem.resets, new))
     return sub, idx
 
 
