@@ -87,7 +87,6 @@ class WalkGraph:
         return np.array(path, dtype=np.int64)
 
 
-
 #: The chance of the lone episodes below which they are a doubt (a 5 % test).
 LONE_ALPHA = 0.05
 
@@ -134,9 +133,8 @@ def poisson_tail(count: int, mean: float) -> float:
 
 
 def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
-    """The episodes (chains of transitions, :func:`episode_chains`)
-    of ``labels`` that visit no node another episode visits, and their chance (module
-    docstring). An episode that a recorded reset starts (the problem's ``resets``) is
+    """The episodes (chains of transitions, :func:`episode_chains`) of ``labels`` that visit
+    no node another episode visits, and their chance (module docstring). An episode that a recorded reset starts (the problem's ``resets``) is
     counted in no figure but the others' visits: its first node is one an earlier
     observation's episode visits (a suggested round of 20 one-action episodes raised the
     expected count of multifruit-4x6 robot s2 from 0.03 to 0.11, and its lone episode was
@@ -184,7 +182,6 @@ def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     expected = float(sum(share ** len(v) for _, v in free))
     lone = tuple(c for (c, v), k in zip(free, own) if k == len(v))
     return LoneEpisodes(lone, float(share), expected, poisson_tail(len(lone), expected))
-
 
 
 def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray):
