@@ -134,11 +134,11 @@ def poisson_tail(count: int, mean: float) -> float:
 
 def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     """The episodes (chains of transitions, :func:`episode_chains`) of ``labels`` that visit
-    no node another episode visits, and their chance (module docstring). An episode that a recorded reset starts (the problem's ``resets``) is
-    counted in no figure but the others' visits: its first node is one an earlier
-    observation's episode visits (a suggested round of 20 one-action episodes raised the
-    expected count of multifruit-4x6 robot s2 from 0.03 to 0.11, and its lone episode was
-    quiet, 69 nodes for 64).
+    no node another episode visits, and their chance (module docstring). An episode that a
+    recorded reset starts (the problem's ``resets``) is counted in no figure but the others'
+    visits: its first node is one an earlier observation's episode visits (a suggested round
+    of 20 one-action episodes raised the expected count of multifruit-4x6 robot s2 from 0.03
+    to 0.11, and its lone episode was quiet, 69 nodes for 64).
 
     Parameters
     ----------
@@ -237,12 +237,12 @@ def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray
     lone = lone_episodes(problem, labels)
     if not lone.doubtful:
         return labels, 0
-    moved = 0
+    moved, now = 0, description_length(problem, labels)
     for chain in lone.chains:
         walks = lone_walks(problem, labels, chain)
         if not walks:
             continue
         length, _, _, flipped = min(walks, key=lambda w: (w[0], w[1]))
-        if length < description_length(problem, labels):
-            labels, moved = flipped, moved + 1
+        if length < now:
+            labels, now, moved = flipped, length, moved + 1
     return labels, moved

@@ -14,10 +14,11 @@ lone episodes are, on the recording's own figures: with ``q`` the share of an ep
 that no other episode visits (over every episode of two nodes or more), an episode of ``k``
 distinct nodes is lone by chance with probability ``q ** k`` were the nodes lone
 independently, so the number of lone episodes is about Poisson with mean
-``lambda = sum_e q ** k_e``; :func:`~vggc_cp.solvers.episodes.lone_episodes` gives its tail probability at the
-count seen, and :func:`lone_doubts` the path each lone episode's actions take on the rest of the
-graph (the nodes it might really have visited). One long walk (``q = 1``) or a few walks
-through disjoint parts are lone by chance (probability near 1): no doubt there.
+``lambda = sum_e q ** k_e``; :func:`~vggc_cp.solvers.episodes.lone_episodes` gives its tail
+probability at the count seen, and :func:`lone_doubts` the path each lone episode's actions
+take on the rest of the graph (the nodes it might really have visited). One long walk
+(``q = 1``) or a few walks through disjoint parts are lone by chance (probability near 1):
+no doubt there.
 
 On the tuning split and draws 7-16 (1713 runs, each graph as first learned at its code), a
 lone episode appeared in 15 runs, every one of them a wrong graph; in 10 of them the lone

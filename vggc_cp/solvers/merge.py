@@ -465,9 +465,10 @@ def _cut(problem: Problem, labels: np.ndarray, rows: np.ndarray | None = None
     numbers them (:meth:`~vggc_cp.solvers.base.Problem.labels_from_colours`), so one
     partition is one array whether cuts, moves or merges made it; with the cuts and the
     moves made."""
+    rows = combined_readings(problem) if rows is None else rows
     labels, cuts = split_by_readings(problem, labels, rows)
     moved = 0
-    if rows is not None or combined_readings(problem) is not None:
+    if rows is not None:
         labels, moved = move_lone_episodes(problem, labels)
     if cuts or moved:
         labels = problem.labels_from_colours(labels[problem.pick_obs], labels[problem.place_obs])
