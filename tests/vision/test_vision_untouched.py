@@ -178,6 +178,28 @@ def test_a_pose_two_episodes_of_each_kind_teach_cannot_outweigh_the_rest():
     assert un.run_presence(reading, strength, np.zeros(len(x), dtype=np.int64), loose)[0] > 0.5
 
 
+def test_a_pose_few_episodes_show_is_judged_in_five_folds_not_in_two_halves():
+    """A pose (7) that three episodes show holding the object and three empty: dealt into
+    two halves, all six fall in one and the other half cannot teach it, so it is never
+    judged; in five folds every fold is taught by the others' two of each kind."""
+    x, labels, pose, episode, holds = _scene(seed=3, n_episodes=40)
+    taught = np.unique(episode[labels >= EMPTY])           # the even episodes, in order
+    half0 = taught[::2]
+    full = [e for e in half0 if holds[episode == e][0]][:3]
+    empty = [e for e in half0 if not holds[episode == e][0]][:3]
+    assert len(full) == len(empty) == 3
+    rare = [int(np.flatnonzero(episode == e)[2]) for e in full + empty]
+    pose[rare] = 7
+    rng = np.random.default_rng(1)
+    x[rare] = 0.3 + 0.02 * rng.standard_normal(x[rare].shape).astype(np.float32)
+    x[rare[:3], SITE[0], SITE[1]] = (0.9, 0.2, 0.2)
+    x[rare, 0:3, 0:3] = 0.6                                 # its arm, away from the site
+    _, halves = un.held_out_frames(x, labels, pose, episode, EMPTY, 0.2, 0.5, folds=2)
+    right, fifths = un.held_out_frames(x, labels, pose, episode, EMPTY, 0.2, 0.5)
+    assert not halves[rare].any()
+    assert (fifths[rare] > 0).all() and right[rare].all()
+
+
 def test_the_reading_is_judged_on_episodes_it_did_not_learn_from():
     """With the labels of the scene, the pose reading agrees with the labels it did not learn
     from; with labels that say nothing (shuffled), it does not, although judged on the very
@@ -243,3 +265,13 @@ def test_an_episode_start_takes_the_pose_it_looks_like():
         ys, xs = ARM[1]
         x2[i, ys, xs] = 0.95
     assert (un.placed_starts(x2, pose)[first] == 1).all()
+
+
+def test_a_pose_reading_is_taken_only_where_it_beats_the_footprints_beyond_noise():
+    """The same lead counts where it rests on enough frames: 0.90 against 0.85 is noise on
+    40 frames a side and a difference on 400; a reading no better never wins."""
+    assert not un.reads_better(0.90, 40, 0.85, 40, 1.645)
+    assert un.reads_better(0.90, 400, 0.85, 400, 1.645)
+    assert not un.reads_better(0.85, 400, 0.85, 400, 1.645)
+    assert un.reads_better(0.85, 400, 0.85, 400, 0.0) is False      # equal: never
+    assert un.reads_better(0.86, 400, 0.85, 400, 0.0)

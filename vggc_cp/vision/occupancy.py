@@ -66,6 +66,7 @@ from vggc_cp.vision.untouched import (
     pose_groups,
     pose_readings,
     poses,
+    reads_better,
     run_presence,
     share_right,
     site_window,
@@ -452,6 +453,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
                 held = share_right(right, weight)
                 if held > (own if best is None else best[0]):
                     best = (held, pose, window, right, weight)
+            if best is not None and not reads_better(best[0], int((best[4] > 0).sum()), own,
+                                                     int(known.sum()), z):
+                best = None                          # no surer than the footprint presence
             if best is not None:
                 used, pose, window, right, weight = best
                 reading, strength = pose_readings(x, labels, pose, window, EMPTY, saturation,
