@@ -296,11 +296,13 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       With the frames ``x``, the presence may be read per pose of the hand from a window the
       labelled frames teach (:mod:`vggc_cp.vision.untouched`), so that a frame in which the
       arm hides the site weighs nothing: where that reading agrees with the labelled frames
-      more often than the footprint presence does (each half of the episodes judged on what
-      the other half teaches). Otherwise (or where no pose can read the site, or without
-      ``x``) the run's median presence, so a frame in which the site is hidden is outvoted
-      by the frames in which it is seen; or, where the footprint presence does no better on
-      the labelled frames than saying what most of them hold, that (:func:`majority_guess`).
+      more often than the footprint presence does, beyond the noise of the two agreements
+      (each fifth of the episodes judged on what the other four teach;
+      :func:`~vggc_cp.vision.untouched.reads_better`). Otherwise (or where no pose can read
+      the site, or without ``x``) the run's median presence, so a frame in which the site
+      is hidden is outvoted by the frames in which it is seen; or, where the footprint
+      presence does no better on the labelled frames than saying what most of them hold,
+      that (:func:`majority_guess`).
       A run read per pose also takes the colour its window shows (:func:`window_colour`);
       a run of a slot that another slot covers in some of its frames takes the colour of its
       uncovered frames (:func:`uncovered_colour`).
