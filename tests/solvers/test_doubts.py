@@ -450,26 +450,23 @@ def test_an_episode_whose_first_node_is_its_own_is_moved_by_the_node_it_shares()
 
 
 @pytest.mark.slow
-def test_multifruit_2x3_robot_s242_names_the_misplaced_episode():
+def test_multifruit_2x3_robot_s242_reads_the_once_misplaced_episode_right():
     """The eighteenth draw's other silent miss (session 38): episode 102-105's first two
     frames made a node of their own and the next two sat in the node of another state (13
-    nodes for 12, Exec 89 %). The counts' choice that put them there was 0.34 nats ahead,
-    and is now trusted as such; the episode is named, split at the node it shares."""
+    nodes for 12, Exec 89 %); from session 38 the episode was named as a doubt, split at the
+    node it shares. Since session 45 the pose readings are judged in five folds and taken
+    only where they beat the footprints beyond noise, and the episode is read right: every
+    node one state, and no warning."""
     from vggc_cp.pipeline import learn_graph
     from vggc_cp.sim.explore import generate
 
     trace = generate("multifruit-2x3", 95, 242, look="robot").trace
     learned = learn_graph(trace.without_states())
-    assert learned.confidence.suspect
-    first = learned.doubts[0]
-    assert first.evidence["episode"] == [102, 105]
-    assert first.evidence["read_kappa"] < 0.6
     labels = np.asarray(learned.labels)
-    # the walk the doubt proposes is the episode's true states' nodes
-    moved = first.evidence["moved_path"]
-    for o, node in zip(range(102, 106), moved):
-        others = np.flatnonzero(labels == node)
-        assert (trace.states[others] == trace.states[o]).mean() > 0.5
+    assert len(set(labels.tolist())) == len(set(trace.states.tolist())) == 12
+    for node in set(labels.tolist()):
+        assert len(set(trace.states[labels == node].tolist())) == 1
+    assert not learned.confidence.suspect
 
 
 def test_an_episode_read_by_a_weaker_reading_than_its_site_s_kappa_is_a_doubt():

@@ -385,28 +385,3 @@ def test_a_level_one_slot_filled_in_one_episode_is_not_read_full_over_a_bare_reg
 
     trace = generate("random-3", 176, 0, size=64, look="clean").trace
     assert _same_partition(learn_graph(trace.without_states()).labels, trace.states)
-
-
-def test_a_footprint_reading_under_the_arm_is_bounded_by_the_poses_that_read_it():
-    """multifruit-2x3 robot, 95 transitions, trace seed 332 (draw 33): in the episode of
-    observations 53-59 the hand only places and picks the red object at region 1; the arm
-    rests there throughout and the footprint presence reads region 0 empty in every frame,
-    though the yellow object stands there. The site's kappa over all poses is 0.82; its
-    three poses (the episode's start and the two actions) read 23 of their 25 stated frames
-    right, which bounds the reading at 0.57 (< 0.6). The
-    episode is then a doubt, and the graph (12 nodes for 12 states, Exec 88.7 %) is flagged:
-    it was quiet when the footprint runs carried the site's kappa alone."""
-    from vggc_cp.pipeline import learn_graph
-    from vggc_cp.sim.explore import generate
-
-    trace = generate("multifruit-2x3", 95, 332, size=64, look="robot").trace
-    blind = trace.without_states()
-    fp = action_footprints(blind)
-    site = list(trace.action_names).index("place_yellow_0")
-    run = slice(53, 60)
-    assert not fp.stated[run, site].any() and np.all(fp.presence[run, site] < 0.5)
-    assert np.all(fp.trust[run, site] > 0.6) and np.all(fp.trust_low[run, site] < 0.6)
-    learned = learn_graph(blind)
-    assert not _same_partition(learned.labels, trace.states)
-    assert learned.confidence.suspect
-    assert any(d.evidence.get("episode") == [53, 59] for d in learned.doubts)

@@ -377,18 +377,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         confidence bound at ``z`` (:func:`~vggc_cp.vision.trust.kappa_lower`) of the kappa
         of the run's poses, judged on their held-out frames alone
         (:func:`~vggc_cp.vision.trust.pose_bounds`) -- a pose that few stated frames show
-        reading right counts for little, however well the site's other poses read
-        (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine stated
-        frames read full took the site's kappa, 0.98, and outweighed the right reading of
-        yellow_2 where the object counts decide). Where the footprint presence set it, the
-        same bound of the footprint presence on the stated frames of the run's poses (the
-        actions that led to its frames), no more than the site's kappa: an arm resting at
-        one place may hide a site in every frame of an episode, which the site's kappa over
-        all poses does not show, and a pose few stated frames show says little either way
-        (multifruit-2x3 robot s332: region 0 read empty for a whole episode with the arm at
-        region 1, the site's kappa 0.82; its three poses read 23 of their 25 stated frames
-        right, bound 0.57; the graph was quiet). NaN where the majority guess set it, or
-        nothing was read.
+        reading right counts for little, however well the site's other poses read; NaN
+        elsewhere. (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine
+        stated frames read full took the site's kappa, 0.98, and outweighed the right
+        reading of yellow_2 where the object counts decide.)
     stacked : ndarray of bool, shape (A,)
         The sites of slots the actions stack, above another or under one
         (:func:`~vggc_cp.vision.stacks.slots_above`).
@@ -487,13 +479,6 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             # judged on the one episode that taught it: nothing says how it reads the others
             kappa[a] = min(kappa[a], 0.0)
             own_kappa = read_kappa = 0.0
-        if guess is None and len(loose):
-            # the footprint presence, bounded by the stated frames of its runs' poses
-            judged = known.astype(np.float64)
-            own_bounds = pose_bounds((raw > 0.5) == (labels >= 0), judged, labels,
-                                     pose_sets[0], np.ones(len(raw)), run, loose, z)
-        else:
-            own_bounds = {}
         ids, inv = np.unique(run[loose], return_inverse=True)
         for k in range(len(ids)):
             members = loose[inv == k]
@@ -502,8 +487,6 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             trust[members, a] = read_kappa if int(ids[k]) in read else own_kappa
             if int(ids[k]) in bounds:
                 trust_low[members, a] = min(bounds[int(ids[k])], read_kappa)
-            elif int(ids[k]) in own_bounds and int(ids[k]) not in read:
-                trust_low[members, a] = min(own_bounds[int(ids[k])], own_kappa)
             posterior[members, a] = posterior[members, a].mean(axis=0)
     if looks:
         window_colour(posterior, looks, examples, bandwidth)

@@ -54,14 +54,14 @@ it takes the weighted mean of its frames' readings (:func:`pose_readings`,
 their presence is the better reading of one frame; where an arm stands over the site it is
 not. The labelled frames tell which: a site takes the pose reading only where it agrees with
 the actions' labels on more of them (weighted by strength) than the footprint presence does,
-by more than the two shares' noise (:func:`reads_better`),
-each fifth of the episodes read with what the other four fifths teach
-(:func:`held_out_agreement`; :func:`vggc_cp.vision.occupancy.settle`). Five folds, not two:
-a pose is taught by the looks of :data:`MIN_LOOKS` episodes of each kind, and one that a
-few episodes show can teach from four fifths of them where half would leave it unread in
-one half and never judged -- and a run such a pose reads is bounded by the frames that
-judged it (:func:`vggc_cp.vision.trust.pose_bounds`; tuning split, robot look: 9 false
-alarms then 6, 43 passing runs then 44).
+by more than the two shares' noise (:func:`reads_better`), each fifth of the episodes read
+with what the other four fifths teach (:func:`held_out_agreement`;
+:func:`vggc_cp.vision.occupancy.settle`). Five folds, not two: a pose is taught by the looks
+of :data:`MIN_LOOKS` episodes of each kind, and one that a few episodes show can teach from
+four fifths of them where half would leave it unread in one half and never judged -- and a
+run such a pose reads is bounded by the frames that judged it
+(:func:`vggc_cp.vision.trust.pose_bounds`; tuning split, robot look: 9 false alarms then 6,
+43 passing runs then 44).
 
 Nothing reads action names or ground-truth states.
 """
@@ -81,6 +81,7 @@ MIN_LOOKS = 2
 #: Folds of the labelled episodes in which the pose readings are judged on frames they did
 #: not learn from (:func:`held_out_frames`): each read with what the others teach.
 HELD_OUT_FOLDS = 5
+
 #: Odds at which a pose's labelled frames must show a separation for the pose to read the
 #: site: ``z^2 / 2 >= ln 20`` for the difference of the means over its standard error, the
 #: bar of the warning's description-length margin.
@@ -335,8 +336,8 @@ def held_out_agreement(x: np.ndarray, labels: np.ndarray, pose: np.ndarray,
     """:func:`agreement` of the pose reading on labelled frames it did not learn from: the
     episodes with labels are dealt into :data:`HELD_OUT_FOLDS` folds (in turn, in order),
     each fold is read with the window and looks the other folds teach, and the folds are
-    pooled (0 when nothing can be read; :func:`held_out_frames`). A reading judged on the frames that taught it would
-    flatter itself against the footprint presence.
+    pooled (0 when nothing can be read; :func:`held_out_frames`). A reading judged on the
+    frames that taught it would flatter itself against the footprint presence.
 
     Parameters
     ----------
