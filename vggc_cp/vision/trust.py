@@ -138,13 +138,14 @@ def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose:
         w = strength[members]
         if w.sum() <= 0:
             continue
-        by = {}
-        for b, wb in zip(pose[members].tolist(), w.tolist()):
-            by[int(b)] = by.get(int(b), 0.0) + wb
-        wb = np.array(list(by.values()))
-        pb = np.array([share[b] for b in by])
-        nb = np.array([max(frames[b], 1) for b in by], dtype=np.float64)
+        poses_, first, at = np.unique(pose[members], return_index=True, return_inverse=True)
+        order = np.argsort(first)                        # the poses as the run meets them
+        wb = np.bincount(at, weights=w)[order]           # the run's strength per pose
+        poses_ = poses_[order]
+        pb = np.array([share[int(b)] for b in poses_])
+        nb = np.array([max(frames[int(b)], 1) for b in poses_], dtype=np.float64)
         p = float(wb @ pb / wb.sum())
         n = float(wb.sum() ** 2 / (wb ** 2 / nb).sum())
-        out[int(r)] = max(float(kappa_lower(reading_kappa(p, labels), m, n, z)), 0.0)
+        kappa = 0.0 if m >= 1.0 else (p - m) / (1.0 - m)  # reading_kappa, m known
+        out[int(r)] = max(float(kappa_lower(kappa, m, n, z)), 0.0)
     return out
