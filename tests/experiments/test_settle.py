@@ -222,3 +222,21 @@ def test_bad_counts_are_refused(tmp_path, capsys):
     assert st.run_settle([], rounds=1).records == []
     assert main(["settle", str(tmp_path), "--rounds", "0"]) == 2
     assert "--rounds must be at least 1" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_round_of_refused_probes_is_learned_from(tmp_path):
+    """Draw 36's multifruit-2x3 robot s349: an episode read a red one place off (a warned
+    miss, one episode doubt). Its four suggested probes were all refused at their first pick
+    -- no transition, but four refusals the recording states: the round is learned again on
+    the trace that records them, which rules the misread red out of that episode, and the
+    graph is right and quiet."""
+    cfg = rob.RobustnessConfig(tmp_path, ("multifruit-2x3",), (349,), ("robot",),
+                               n_queries=Q, jobs=1, tasks=())
+    run = rob.run_robustness(cfg, progress=False)
+    rtab.write_tables(run.rows, tmp_path)
+    (row,) = run.rows
+    assert not rob.passes(row) and row["suspect"] and row["doubts"] >= 1
+    zero, sug, rand = st.run_settle(st.read_cases(tmp_path), rounds=1).records
+    assert sug.added == 0 and sug.episodes == 0 and rand.transitions == zero.transitions
+    assert (sug.nodes, sug.true_states) == (12, 12) and sug.settled

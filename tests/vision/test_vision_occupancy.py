@@ -110,6 +110,36 @@ def test_recorded_facts_are_written_after_the_reading_and_refusals_skip_stacks()
     assert stated[:, 0].tolist() == [True] * 5 + [False] * 2
 
 
+def test_a_refusal_that_leaves_two_values_keeps_the_reading_off_the_one_it_ruled_out():
+    """Red and yellow are played at s (action 4 places a yellow there): a refused red pick at
+    o5 leaves empty or yellow -- no label, but episode 3 may no longer read red there
+    (multifruit-2x3 robot s349, draw 36: an episode read a red one place off, and the four
+    probes of its doubt, all refused, stated nothing the reading had to respect)."""
+    kinds, colour, actions, episodes, _ = _reset_trace()
+    kinds, colour = np.append(kinds, PLACE).astype(np.int8), np.append(colour, 1)
+    acting = np.array([0, 1, 4])
+    facts = RecordedFacts(refusals=((5, 0),))
+    gone: dict = {}
+    lab = occ.site_labels(actions, episodes, acting, kinds, colour, facts, refusals=True,
+                          ruled_out=gone)
+    assert lab[5:].tolist() == [occ.UNLABELLED] * 2 and gone == {2: {0}}
+    # read red in episodes 1 and 3: episode 3 turns to yellow, episode 1 is left alone
+    labels = occ.site_labels(actions, episodes, acting, kinds, colour)
+    n, n_act = len(actions) + 1, len(kinds)
+    presence = np.full((n, n_act), 0.9)
+    posterior = np.tile(np.array([0.8, 0.2]), (n, n_act, 1))
+    stated = np.repeat((labels != occ.UNLABELLED)[:, None], n_act, axis=1)
+    runs = {0: (labels.copy(), np.zeros(n, int), np.flatnonzero(~stated[:, 0]), acting)}
+    occ.recorded_labels(runs, {}, facts, actions, episodes, kinds, colour, presence,
+                        posterior, stated, stated.astype(float))
+    assert posterior[5:, 0].tolist() == [[0.0, 1.0]] * 2 and presence[5, 0] == 0.9
+    assert posterior[:3, 0].tolist() == [[0.8, 0.2]] * 3 and not stated[5:, 0].any()
+    # the same refusal where only red is played at s states the site empty, as before
+    only_red = occ.site_labels(actions, episodes, np.array([0, 1]), kinds, colour, facts,
+                               refusals=True, ruled_out=(none := {}))
+    assert only_red[5:].tolist() == [slots.EMPTY] * 2 and none == {}
+
+
 def test_a_refused_pick_rules_nothing_out_where_another_pick_there_shares_its_colour():
     kinds, colour, actions, episodes, acting = _reset_trace()
     # action 4: a pick of another shape of red at s (same colour 0): the site may hold that

@@ -17,9 +17,13 @@ Round 0 is the robustness row itself (not recomputed). Each learned graph is eva
 the robustness study evaluates a cell (:func:`vggc_cp.evaluate.evaluate_trace` with the
 cell's queries, seed 0; :func:`vggc_cp.experiments.robustness.failures` is the pass rule).
 A case is **settled** at a round when its graph passes and is not warned. When a round's
-suggestions record nothing (no doubt, no proposal, or every proposal illegal from its first
-action), the suggest arm's trace and graph stay as they were: its record is carried over
-with nothing added (likewise the random arm when |D| did not grow).
+suggestions record nothing (no doubt, no proposal), the suggest arm's trace and graph stay
+as they were: its record is carried over with nothing added (likewise the random arm when
+|D| did not grow). A round whose every proposal was illegal from its first action adds no
+transition but does state facts, its refusals (:mod:`vggc_cp.recorded`): the graph is
+learned again on the trace that records them, as ``generate --episodes --append`` and
+``solve`` would (multifruit-2x3 robot s349, draw 36: four probes of an episode doubt, all
+refused at their first pick, were left out of the loop).
 
 Everything is deterministic: appended episodes and generated traces are seeded by the trace.
 """
@@ -347,7 +351,8 @@ def settle_case(case: SettleCase, rounds: int = 2, max_episodes: int = 20,
         requests = [EpisodeRequest(p.start_observation, tuple(p.actions), p.doubt, p.why)
                     for p in proposals]
         appended = append_episodes(trace, requests) if requests else None
-        if appended is None or appended.added_transitions == 0:
+        refused = appended is not None and any(e.illegal_action for e in appended.recorded)
+        if appended is None or (appended.added_transitions == 0 and not refused):
             rec = replace(prev, round=r, arm=SUGGEST, episodes=0)
         else:
             trace = appended.trace

@@ -79,7 +79,8 @@ NEAREST = 3
 
 def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np.ndarray,
                 kinds: np.ndarray, colour: np.ndarray, facts: RecordedFacts = NO_FACTS,
-                refusals: bool = False) -> np.ndarray:
+                refusals: bool = False, ruled_out: dict[int, set[int]] | None = None
+                ) -> np.ndarray:
     """What a site holds at every observation, as its actions state it.
 
     With ``facts`` (:func:`vggc_cp.recorded.recorded_facts`), an episode with no action at
@@ -92,7 +93,9 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
     where the hand holds the place's colour -- holding another explains the refusal):
     where one value is left, that is what the site holds. A refusal says that only where the
     site is in no stack (a block on top forbids a pick below it, an empty slot below a place
-    above it), which the caller knows.
+    above it), which the caller knows. Where several values are left, ``ruled_out`` (when
+    given) gets, per episode (its index in ``episodes``), the values the refusals ruled out
+    (:func:`~vggc_cp.vision.resets.reset_labels`).
 
     Parameters
     ----------
@@ -132,7 +135,7 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
     if facts:
         reset_labels(labels, actions, episodes, untouched, is_acting, kinds, colour, facts,
-                     refusals)
+                     refusals, ruled_out)
     return labels
 
 
@@ -524,12 +527,23 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
     those few states in every site's reading of the rest of the trace (on multifruit-4x6
     robot s82, after one round of suggested episodes, the 1,193 site frames they state were
     all right, yet as teachers they moved the readings of other episodes enough for the
-    object counts to place two reds wrongly: 68 nodes for 66 became 58)."""
+    object counts to place two reds wrongly: 68 nodes for 66 became 58).
+
+    Where the refusals rule out some values but leave several (a refused red pick where red
+    and yellow are played), the unstated frames of those episodes may not read a ruled-out
+    one (:func:`ruled_out_reading`): the object counts then choose among what is left."""
     in_stack = stacked_sites(above, presence.shape[1])
     n_col = posterior.shape[2]
     for a, (labels, _run, _loose, acting) in runs.items():
         free = not in_stack[a] and not in_stack[np.asarray(acting, dtype=np.int64)].any()
-        now = site_labels(actions, episodes, acting, kinds, colour, facts, refusals=free)
+        gone: dict[int, set[int]] = {}
+        now = site_labels(actions, episodes, acting, kinds, colour, facts, refusals=free,
+                          ruled_out=gone)
+        for e, values in gone.items():
+            first, last = episodes[e]
+            idx = np.arange(first, last + 1)
+            idx = idx[(labels[idx] == UNLABELLED) & (now[idx] == UNLABELLED)]
+            ruled_out_reading(presence[:, a], posterior[:, a], idx, values)
         new = np.flatnonzero((now != UNLABELLED) & (labels == UNLABELLED))
         if not len(new):
             continue
@@ -540,6 +554,39 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
         full = new[now[new] >= 0]
         if n_col > 1 and len(full):
             posterior[full, a] = np.eye(n_col)[now[full]]
+
+
+def ruled_out_reading(presence: np.ndarray, posterior: np.ndarray, idx: np.ndarray,
+                      values: set[int]) -> None:
+    """The reading of one site at the observations ``idx``, in place, kept off ``values``
+    (:data:`EMPTY` and colours) that a recorded refusal rules out there: a ruled-out colour
+    loses its share of the colour posterior (what is left is renormalised, or shared evenly
+    where nothing is), no colour left reads empty, and a ruled-out empty reads occupied.
+
+    >>> p, post = np.array([1.0, 0.2]), np.array([[0.9, 0.1], [0.5, 0.5]])
+    >>> ruled_out_reading(p, post, np.array([0, 1]), {0})
+    >>> p.tolist(), post.tolist()
+    ([1.0, 0.2], [[0.0, 1.0], [0.0, 1.0]])
+    >>> ruled_out_reading(p, post, np.array([1]), {EMPTY})
+    >>> p.tolist()
+    [1.0, 1.0]
+    """
+    if not len(idx):
+        return
+    n_col = posterior.shape[1]
+    cols = sorted(c for c in values if 0 <= c < n_col)
+    if cols:
+        keep = np.ones(n_col, dtype=bool)
+        keep[cols] = False
+        if not keep.any():
+            presence[idx] = 0.0
+        else:
+            post = posterior[idx] * keep
+            total = post.sum(axis=1, keepdims=True)
+            posterior[idx] = np.where(total > 0, post / np.where(total > 0, total, 1.0),
+                                      keep / keep.sum())
+    if EMPTY in values:
+        presence[idx] = 1.0
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,

@@ -5,7 +5,9 @@ an earlier one. At one site, the episodes that no action acts at hold one thing 
 so a reset makes such episodes hold the same thing, and carries to them what the actions
 state at the other end (:func:`reset_labels`). A refused action rules out what it needs at
 its site (a place: a free place, where the hand holds its colour); where one value is left,
-that is what the site holds. Unstated runs of observations
+that is what the site holds, and where several are, the values it ruled out are what the
+site's reading may not take (a refused red pick where red and yellow are played: the place
+holds nothing or a yellow, whatever the images read). Unstated runs of observations
 that a reset joins hold one thing too, and are read as one (:func:`joined_runs`).
 
 Groups are the connected components of the reset pairs (as
@@ -38,14 +40,16 @@ def components(n: int, pairs) -> np.ndarray:
 
 def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[int, int]],
                  untouched: np.ndarray, is_acting: np.ndarray, kinds: np.ndarray,
-                 colour: np.ndarray, facts: RecordedFacts, refusals: bool) -> None:
+                 colour: np.ndarray, facts: RecordedFacts, refusals: bool,
+                 ruled_out: dict[int, set[int]] | None = None) -> None:
     """:func:`~vggc_cp.vision.occupancy.site_labels`' resets and refusals, in place on
     ``labels``.
 
     Episodes without an action at the site (``untouched``) that resets join hold one value;
     a group takes the value a reset from a labelled observation states, or, with
     ``refusals``, the one value the refused actions leave. Values that disagree leave the
-    group unlabelled.
+    group unlabelled. Where the refusals leave several values, ``ruled_out`` (when given)
+    gets, per untouched episode of the group, the values they rule out (filled in place).
     """
     episode = np.empty(len(labels), dtype=np.int64)
     for e, (first, last) in enumerate(episodes):
@@ -81,6 +85,10 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         for g, left in options.items():
             if len(left) == 1:
                 values.setdefault(g, set()).update(left)
+            elif len(left) > 1 and ruled_out is not None:
+                gone = {EMPTY, *acted} - left
+                for e in np.flatnonzero(untouched & (group == g)):
+                    ruled_out.setdefault(int(e), set()).update(gone)
     for e in np.flatnonzero(untouched):
         held = values.get(int(group[e]), set())
         if len(held) == 1:
