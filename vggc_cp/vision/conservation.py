@@ -37,7 +37,12 @@ counts, the other slots and ``m``; at ``m = 1/2`` it was free room for any objec
 had left over, and a count one too many could win (random-705 randomized: a level-2 place
 taken once, read by nothing, held a fourth red in every episode). Where they cannot decide
 (two unread slots, one object), the reading's low kappa is what the read doubts report
-(:mod:`vggc_cp.solvers.read_doubts`).
+(:mod:`vggc_cp.solvers.read_doubts`). The counts pool every episode and weigh the readings by
+their kappas; one episode's assignment rests on a few runs, and there a run that the poses of
+the hand read weighs as far as its lower bound trusts it (``sure``: the few held-out frames of
+the poses that read it, :func:`vggc_cp.vision.trust.pose_bounds`), so that one pose of huge
+separation in a handful of taught frames, reading a run alone at the site's kappa of 1.0,
+cannot empty a well-read place beside it (multifruit-4x6 robot s350, draw 36; session 46).
 
 Stacks are facts too (a block on a block, where the actions state which slot is above which):
 an untouched slot under one the actions fill in any frame of the episode holds something, and
@@ -292,8 +297,8 @@ def count_trust(margin: float) -> float:
 
 def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: np.ndarray,
              trust: np.ndarray, slot: np.ndarray, colour: np.ndarray,
-             above: dict[int, list[int]] | None = None, odds: float = COUNT_ODDS
-             ) -> tuple[np.ndarray, np.ndarray, int]:
+             above: dict[int, list[int]] | None = None, odds: float = COUNT_ODDS,
+             sure: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """What every episode's untouched slots hold, as the object counts require (module
     docstring).
 
@@ -315,6 +320,14 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
     odds : float
         The log-likelihood by which the counts must beat every count one object away
         (:func:`best_counts`) to be used; :data:`COUNT_ODDS` (20 to 1) by default.
+    sure : ndarray, shape (N, A), optional
+        How far each reading can be trusted for sure (a lower bound, at most ``trust``): what
+        an episode's assignment weighs it by. The counts, which pool every episode, weigh
+        the readings by ``trust``; one episode's assignment rests on a few runs, and a run
+        that one pose of few taught frames read weighs no more than that pose's frames show
+        (multifruit-4x6 robot s350, draw 36: one frame read a place full at kappa 1.0, bound
+        0.52, in three episodes, and the counts emptied the well-read place beside it).
+        None: ``trust``.
 
     Returns
     -------
@@ -341,9 +354,15 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
     # any object the counts have left over, and an untouched slot holds all episode long
     # what it held at the start
     firsts = np.array([first for first, _ in trace.episodes()], dtype=np.int64)
-    soft = trusted(presence, trust, start_rates(presence, stated, firsts))
+    rates = start_rates(presence, stated, firsts)
+    soft = trusted(presence, trust, rates)
     p = np.stack([presence[:, m].mean(axis=1) for m in members], axis=1)        # (N, S)
     p_soft = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
+    if sure is None:
+        p_sure = p_soft
+    else:
+        soft = trusted(presence, np.minimum(sure, trust), rates)
+        p_sure = np.stack([soft[:, m].mean(axis=1) for m in members], axis=1)
     post = np.stack([posterior[:, m].mean(axis=1) for m in members], axis=1)    # (N, S, C)
     told = np.stack([stated[:, m].any(axis=1) for m in members], axis=1)
     values = np.where(p >= 0.5, post.argmax(axis=-1), -1)
@@ -364,15 +383,16 @@ def conserve(trace: Trace, presence: np.ndarray, posterior: np.ndarray, stated: 
         forced = stack_forced(values[frames] >= 0, loose, below)
         plans.append((first, last, loose, holds, p_soft[frames][:, loose].mean(axis=0),
                       post[frames][:, loose].mean(axis=0), forced,
-                      in_the_air(values[frames] >= 0, loose, below) if below else None))
+                      in_the_air(values[frames] >= 0, loose, below) if below else None,
+                      p_sure[frames][:, loose].mean(axis=0)))
     # the counts are weighed on the assignments the stacks allow, as they are then assigned:
     # an object the counts can only put in the air is no evidence for them
-    total, margin = best_counts([(h, ps, po, fo, fl) for *_, h, ps, po, fo, fl in plans],
+    total, margin = best_counts([(h, ps, po, fo, fl) for *_, h, ps, po, fo, fl, _ in plans],
                                 object_counts(values, held, n_col))
     if margin < odds:
         return presence, posterior, 0, trust   # the recording does not settle the counts
     changed = 0
-    for first, last, loose, holds, p_loose, post_loose, forced, floats in plans:
+    for first, last, loose, holds, _, post_loose, forced, floats, p_loose in plans:
         need = total - holds
         if not len(loose) or (need < 0).any() or need.sum() > len(loose):
             continue                       # the stated slots already break the counts

@@ -321,7 +321,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
 
     Last, objects are conserved: what the slots an episode never touches hold is assigned as
     the trace's object counts require and the readings, each as far as its kappa trusts it,
-    make most likely (:func:`vggc_cp.vision.conservation.conserve`).
+    make most likely (:func:`vggc_cp.vision.conservation.conserve`); in one episode's
+    assignment a run the poses read weighs as far as its bound (``trust_low``) trusts it.
 
     The actions at a site are found with the twins and slot mates the trace's sequence
     allows (:func:`action_twins`, :func:`action_mates`).
@@ -503,8 +504,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
     # objects are conserved: the counts decide what the readings leave open
+    # each episode's assignment weighs a run the poses read as far as its bound trusts it
+    sure = np.where(np.isfinite(trust_low), np.clip(trust_low, 0.0, None), trust)
     presence, posterior, _, counted = conserve(trace, presence, posterior, stated, trust,
-                                               slot, colour, above)
+                                               slot, colour, above, sure=sure)
     # where the counts overruled a pose reading, its bound is no surer than their choice
     moved = counted != trust
     trust_low = np.where(moved & np.isfinite(trust_low), np.minimum(trust_low, counted),
