@@ -194,10 +194,10 @@ def test_a_slot_no_reading_reaches_is_no_free_room_for_an_extra_object():
     assert counts(0.5) == [3]
     assert counts(np.array([0.5, 0.5, 2 / 7])) == [2]
 
-def test_a_tie_keeps_the_readings():
-    """Two untouched slots read full with equal certainty and one object to place (a block
-    on a block whose stack the actions never showed, blocks-3 clean seed 58: the count would
-    have emptied the right slot of the two): the episode keeps what it read."""
+def _one_too_many():
+    """Four episodes acting at place 0 only; places 1 and 2 untouched and read full in the
+    first episode, place 1 read empty in the later ones: two objects, the first episode one
+    too many. Returns the trace, its presence and where the actions state it."""
     trace = _trace([0, 1, -1, 0, 1, -1, 0, 1, -1, 0, 1])   # four episodes acting at 0 only
     n = trace.n_obs
     presence = np.ones((n, 6))
@@ -205,6 +205,14 @@ def test_a_tie_keeps_the_readings():
     stated = np.zeros((n, 6), dtype=bool)
     stated[:, 0:2] = True
     presence[3:, 2:4] = 0.0        # later episodes: place 1 read empty, so two objects
+    return trace, n, presence, stated
+
+
+def test_a_tie_keeps_the_readings():
+    """Two untouched slots read full with equal certainty and one object to place (a block
+    on a block whose stack the actions never showed, blocks-3 clean seed 58: the count would
+    have emptied the right slot of the two): the episode keeps what it read."""
+    trace, n, presence, stated = _one_too_many()
     trust = np.ones((n, 6))        # every reading trusted
     kept, _, changed, _ = cons.conserve(trace, presence, np.ones((n, 6, 1)), stated, trust,
                                         SLOT, COLOUR)
@@ -234,13 +242,7 @@ def test_an_episode_weighs_a_run_the_poses_read_as_far_as_its_bound_trusts_it():
     kept at 1.0 and the counts emptied the well-read place beside it, in three episodes).
     At the kappas the count empties place 1; weighed by the bound, place 2. The counts
     themselves pool every episode on the kappas, so the bound does not move them."""
-    trace = _trace([0, 1, -1, 0, 1, -1, 0, 1, -1, 0, 1])   # four episodes acting at 0 only
-    n = trace.n_obs
-    presence = np.ones((n, 6))
-    presence[:, 0:2] = np.tile([1.0, 0.0, 1.0], 4)[:, None]  # place 0 stated
-    stated = np.zeros((n, 6), dtype=bool)
-    stated[:, 0:2] = True
-    presence[3:, 2:4] = 0.0        # later episodes: place 1 read empty, so two objects
+    trace, n, presence, stated = _one_too_many()
     trust = np.ones((n, 6))
     trust[0:3, 2:4] = 0.9
     at_kappa, _, changed, _ = cons.conserve(trace, presence, np.ones((n, 6, 1)), stated,
