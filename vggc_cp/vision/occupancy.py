@@ -48,7 +48,7 @@ from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
 from vggc_cp.vision.density import kernel_posterior
-from vggc_cp.vision.resets import joined_runs, reset_labels
+from vggc_cp.vision.resets import joined_runs, reset_labels, ruled_out_reading
 from vggc_cp.vision.slots import (
     EMPTY,
     UNLABELLED,
@@ -534,7 +534,8 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
 
     Where the refusals rule out some values but leave several (a refused red pick where red
     and yellow are played), the unstated frames of those episodes may not read a ruled-out
-    one (:func:`ruled_out_reading`): the object counts then choose among what is left."""
+    one (:func:`~vggc_cp.vision.resets.ruled_out_reading`): the object counts then choose
+    among what is left."""
     in_stack = stacked_sites(above, presence.shape[1])
     n_col = posterior.shape[2]
     for a, (labels, _run, _loose, acting) in runs.items():
@@ -557,39 +558,6 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
         full = new[now[new] >= 0]
         if n_col > 1 and len(full):
             posterior[full, a] = np.eye(n_col)[now[full]]
-
-
-def ruled_out_reading(presence: np.ndarray, posterior: np.ndarray, idx: np.ndarray,
-                      values: set[int]) -> None:
-    """The reading of one site at the observations ``idx``, in place, kept off ``values``
-    (:data:`EMPTY` and colours) that a recorded refusal rules out there: a ruled-out colour
-    loses its share of the colour posterior (what is left is renormalised, or shared evenly
-    where nothing is), no colour left reads empty, and a ruled-out empty reads occupied.
-
-    >>> p, post = np.array([1.0, 0.2]), np.array([[0.9, 0.1], [0.5, 0.5]])
-    >>> ruled_out_reading(p, post, np.array([0, 1]), {0})
-    >>> p.tolist(), post.tolist()
-    ([1.0, 0.2], [[0.0, 1.0], [0.0, 1.0]])
-    >>> ruled_out_reading(p, post, np.array([1]), {EMPTY})
-    >>> p.tolist()
-    [1.0, 1.0]
-    """
-    if not len(idx):
-        return
-    n_col = posterior.shape[1]
-    cols = sorted(c for c in values if 0 <= c < n_col)
-    if cols:
-        keep = np.ones(n_col, dtype=bool)
-        keep[cols] = False
-        if not keep.any():
-            presence[idx] = 0.0
-        else:
-            post = posterior[idx] * keep
-            total = post.sum(axis=1, keepdims=True)
-            posterior[idx] = np.where(total > 0, post / np.where(total > 0, total, 1.0),
-                                      keep / keep.sum())
-    if EMPTY in values:
-        presence[idx] = 1.0
 
 
 def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,

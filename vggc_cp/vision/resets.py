@@ -8,7 +8,8 @@ its site (a place: a free place, where the hand holds its colour); where one val
 that is what the site holds, and where several are, the values it ruled out are what the
 site's reading may not take (a refused red pick where red and yellow are played: the place
 holds nothing or a yellow, whatever the images read). Unstated runs of observations
-that a reset joins hold one thing too, and are read as one (:func:`joined_runs`).
+that a reset joins hold one thing too, and are read as one (:func:`joined_runs`). What the
+refusals rule out keeps a reading off it (:func:`ruled_out_reading`).
 
 Groups are the connected components of the reset pairs (as
 :mod:`vggc_cp.vision.support` groups the slots of a stack).
@@ -94,6 +95,39 @@ def reset_labels(labels: np.ndarray, actions: np.ndarray, episodes: list[tuple[i
         if len(held) == 1:
             first, last = episodes[e]
             labels[first:last + 1] = next(iter(held))
+
+
+def ruled_out_reading(presence: np.ndarray, posterior: np.ndarray, idx: np.ndarray,
+                      values: set[int]) -> None:
+    """The reading of one site at the observations ``idx``, in place, kept off ``values``
+    (:data:`EMPTY` and colours) that a recorded refusal rules out there: a ruled-out colour
+    loses its share of the colour posterior (what is left is renormalised, or shared evenly
+    where nothing is), no colour left reads empty, and a ruled-out empty reads occupied.
+
+    >>> p, post = np.array([1.0, 0.2]), np.array([[0.9, 0.1], [0.5, 0.5]])
+    >>> ruled_out_reading(p, post, np.array([0, 1]), {0})
+    >>> p.tolist(), post.tolist()
+    ([1.0, 0.2], [[0.0, 1.0], [0.0, 1.0]])
+    >>> ruled_out_reading(p, post, np.array([1]), {EMPTY})
+    >>> p.tolist()
+    [1.0, 1.0]
+    """
+    if not len(idx):
+        return
+    n_col = posterior.shape[1]
+    cols = sorted(c for c in values if 0 <= c < n_col)
+    if cols:
+        keep = np.ones(n_col, dtype=bool)
+        keep[cols] = False
+        if not keep.any():
+            presence[idx] = 0.0
+        else:
+            post = posterior[idx] * keep
+            total = post.sum(axis=1, keepdims=True)
+            posterior[idx] = np.where(total > 0, post / np.where(total > 0, total, 1.0),
+                                      keep / keep.sum())
+    if EMPTY in values:
+        presence[idx] = 1.0
 
 
 def joined_runs(run: np.ndarray, known: np.ndarray, resets) -> np.ndarray:
