@@ -10,7 +10,7 @@ import pytest
 from vggc_cp.recorded import RecordedFacts
 from vggc_cp.trace import PICK, PLACE, load_trace
 from vggc_cp.vision import occupancy as occ
-from vggc_cp.vision import slots, stacks
+from vggc_cp.vision import slots
 from vggc_cp.vision.footprints import action_footprints, overlaps
 from vggc_cp.vision.working import normalise_frames
 
@@ -295,41 +295,6 @@ def test_a_footprint_presence_no_better_than_the_majority_is_not_a_reading():
     assert occ.majority_guess(0.81, mostly_full) is None
     assert occ.majority_guess(0.6, np.array([slots.EMPTY] * 3 + [0])) == 0.0
     assert occ.majority_guess(0.0, np.full(4, occ.UNLABELLED)) is None
-
-
-def test_a_covered_slot_takes_the_colour_its_uncovered_frames_read():
-    """Site 0 (a bottom slot) and site 1 (the slot above it, footprints overlapping): the
-    actions state both in the first episode (site 1 holds something only when site 0 does),
-    and in the second, which never acts at site 0, site 1 holds an object for two of its
-    four frames. Site 0 reads red while uncovered and the top object's green while covered;
-    its run takes the red its uncovered frames read."""
-    ov = np.array([[1.0, 0.6], [0.6, 1.0]])
-    # episode 1: frames 0-3, site 0 full (red) throughout, site 1 empty then full
-    la = np.array([0, 0, 0, 0, occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED,
-                   occ.UNLABELLED])
-    lb = np.array([slots.EMPTY, slots.EMPTY, 1, 1, slots.EMPTY, 1, 1, slots.EMPTY])
-    run_a = np.array([0, 0, 0, 0, 1, 1, 1, 1])
-    runs = {0: (la, run_a, np.arange(4, 8), np.array([0])),
-            1: (lb, np.arange(8), np.zeros(0, dtype=np.int64), np.array([1]))}
-    assert stacks.slots_above(runs, ov, 0.5) == {0: [1]}
-    presence = np.ones((8, 2))
-    presence[[0, 1, 4, 7], 1] = 0.0                        # site 1 empty in those frames
-    red, green = [1.0, 0.0], [0.0, 1.0]
-    seen = np.array([[red, red]] * 4 + [[red, red], [green, green], [green, green],
-                                        [red, red]])
-    posterior = seen.copy()
-    posterior[4:8, 0] = seen[4:8, 0].mean(axis=0)          # the run's mean: half and half
-    occ.uncovered_colour(presence, posterior, seen, runs, ov, 0.5)
-    np.testing.assert_allclose(posterior[4:8, 0], [red] * 4)
-    # covered throughout: the run keeps its mean
-    presence[[4, 7], 1] = 1.0
-    posterior[4:8, 0] = 0.5
-    occ.uncovered_colour(presence, posterior, seen, runs, ov, 0.5)
-    np.testing.assert_allclose(posterior[4:8, 0], 0.5)
-    # no stated frame with site 1 full and site 0 full: site 1 is not above it
-    runs[1] = (np.full(8, slots.EMPTY), np.arange(8), np.zeros(0, dtype=np.int64),
-               np.array([1]))
-    assert stacks.slots_above(runs, ov, 0.5) == {}
 
 
 def _same_partition(labels: np.ndarray, states: np.ndarray) -> bool:

@@ -489,7 +489,7 @@ def action_footprints(trace: Trace, params: FootprintConfig | None = None,
     seen_p, seen_c = presence, posterior.argmax(axis=-1)
     presence, posterior, stated, kappa, trust, trust_low, stacked = settle(
         trace, presence, posterior, ov, colour, counts, params.site_overlap, x, params.support,
-        params.saturation, twin, mates, params.bandwidth, rests=rests)
+        params.saturation, twin, mates, params.bandwidth, rests=rests, maps=maps)
     # a stated fact rests on which actions act at one slot; where the site's own reading
     # contradicts it, one of the two is wrong, and it is not offered as a fact
     full = presence >= 0.5

@@ -36,8 +36,11 @@ the object on top covers, and its colour reads the top object's. Which slot is a
 is what the actions state (:func:`vggc_cp.vision.stacks.slots_above`: the one above holds
 something only when the one below does, where their footprints overlap or the sequence alone
 makes it 20 to 1); an unlabelled run of the slot below takes the colour its uncovered frames
-read (:func:`uncovered_colour`): nothing acts at the slot during the run, so it holds one
-object throughout. Nothing reads action names or ground-truth states.
+read (:func:`~vggc_cp.vision.covered.uncovered_colour`): nothing acts at the slot during the
+run, so it holds one object throughout. A run covered throughout takes the colour of the
+nearest stated looks of covered stacks where those read the stated runs better than the
+covered pixels, and is trusted only as far as its reading agrees with them
+(:mod:`vggc_cp.vision.covered`). Nothing reads action names or ground-truth states.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ import numpy as np
 from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
+from vggc_cp.vision.covered import covered_trust, nearest_covered, uncovered_colour
 from vggc_cp.vision.density import kernel_posterior
 from vggc_cp.vision.resets import joined_runs, reset_labels, ruled_out_reading
 from vggc_cp.vision.slots import (
@@ -282,7 +286,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
            colour: np.ndarray, counts: np.ndarray, site_overlap: float,
            x: np.ndarray | None = None, support: float = 0.2, saturation: float = 0.5,
            twin: np.ndarray | None = None, mates: np.ndarray | None = None,
-           bandwidth: float = 0.02, rests: bool = False, z: float = READ_Z
+           bandwidth: float = 0.02, rests: bool = False, z: float = READ_Z,
+           maps: np.ndarray | None = None
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every site's presence and colour as the trace's actions settle them.
 
@@ -308,7 +313,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       that (:func:`majority_guess`).
       A run read per pose also takes the colour its window shows (:func:`window_colour`);
       a run of a slot that another slot covers in some of its frames takes the colour of its
-      uncovered frames (:func:`uncovered_colour`).
+      uncovered frames (:func:`~vggc_cp.vision.covered.uncovered_colour`), and one covered
+      in all of them that of the nearest stated looks of covered stacks, where they read
+      better than the covered pixels (:func:`~vggc_cp.vision.covered.nearest_covered`).
 
     Then objects rest on something: where a frame's readings put something above an empty
     slot of a stack, the stack takes its most likely filling with nothing in the air
@@ -353,6 +360,12 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         (or place) at one slot (:func:`~vggc_cp.vision.untouched.pose_groups`), and an
         episode's first frame takes the pose it looks like
         (:func:`~vggc_cp.vision.untouched.placed_starts`).
+    z : float
+        The normal quantile of the lower confidence bounds on the readings' kappas.
+    maps : ndarray, shape (A, H, W), optional
+        The action footprints (at ``x``'s size): the window in which a covered slot's run
+        is compared with the stated looks of covered stacks
+        (:func:`~vggc_cp.vision.covered.nearest_covered`; not without ``x`` and ``maps``).
 
     Returns
     -------
@@ -375,16 +388,20 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
         pose reading, the footprint presence, or 0 for the majority guess -- which may be
         less than the site's ``kappa`` where some runs no pose reads; where the object counts
         overruled the reading, no more than their choice is sure
-        (:func:`~vggc_cp.vision.conservation.count_trust`).
+        (:func:`~vggc_cp.vision.conservation.count_trust`); for a run covered throughout,
+        no more than the kappa of the reading of its colour
+        (:func:`~vggc_cp.vision.covered.covered_trust`).
     trust_low : ndarray of float64, shape (N, A)
         Where a pose reading set the run, how far it can be trusted for sure: the lower
         confidence bound at ``z`` (:func:`~vggc_cp.vision.trust.kappa_lower`) of the kappa
         of the run's poses, judged on their held-out frames alone
         (:func:`~vggc_cp.vision.trust.pose_bounds`) -- a pose that few stated frames show
-        reading right counts for little, however well the site's other poses read; NaN
-        elsewhere. (random-782 robot: a run of yellow_3 that one frame of a pose seen in nine
-        stated frames read full took the site's kappa, 0.98, and outweighed the right
-        reading of yellow_2 where the object counts decide.)
+        reading right counts for little, however well the site's other poses read; for a
+        run covered throughout, no more than the bound on the reading of its colour
+        (:func:`~vggc_cp.vision.covered.covered_trust`); NaN elsewhere. (random-782 robot:
+        a run of yellow_3 that one frame of a pose seen in nine stated frames read full took
+        the site's kappa, 0.98, and outweighed the right reading of yellow_2 where the
+        object counts decide.)
     stacked : ndarray of bool, shape (A,)
         The sites of slots the actions stack, above another or under one
         (:func:`~vggc_cp.vision.stacks.slots_above`).
@@ -503,6 +520,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     presence, _ = supported(presence, trust, stated, slot, above, trace.episodes())
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
+        looked = nearest_covered(x, maps, presence, posterior, seen, runs, above, z=z)
     # objects are conserved: the counts decide what the readings leave open
     # each episode's assignment weighs a run the poses read as far as its bound trusts it
     sure = np.where(np.isfinite(trust_low), np.clip(trust_low, 0.0, None), trust)
@@ -512,6 +530,10 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     moved = counted != trust
     trust_low = np.where(moved & np.isfinite(trust_low), np.minimum(trust_low, counted),
                          trust_low)
+    # a run covered throughout reads its colour from the object on top: trusted only as far
+    # as such reads agree with what the actions state
+    if n_col > 1:
+        covered_trust(presence, seen, runs, above, counted, trust_low, z, looked)
     return (presence, posterior, stated, kappa, counted, trust_low,
             stacked_sites(above, presence.shape[1]))
 
@@ -558,31 +580,6 @@ def recorded_labels(runs: dict, above: dict, facts: RecordedFacts, actions: np.n
         full = new[now[new] >= 0]
         if n_col > 1 and len(full):
             posterior[full, a] = np.eye(n_col)[now[full]]
-
-
-def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarray,
-                     runs: dict, ov: np.ndarray, site_overlap: float,
-                     above: dict[int, list[int]] | None = None) -> None:
-    """The colour of a covered slot's unlabelled runs from its uncovered frames, in place.
-
-    Between two actions at a slot what it holds does not change, but while another slot
-    above it holds something its colour is read from pixels the object on top covers
-    (:func:`~vggc_cp.vision.stacks.slots_above`). A run of a site that is uncovered in some
-    of its frames (every site above it empty there, presence below 1/2) takes the mean
-    colour those frames read (``seen``, the posterior before the run means); a run covered
-    throughout keeps its mean.
-    """
-    above = slots_above(runs, ov, site_overlap) if above is None else above
-    for a, tops in above.items():
-        _, run, loose, _ = runs[a]
-        if not len(loose):
-            continue
-        covered = (presence[:, tops] >= 0.5).any(axis=1)
-        for r in np.unique(run[loose]):
-            members = loose[run[loose] == r]
-            clear = members[~covered[members]]
-            if 0 < len(clear) < len(members):
-                posterior[members, a] = seen[clear, a].mean(axis=0)
 
 
 def majority_guess(own: float, labels: np.ndarray) -> float | None:

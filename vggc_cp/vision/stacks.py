@@ -8,7 +8,7 @@ is stacked on which is read from the sites' labels
 lower slot's trusted reading (:func:`read_labels`, :func:`stack_odds`). The stacks feed the
 support of :mod:`vggc_cp.vision.support`, the object counts of
 :mod:`vggc_cp.vision.conservation` and the colour of covered slots
-(:func:`vggc_cp.vision.occupancy.uncovered_colour`). Nothing reads action names or
+(:func:`vggc_cp.vision.covered.uncovered_colour`). Nothing reads action names or
 ground-truth states.
 """
 
