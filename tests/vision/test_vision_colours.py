@@ -4,6 +4,7 @@ again in the windows where the footprints pool them (:mod:`vggc_cp.vision.colour
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.colours import (
@@ -219,3 +220,32 @@ def test_one_look_does_not_contradict_the_twins_colour():
     points[2] = np.concatenate([off, off + 0.002])
     assert twin_colours(colour, classes, counts, kinds, actions, [(0, 5)], near,
                         points).tolist() == [0, 0, 1, 1, 2]
+
+
+@pytest.mark.slow
+def test_episodes_recorded_on_request_keep_the_colours_apart():
+    """Draw 38's multifruit-2x3 robot s361 after one round of suggested episodes: fourteen
+    short episodes start wherever the arm was put, and pooled as one pose of every start
+    they put the only window that showed red and yellow apart on the arm: one colour for
+    both, 18 nodes for 12. An episode's first frame takes the pose it looks like: two
+    colours, and the graph is right."""
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.sim.append import EpisodeRequest, append_episodes
+    from vggc_cp.sim.explore import generate
+    from vggc_cp.solvers.suggest import suggest_episodes
+    from vggc_cp.vision.footprints import action_footprints
+
+    trace = generate("multifruit-2x3", 95, 361, look="robot").trace
+    blind = trace.without_states()
+    learned = learn_graph(blind)
+    proposals = suggest_episodes(blind, learned.labels, learned.doubts, 20)
+    assert len(proposals) >= 10
+    more = append_episodes(trace, [EpisodeRequest(p.start_observation, tuple(p.actions))
+                                   for p in proposals]).trace
+    colour = action_footprints(more.without_states()).colour
+    names = more.action_names
+    assert {colour[i] for i, n in enumerate(names) if "red" in n} \
+        .isdisjoint({colour[i] for i, n in enumerate(names) if "yellow" in n})
+    again = learn_graph(more.without_states())
+    labels = np.asarray(again.labels)
+    assert len(set(labels.tolist())) == len(set(more.states.tolist())) == 12

@@ -43,7 +43,13 @@ from vggc_cp.vision.density import kernel_loglik, kernel_posterior
 from vggc_cp.vision.occupancy import site_labels
 from vggc_cp.vision.places import after_distances, trace_slots
 from vggc_cp.vision.slots import EMPTY, acting_at, action_episodes, alternations
-from vggc_cp.vision.untouched import pose_readings, poses, site_window, window_chroma
+from vggc_cp.vision.untouched import (
+    placed_starts,
+    pose_readings,
+    poses,
+    site_window,
+    window_chroma,
+)
 
 #: Most chroma examples a class keeps in :func:`pool_sites` (evenly spaced).
 MAX_EXAMPLES = 2000
@@ -472,8 +478,9 @@ def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.
     (:func:`~vggc_cp.vision.occupancy.site_labels`); the frames they label teach the site's
     window (:func:`~vggc_cp.vision.untouched.site_window`), and each frame labelled with a class
     gives the chroma of what deviates in it from its pose's empty look
-    (:func:`~vggc_cp.vision.untouched.window_chroma`), where its pose shows the site at
-    :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
+    (:func:`~vggc_cp.vision.untouched.window_chroma`; an episode's first frame takes the
+    pose it looks like, :func:`~vggc_cp.vision.untouched.placed_starts`), where its pose
+    shows the site at :data:`~vggc_cp.vision.untouched.READ_ODDS` and the frame reads present
     (:func:`~vggc_cp.vision.untouched.pose_readings`). A footprint on a robot arm reads the
     arm's grey for every class; the window lies where the objects differ.
 
@@ -496,7 +503,12 @@ def window_site_chroma(trace: Trace, x: np.ndarray, ov: np.ndarray, classes: np.
     """
     colour = np.where(counts > 0, classes, -1)
     twin, mates, _ = trace_slots(trace, x, ov, colour, site_overlap)
-    kinds, episodes, pose = trace.action_kinds(), trace.episodes(), poses(trace.actions)
+    # an episode's first frame takes the pose it looks like: where the hand rests at the
+    # place it last acted on, one pose of every start lies anywhere (multifruit-2x3 robot
+    # s361: fourteen appended episodes, pooled as one such pose, put the only window that
+    # showed red and yellow apart on the arm)
+    kinds, episodes = trace.action_kinds(), trace.episodes()
+    pose = placed_starts(x, poses(trace.actions))
     episode = trace.episode_index()
     sites: list[dict[int, np.ndarray]] = []
     for a in np.flatnonzero(counts > 0):
