@@ -458,13 +458,17 @@ def test_multifruit_2x3_robot_s242_misplaced_episode_is_named_and_warned():
     a run the poses read by its lower bound, and the bound of this episode's runs is low:
     the counts set it as the weaker footprint readings say, 13 nodes again -- warned, and the
     warning names that episode (draw 33's multifruit-2x3 robot s332, a silent miss the other
-    way round, is now right and quiet)."""
+    way round, is now right and quiet). Since session 47 the windows tell red from yellow here
+    (they read one colour for both before): 12 nodes, two of them holding two states, still
+    warned and naming the episode."""
     from vggc_cp.pipeline import learn_graph
     from vggc_cp.sim.explore import generate
 
     trace = generate("multifruit-2x3", 95, 242, look="robot").trace
     learned = learn_graph(trace.without_states())
-    assert len(set(learned.labels.tolist())) == 13 != len(set(trace.states.tolist())) == 12
+    labels = np.asarray(learned.labels)
+    assert len(set(trace.states.tolist())) == 12
+    assert any(len(set(trace.states[labels == n].tolist())) > 1 for n in set(labels.tolist()))
     assert learned.confidence.suspect
     assert any("observations 102-105" in r for r in learned.confidence.reasons)
 
