@@ -185,11 +185,11 @@ def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
 NEAREST_COVERED = 3
 
 
-def _votes(X: np.ndarray, told: np.ndarray, told_run: np.ndarray, told_col: np.ndarray,
-           frames: np.ndarray, own_run: np.ndarray | None, n_col: int, k: int) -> np.ndarray:
-    """Colour votes of ``frames`` (shape (F, n_col)): each frame's ``k`` nearest stated
-    covered frames (``told``), never of its own run (``own_run``)."""
-    a, b = X[frames], X[told]
+def _votes(a: np.ndarray, b: np.ndarray, told_run: np.ndarray, told_col: np.ndarray,
+           own_run: np.ndarray | None, n_col: int, k: int) -> np.ndarray:
+    """Colour votes (shape (F, n_col)) of the looks ``a`` (shape (F, P)): each one's ``k``
+    nearest stated covered looks ``b`` (shape (T, P); runs ``told_run``, colours
+    ``told_col``), never of its own run (``own_run``)."""
     d = np.maximum((a * a).sum(axis=1)[:, None] + (b * b).sum(axis=1)[None, :]
                    - 2.0 * (a @ b.T), 0.0)
     if own_run is not None:
@@ -197,9 +197,9 @@ def _votes(X: np.ndarray, told: np.ndarray, told_run: np.ndarray, told_col: np.n
     kk = min(k, d.shape[1])
     near = np.argsort(d, axis=1, kind="stable")[:, :kk]
     ok = np.take_along_axis(np.isfinite(d), near, axis=1)
-    out = np.zeros((len(frames), n_col))
+    out = np.zeros((len(a), n_col))
     for j in range(kk):
-        np.add.at(out, (np.arange(len(frames))[ok[:, j]], told_col[near[ok[:, j], j]]), 1.0)
+        np.add.at(out, (np.arange(len(a))[ok[:, j]], told_col[near[ok[:, j], j]]), 1.0)
     return out
 
 
@@ -237,8 +237,11 @@ def nearest_covered(x: np.ndarray, maps: np.ndarray, presence: np.ndarray,
         if not todo or len(np.unique(run[told])) < 2:
             continue
         window = (maps[[a, *tops]] > 0).any(axis=0)
-        X = x[:, window].reshape(len(x), -1).astype(np.float64)
-        votes = _votes(X, told, run[told], labels[told], told, run[told], n_col, k)
+        def looks(idx, window=window):
+            return x[idx][:, window].reshape(len(idx), -1).astype(np.float64)
+
+        known = looks(told)
+        votes = _votes(known, known, run[told], labels[told], run[told], n_col, k)
         ids = np.unique(run[told])
         truth = np.array([labels[told[run[told] == r][0]] for r in ids])
         vote = np.array([votes[run[told] == r].sum(axis=0).argmax() for r in ids])
@@ -251,7 +254,8 @@ def nearest_covered(x: np.ndarray, maps: np.ndarray, presence: np.ndarray,
         if low <= 0.0 or (np.isfinite(own) and low <= kappa_lower(own, own_m, own_n, z)):
             continue
         for members in todo:
-            v = _votes(X, told, run[told], labels[told], members, None, n_col, k).sum(axis=0)
+            v = _votes(looks(members), known, run[told], labels[told], None, n_col,
+                       k).sum(axis=0)
             posterior[members, a] = (v + 0.5) / (v.sum() + 0.5 * n_col)
         out[int(a)] = (kappa, m, len(ids))
     return out
