@@ -39,17 +39,17 @@ def covered_frames(presence: np.ndarray, tops: list[int]) -> np.ndarray:
     return (np.asarray(presence)[:, tops] >= 0.5).any(axis=1)
 
 
-def covered_runs(presence: np.ndarray, a: int, tops: list[int], run: np.ndarray,
+def covered_runs(presence: np.ndarray, a: int, covered: np.ndarray, run: np.ndarray,
                  loose: np.ndarray) -> list[np.ndarray]:
     """The unlabelled runs of site ``a`` (observations ``loose``, run ids ``run``) that are
-    covered in every frame and read full: those whose colour no uncovered frame reads.
+    covered in every frame (``covered``, :func:`covered_frames`) and read full: those whose
+    colour no uncovered frame reads.
 
     >>> presence = np.array([[1.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
-    >>> [m.tolist() for m in covered_runs(presence, 0, [1], np.array([0, 0, 1, 2]),
-    ...                                   np.arange(4))]
+    >>> [m.tolist() for m in covered_runs(presence, 0, covered_frames(presence, [1]),
+    ...                                   np.array([0, 0, 1, 2]), np.arange(4))]
     [[0, 1]]
     """
-    covered = covered_frames(presence, tops)
     out = []
     for r in np.unique(run[loose]):
         members = loose[run[loose] == r]
@@ -81,11 +81,7 @@ def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarr
     throughout keeps its mean.
     """
     above = slots_above(runs, ov, site_overlap) if above is None else above
-    for a, tops in above.items():
-        _, run, loose, _ = runs[a]
-        if not len(loose):
-            continue
-        covered = covered_frames(presence, tops)
+    for a, _, _, run, loose, covered in _stacked_under(above, runs, presence):
         for r in np.unique(run[loose]):
             members = loose[run[loose] == r]
             clear = members[~covered[members]]
@@ -163,7 +159,7 @@ def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
     out: dict[int, tuple[float, float]] = {}
     if seen.shape[2] < 2:
         return out
-    for a, tops, labels, run, loose, covered in _stacked_under(above, runs, presence):
+    for a, _, labels, run, loose, covered in _stacked_under(above, runs, presence):
         if read and a in read:
             kappa, m, n = read[a]
         else:
@@ -171,7 +167,7 @@ def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
         if not np.isfinite(kappa):
             continue
         low = float(kappa_lower(kappa, m, n, z))
-        todo = covered_runs(presence, a, tops, run, loose)
+        todo = covered_runs(presence, a, covered, run, loose)
         for members in todo:
             trust[members, a] = np.minimum(trust[members, a], kappa)
             old = trust_low[members, a]
@@ -232,30 +228,31 @@ def nearest_covered(x: np.ndarray, maps: np.ndarray, presence: np.ndarray,
     if n_col < 2 or maps is None or x is None:
         return out
     for a, tops, labels, run, loose, covered in _stacked_under(above, runs, presence):
-        todo = covered_runs(presence, a, tops, run, loose)
+        todo = covered_runs(presence, a, covered, run, loose)
         told = np.flatnonzero((labels >= 0) & covered)
         if not todo or len(np.unique(run[told])) < 2:
             continue
         window = (maps[[a, *tops]] > 0).any(axis=0)
-        def looks(idx, window=window):
-            return x[idx][:, window].reshape(len(idx), -1).astype(np.float64)
-
-        known = looks(told)
-        votes = _votes(known, known, run[told], labels[told], run[told], n_col, k)
-        ids = np.unique(run[told])
-        truth = np.array([labels[told[run[told] == r][0]] for r in ids])
-        vote = np.array([votes[run[told] == r].sum(axis=0).argmax() for r in ids])
-        m = float(np.bincount(truth).max() / len(truth))
-        if m >= 1.0:
+        known = _looks(x, told, window)
+        # each stated covered frame's vote from the other runs, judged one vote a run
+        votes = np.zeros((len(labels), n_col))
+        votes[told] = _votes(known, known, run[told], labels[told], run[told], n_col, k)
+        kappa, m, n = covered_colour_kappa(labels, run, covered, votes)
+        if not np.isfinite(kappa):
             continue
-        kappa = (float(np.mean(vote == truth)) - m) / (1.0 - m)
         own, own_m, own_n = covered_colour_kappa(labels, run, covered, seen[:, a])
-        low = float(kappa_lower(kappa, m, len(ids), z))
+        low = float(kappa_lower(kappa, m, n, z))
         if low <= 0.0 or (np.isfinite(own) and low <= kappa_lower(own, own_m, own_n, z)):
             continue
         for members in todo:
-            v = _votes(looks(members), known, run[told], labels[told], None, n_col,
-                       k).sum(axis=0)
+            v = _votes(_looks(x, members, window), known, run[told], labels[told], None,
+                       n_col, k).sum(axis=0)
             posterior[members, a] = (v + 0.5) / (v.sum() + 0.5 * n_col)
-        out[int(a)] = (kappa, m, len(ids))
+        out[int(a)] = (kappa, m, n)
     return out
+
+
+def _looks(x: np.ndarray, idx: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """The frames ``idx`` of ``x`` (shape (N, H, W, 3)) in the pixels ``window``, flat:
+    shape (len(idx), 3 * window.sum()), float64."""
+    return x[idx][:, window].reshape(len(idx), -1).astype(np.float64)
