@@ -7,13 +7,13 @@ import pytest
 
 from vggc_cp.vision import slots, stacks
 from vggc_cp.vision.covered import (
-    covered_colour_kappa,
     covered_frames,
     covered_trust,
     nearest_covered,
     uncovered_colour,
 )
 from vggc_cp.vision.occupancy import UNLABELLED
+from vggc_cp.vision.trust import run_colour_kappa
 
 
 def test_a_covered_slot_takes_the_colour_its_uncovered_frames_read():
@@ -81,13 +81,13 @@ def test_covered_frames_are_those_with_a_slot_above_full():
 def test_the_covered_colour_is_judged_one_vote_per_stated_run():
     presence, seen, runs, labels, run = _stack(20, 10)         # half right: chance
     covered = covered_frames(presence, [1])
-    kappa, m, n = covered_colour_kappa(labels, run, covered, seen[:, 0])
+    kappa, m, n = run_colour_kappa(labels, run, covered, seen[:, 0])
     assert (round(kappa, 6), m, n) == (0.0, 0.5, 20)
     # every stated run read right: kappa 1; one colour stated everywhere shows nothing
-    kappa, *_ = covered_colour_kappa(labels, run, covered, np.eye(2)[np.maximum(labels, 0)])
+    kappa, *_ = run_colour_kappa(labels, run, covered, np.eye(2)[np.maximum(labels, 0)])
     assert kappa == 1.0
     one = np.where(labels >= 0, 0, labels)
-    assert np.isnan(covered_colour_kappa(one, run, covered, seen[:, 0])[0])
+    assert np.isnan(run_colour_kappa(one, run, covered, seen[:, 0])[0])
 
 
 def test_a_run_covered_throughout_is_trusted_as_far_as_covered_reads_agree():

@@ -297,6 +297,37 @@ def test_a_footprint_presence_no_better_than_the_majority_is_not_a_reading():
     assert occ.majority_guess(0.0, np.full(4, occ.UNLABELLED)) is None
 
 
+def test_a_colour_the_pixels_read_no_better_than_the_majority_is_not_a_reading():
+    """Site 0's pixels read red for every run (a footprint on an arm's grey, a hair redder
+    than yellow) while the actions state yellow in three runs of four: no reading (kappa
+    below 0), so its unlabelled run takes the stated shares; the run a window read keeps its
+    colour, and so does a run some slot above covers. Site 1's pixels read every stated run
+    right: its unlabelled run keeps what they read."""
+    labels = np.array([0, 1, 1, 1, occ.UNLABELLED, occ.UNLABELLED, occ.UNLABELLED,
+                       occ.UNLABELLED, occ.UNLABELLED])
+    run = np.array([0, 1, 2, 3, 4, 4, 5, 6, 6])
+    loose = np.arange(4, 9)
+    grey = np.tile([[0.52, 0.48]], (9, 1))
+    right = np.eye(2)[[0, 1, 1, 1, 0, 0, 0, 0, 0]]
+    seen = np.stack([grey, right], axis=1)
+    posterior = seen.copy()
+    presence = np.ones((9, 3))
+    presence[:, 2] = 0.0
+    presence[7:, 2] = 1.0                     # a slot above site 0 holds something in run 6
+    runs = {0: (labels, run, loose, None), 1: (labels, run, loose, None)}
+    out = occ.majority_colour(posterior, seen, presence, runs, {0: [2]}, {0: {5}})
+    np.testing.assert_allclose(out[0], [1.5 / 5, 3.5 / 5])
+    np.testing.assert_allclose(posterior[4:6, 0], [[0.3, 0.7]] * 2)   # the stated shares
+    np.testing.assert_array_equal(posterior[6:, 0], grey[6:])         # window-read, covered
+    assert 1 not in out
+    np.testing.assert_array_equal(posterior[:, 1], right)
+    # one colour stated everywhere judges nothing: the pixels stand
+    one = np.where(labels >= 0, 1, labels)
+    post = seen.copy()
+    assert occ.majority_colour(post, seen, presence, {0: (one, run, loose, None)}) == {}
+    np.testing.assert_array_equal(post, seen)
+
+
 def _same_partition(labels: np.ndarray, states: np.ndarray) -> bool:
     return bool(np.array_equal(labels[:, None] == labels[None], states[:, None] == states[None]))
 

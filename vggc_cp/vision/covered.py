@@ -5,7 +5,7 @@ and its colour mostly reads the top object's. Between two actions at the slot it
 object, so a run of its frames that is uncovered somewhere takes the colour those frames
 read (:func:`uncovered_colour`). A run covered throughout (:func:`covered_runs`) has no
 such frame. How far a reading of those runs can be trusted is measured the way every
-reading here is, against what the actions state (:func:`covered_colour_kappa`: the covered
+reading here is, against what the actions state (:func:`~vggc_cp.vision.trust.run_colour_kappa`: the covered
 runs whose colour the episode's actions state, one vote each). On stacks three high of two
 colours (random-1082, draw 37) the covered pixels agreed with the stated colour at or below
 chance (kappa -0.7 to 0.1): the order of a stack's lower objects was a coin toss, the
@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.vision.stacks import slots_above
-from vggc_cp.vision.trust import READ_Z, kappa_lower
+from vggc_cp.vision.trust import READ_Z, kappa_lower, run_colour_kappa
 
 
 def covered_frames(presence: np.ndarray, tops: list[int]) -> np.ndarray:
@@ -89,55 +89,6 @@ def uncovered_colour(presence: np.ndarray, posterior: np.ndarray, seen: np.ndarr
                 posterior[members, a] = seen[clear, a].mean(axis=0)
 
 
-def covered_colour_kappa(labels: np.ndarray, run: np.ndarray, covered: np.ndarray,
-                         seen: np.ndarray) -> tuple[float, float, int]:
-    """How well the covered pixels tell a slot's colour: Cohen's kappa of the colour a
-    covered run reads against the colour its episode's actions state.
-
-    Each run of the slot (observations between two actions at it) with covered frames
-    whose colour the actions state casts one vote: the colour of largest mean posterior
-    over those frames (``seen``, before any run means), right or wrong. Frames of one run
-    are one look and are not counted apart.
-
-    Parameters
-    ----------
-    labels : ndarray of int, shape (N,)
-        :func:`~vggc_cp.vision.occupancy.site_labels` (a colour, empty or unlabelled).
-    run : ndarray of int, shape (N,)
-    covered : ndarray of bool, shape (N,)
-        :func:`covered_frames`.
-    seen : ndarray, shape (N, C)
-        The site's colour posterior per frame.
-
-    Returns
-    -------
-    kappa : float
-        ``(p - m) / (1 - m)`` for the share ``p`` of right votes and the share ``m`` of the
-        most common stated colour; NaN where no covered run is stated, or all stated ones
-        hold one colour (nothing shown either way).
-    majority : float
-        ``m``.
-    n : int
-        The votes.
-
-    >>> labels = np.array([0, 0, 1, 1, 0, 1])
-    >>> seen = np.array([[.9, .1], [.8, .2], [.2, .8], [.3, .7], [.1, .9], [.9, .1]])
-    >>> k, m, n = covered_colour_kappa(labels, np.arange(6), np.ones(6, bool), seen)
-    >>> round(k, 3), m, n     # 4 of 6 right, against 1/2 by saying one colour
-    (0.333, 0.5, 6)
-    """
-    told = (np.asarray(labels) >= 0) & np.asarray(covered, dtype=bool)
-    ids = np.unique(run[told])
-    if not len(ids):
-        return float("nan"), 1.0, 0
-    truth = np.array([labels[told & (run == r)][0] for r in ids])
-    vote = np.array([seen[told & (run == r)].mean(axis=0).argmax() for r in ids])
-    m = float(np.bincount(truth).max() / len(truth))
-    if m >= 1.0:
-        return float("nan"), m, len(ids)
-    return (float(np.mean(truth == vote)) - m) / (1.0 - m), m, len(ids)
-
-
 def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
                   above: dict[int, list[int]], trust: np.ndarray, trust_low: np.ndarray,
                   z: float = READ_Z, read: dict | None = None
@@ -146,7 +97,7 @@ def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
     their colour agrees with the stated colours, in place: in ``trust`` (shape (N, A)) no
     more than its kappa, in ``trust_low`` no more than its lower confidence bound
     (:func:`~vggc_cp.vision.trust.kappa_lower`, at ``z``). The reading is the covered pixels'
-    (:func:`covered_colour_kappa` of ``seen``) or, for a site in ``read``, the nearest
+    (:func:`~vggc_cp.vision.trust.run_colour_kappa` of ``seen``) or, for a site in ``read``, the nearest
     looks' (its (kappa, majority, votes), :func:`nearest_covered`). Sites with one colour
     (``seen`` of one column), or none of whose covered runs is stated, are left as they
     are.
@@ -163,7 +114,7 @@ def covered_trust(presence: np.ndarray, seen: np.ndarray, runs: dict,
         if read and a in read:
             kappa, m, n = read[a]
         else:
-            kappa, m, n = covered_colour_kappa(labels, run, covered, seen[:, a])
+            kappa, m, n = run_colour_kappa(labels, run, covered, seen[:, a])
         if not np.isfinite(kappa):
             continue
         low = float(kappa_lower(kappa, m, n, z))
@@ -212,7 +163,7 @@ def nearest_covered(x: np.ndarray, maps: np.ndarray, presence: np.ndarray,
     the colours of its ``k`` nearest such frames (squared differences over the footprints
     of the slot and the slots above it, ``maps`` > 0); the run takes the vote shares. The
     same vote for every stated covered run, from the other runs' frames only, is judged
-    against its stated colour (:func:`covered_colour_kappa`'s kappa, one vote a run); the
+    against its stated colour (:func:`~vggc_cp.vision.trust.run_colour_kappa`'s kappa, one vote a run); the
     looks replace the covered pixels' colour where their lower bound at ``z`` shows them
     better than chance (above 0) and beats the pixels' bound. (random-10 robot, tuning
     split: looks judged at kappa 0 to 0.45, bounds below 0, took the place of pixels judged
@@ -237,10 +188,10 @@ def nearest_covered(x: np.ndarray, maps: np.ndarray, presence: np.ndarray,
         # each stated covered frame's vote from the other runs, judged one vote a run
         votes = np.zeros((len(labels), n_col))
         votes[told] = _votes(known, known, run[told], labels[told], run[told], n_col, k)
-        kappa, m, n = covered_colour_kappa(labels, run, covered, votes)
+        kappa, m, n = run_colour_kappa(labels, run, covered, votes)
         if not np.isfinite(kappa):
             continue
-        own, own_m, own_n = covered_colour_kappa(labels, run, covered, seen[:, a])
+        own, own_m, own_n = run_colour_kappa(labels, run, covered, seen[:, a])
         low = float(kappa_lower(kappa, m, n, z))
         if low <= 0.0 or (np.isfinite(own) and low <= kappa_lower(own, own_m, own_n, z)):
             continue

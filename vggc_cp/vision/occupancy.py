@@ -40,7 +40,14 @@ read (:func:`~vggc_cp.vision.covered.uncovered_colour`): nothing acts at the slo
 run, so it holds one object throughout. A run covered throughout takes the colour of the
 nearest stated looks of covered stacks where those read the stated runs better than the
 covered pixels, and is trusted only as far as its reading agrees with them
-(:mod:`vggc_cp.vision.covered`). Nothing reads action names or ground-truth states.
+(:mod:`vggc_cp.vision.covered`).
+
+**Colours no pixel reads.** A site's pixels are judged on its colour the way its presence
+is, one vote a stated run (:func:`~vggc_cp.vision.trust.run_colour_kappa`); where they agree
+with the actions no more often than the colour most stated runs hold, the unread runs take
+the stated shares of the colours (:func:`majority_colour`), as a presence no better than the
+majority takes the majority (:func:`majority_guess`). Nothing reads action names or
+ground-truth states.
 """
 
 from __future__ import annotations
@@ -50,7 +57,12 @@ import numpy as np
 from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
-from vggc_cp.vision.covered import covered_trust, nearest_covered, uncovered_colour
+from vggc_cp.vision.covered import (
+    covered_frames,
+    covered_trust,
+    nearest_covered,
+    uncovered_colour,
+)
 from vggc_cp.vision.density import kernel_posterior
 from vggc_cp.vision.resets import joined_runs, reset_labels, ruled_out_reading
 from vggc_cp.vision.slots import (
@@ -62,7 +74,13 @@ from vggc_cp.vision.slots import (
 )
 from vggc_cp.vision.stacks import slots_above, stacked_sites
 from vggc_cp.vision.support import supported
-from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
+from vggc_cp.vision.trust import (
+    READ_Z,
+    pose_bounds,
+    reading_kappa,
+    run_colour_kappa,
+    stated_colours,
+)
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_frames,
@@ -316,6 +334,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       uncovered frames (:func:`~vggc_cp.vision.covered.uncovered_colour`), and one covered
       in all of them that of the nearest stated looks of covered stacks, where they read
       better than the covered pixels (:func:`~vggc_cp.vision.covered.nearest_covered`).
+      A site whose pixels read its colour no better than the stated majority gives its other
+      unread runs the stated shares of the colours (:func:`majority_colour`).
 
     Then objects rest on something: where a frame's readings put something above an empty
     slot of a stack, the stack takes its most likely filling with nothing in the air
@@ -509,8 +529,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             if int(ids[k]) in bounds:
                 trust_low[members, a] = min(bounds[int(ids[k])], read_kappa)
             posterior[members, a] = posterior[members, a].mean(axis=0)
-    if looks:
-        window_colour(posterior, looks, examples, bandwidth)
+    windowed = window_colour(posterior, looks, examples, bandwidth) if looks else {}
     above = slots_above(runs, ov, site_overlap, presence, trust)
     if facts:
         recorded_labels(runs, above, facts, actions, episodes, kinds, colour, presence,
@@ -521,6 +540,8 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     if n_col > 1:
         uncovered_colour(presence, posterior, seen, runs, ov, site_overlap, above)
         looked = nearest_covered(x, maps, presence, posterior, seen, runs, above, z=z)
+        # a colour the pixels read no better than saying the stated majority: that majority
+        majority_colour(posterior, seen, presence, runs, above, windowed)
     # objects are conserved: the counts decide what the readings leave open
     # each episode's assignment weighs a run the poses read as far as its bound trusts it
     sure = np.where(np.isfinite(trust_low), np.clip(trust_low, 0.0, None), trust)
@@ -604,7 +625,7 @@ def majority_guess(own: float, labels: np.ndarray) -> float | None:
 
 
 def window_colour(posterior: np.ndarray, looks: dict, examples: list[list[np.ndarray]],
-                  bandwidth: float) -> None:
+                  bandwidth: float) -> dict[int, set[int]]:
     """Colour of the unlabelled runs of the sites read per pose, in place.
 
     The colours' examples are what the labelled frames show in the sites' windows
@@ -621,16 +642,97 @@ def window_colour(posterior: np.ndarray, looks: dict, examples: list[list[np.nda
     examples : list of list of ndarray
         Per colour, the chroma arrays of its examples.
     bandwidth : float
+
+    Returns
+    -------
+    dict
+        Site -> the ids of the runs it set.
     """
+    done: dict[int, set[int]] = {}
     pooled = [np.concatenate(parts) if parts else np.zeros((0, 2)) for parts in examples]
     if min(len(p) for p in pooled) < 2:
-        return
+        return done
     for a, (chroma, strength, shows, run, loose) in looks.items():
         seen = loose[shows[loose]]
         if not len(seen):
             continue
         post = kernel_posterior(chroma[seen], pooled, bandwidth)
+        done[int(a)] = {int(r) for r in np.unique(run[seen])}
         for r in np.unique(run[seen]):
             these = run[seen] == r
             w = strength[seen][these]
             posterior[loose[run[loose] == r], a] = np.average(post[these], axis=0, weights=w)
+    return done
+
+
+def majority_colour(posterior: np.ndarray, seen: np.ndarray, presence: np.ndarray,
+                    runs: dict, above: dict[int, list[int]] | None = None,
+                    read: dict[int, set[int]] | None = None) -> dict[int, np.ndarray]:
+    """What colour the unread runs of a site hold when its pixels are no reading of it, in
+    place: the colour as :func:`majority_guess` takes the presence.
+
+    A site's pixels read its colour (``seen``, the posterior before the run means); judged
+    one vote a stated run (:func:`~vggc_cp.vision.trust.run_colour_kappa`, on the frames no
+    slot above covers), a reading that agrees with what the actions state no more often than
+    saying the colour most stated runs hold (kappa at most 0) is not a reading of the site.
+    On a robot's camera the footprint of a site may lie on the arm and read its grey for
+    every colour, a vote of the same colour whatever the site holds; the run's mean of such
+    a posterior (near one half each) was a coin toss that the object counts then settled
+    either way (multifruit-4x6 robot s364, draw 38: two places never acted on in two
+    episodes took each other's colours, and the graph split three states). Such a site's
+    unlabelled runs, uncovered throughout and not read by a window
+    (``read``, :func:`window_colour`), take the shares of the colours its stated runs hold
+    (one each, half a run added to every colour), which the counts
+    (:func:`~vggc_cp.vision.conservation.conserve`) may still overrule. Sites whose stated
+    runs hold one colour (nothing judged) keep their pixels.
+
+    Parameters
+    ----------
+    posterior, seen : ndarray, shape (N, A, C)
+    presence : ndarray, shape (N, A)
+    runs : dict
+        Site -> (labels, run, loose, acting) of :func:`settle`.
+    above : dict, optional
+        Site -> sites stacked on it (:func:`~vggc_cp.vision.stacks.slots_above`).
+    read : dict, optional
+        Site -> ids of the runs a window read (:func:`window_colour`).
+
+    Returns
+    -------
+    dict
+        Site -> the colour shares its runs took, where it took them.
+
+    Examples
+    --------
+    A site whose pixels always read colour 0, stated 0 in one run and 1 in three: no
+    reading; its unlabelled run (frames 4-5) takes the stated shares.
+
+    >>> labels = np.array([0, 1, 1, 1, -2, -2])
+    >>> run, loose = np.array([0, 1, 2, 3, 4, 4]), np.array([4, 5])
+    >>> seen = np.tile([[[0.6, 0.4]]], (6, 1, 1))
+    >>> post = seen.copy()
+    >>> out = majority_colour(post, seen, np.ones((6, 1)), {0: (labels, run, loose, None)})
+    >>> np.round(post[4, 0], 3).tolist()
+    [0.3, 0.7]
+    """
+    out: dict[int, np.ndarray] = {}
+    n_col = posterior.shape[2]
+    if n_col < 2:
+        return out
+    for a, (labels, run, loose, _) in runs.items():
+        if not len(loose):
+            continue
+        tops = (above or {}).get(a, [])
+        clear = ~covered_frames(presence, tops) if tops else np.ones(len(labels), dtype=bool)
+        kappa, _, _ = run_colour_kappa(labels, run, clear, seen[:, a])
+        if not np.isfinite(kappa) or kappa > 0.0:
+            continue
+        truth = stated_colours(labels, run, clear)
+        shares = (np.bincount(truth, minlength=n_col) + 0.5) / (len(truth) + 0.5 * n_col)
+        done = (read or {}).get(a, set())
+        for r in np.unique(run[loose]):
+            members = loose[run[loose] == r]
+            if int(r) not in done and clear[members].all():
+                posterior[members, a] = shares
+        out[int(a)] = shares
+    return out

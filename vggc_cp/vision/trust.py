@@ -88,6 +88,68 @@ def majority_share(labels: np.ndarray) -> float | None:
     return max(full, 1.0 - full)
 
 
+def run_colour_kappa(labels: np.ndarray, run: np.ndarray, frames: np.ndarray,
+                     seen: np.ndarray) -> tuple[float, float, int]:
+    """How well a colour reading tells a slot's colour: Cohen's kappa of the colour each run
+    reads against the colour its episode's actions state.
+
+    Each run of the slot (observations between two actions at it) with frames among
+    ``frames`` whose colour the actions state casts one vote: the colour of largest mean
+    posterior over those frames (``seen``, before any run means), right or wrong. Frames of
+    one run are one look and are not counted apart.
+
+    Parameters
+    ----------
+    labels : ndarray of int, shape (N,)
+        :func:`~vggc_cp.vision.occupancy.site_labels` (a colour, empty or unlabelled).
+    run : ndarray of int, shape (N,)
+    frames : ndarray of bool, shape (N,)
+        The frames the reading is judged on (those covered, :func:`~vggc_cp.vision.covered.
+        covered_frames`, or those not).
+    seen : ndarray, shape (N, C)
+        The site's colour posterior per frame.
+
+    Returns
+    -------
+    kappa : float
+        ``(p - m) / (1 - m)`` for the share ``p`` of right votes and the share ``m`` of the
+        most common stated colour; NaN where no such run is stated, or all stated ones hold
+        one colour (nothing shown either way).
+    majority : float
+        ``m``.
+    n : int
+        The votes.
+
+    >>> labels = np.array([0, 0, 1, 1, 0, 1])
+    >>> seen = np.array([[.9, .1], [.8, .2], [.2, .8], [.3, .7], [.1, .9], [.9, .1]])
+    >>> k, m, n = run_colour_kappa(labels, np.arange(6), np.ones(6, bool), seen)
+    >>> round(k, 3), m, n     # 4 of 6 right, against 1/2 by saying one colour
+    (0.333, 0.5, 6)
+    """
+    told = (np.asarray(labels) >= 0) & np.asarray(frames, dtype=bool)
+    ids = np.unique(run[told])
+    if not len(ids):
+        return float("nan"), 1.0, 0
+    truth = stated_colours(labels, run, told)
+    vote = np.array([seen[told & (run == r)].mean(axis=0).argmax() for r in ids])
+    m = float(np.bincount(truth).max() / len(truth))
+    if m >= 1.0:
+        return float("nan"), m, len(ids)
+    return (float(np.mean(truth == vote)) - m) / (1.0 - m), m, len(ids)
+
+
+def stated_colours(labels: np.ndarray, run: np.ndarray, told: np.ndarray) -> np.ndarray:
+    """The stated colour of every run with a frame among ``told`` (labelled full), in the
+    order of the run ids, int64 shape (R,): one per run.
+
+    >>> stated_colours(np.array([1, 1, 0, -1]), np.array([0, 0, 1, 2]), np.ones(4, bool)).tolist()
+    [1, 0]
+    """
+    told = np.asarray(told, dtype=bool) & (np.asarray(labels) >= 0)
+    return np.array([labels[told & (run == r)][0] for r in np.unique(run[told])],
+                    dtype=np.int64)
+
+
 def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose: np.ndarray,
                 strength: np.ndarray, run: np.ndarray, loose: np.ndarray,
                 z: float = READ_Z) -> dict[int, float]:
