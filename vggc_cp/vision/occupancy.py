@@ -730,9 +730,11 @@ def majority_colour(posterior: np.ndarray, seen: np.ndarray, presence: np.ndarra
         truth = stated_colours(labels, run, clear)
         shares = (np.bincount(truth, minlength=n_col) + 0.5) / (len(truth) + 0.5 * n_col)
         done = (read or {}).get(a, set())
-        for r in np.unique(run[loose]):
-            members = loose[run[loose] == r]
-            if int(r) not in done and clear[members].all():
+        ids, inv = np.unique(run[loose], return_inverse=True)
+        groups = np.split(loose[np.argsort(inv, kind="stable")],
+                          np.cumsum(np.bincount(inv))[:-1])
+        for r, members in zip(ids.tolist(), groups):
+            if r not in done and clear[members].all():
                 posterior[members, a] = shares
         out[int(a)] = shares
     return out

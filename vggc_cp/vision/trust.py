@@ -127,11 +127,13 @@ def run_colour_kappa(labels: np.ndarray, run: np.ndarray, frames: np.ndarray,
     (0.333, 0.5, 6)
     """
     told = (np.asarray(labels) >= 0) & np.asarray(frames, dtype=bool)
-    ids = np.unique(run[told])
+    ids, inv = np.unique(run[told], return_inverse=True)
     if not len(ids):
         return float("nan"), 1.0, 0
     truth = stated_colours(labels, run, told)
-    vote = np.array([seen[told & (run == r)].mean(axis=0).argmax() for r in ids])
+    sums = np.zeros((len(ids), seen.shape[1]))
+    np.add.at(sums, inv, seen[told])
+    vote = sums.argmax(axis=1)                  # the largest mean is the largest sum
     m = float(np.bincount(truth).max() / len(truth))
     if m >= 1.0:
         return float("nan"), m, len(ids)
@@ -146,8 +148,8 @@ def stated_colours(labels: np.ndarray, run: np.ndarray, told: np.ndarray) -> np.
     [1, 0]
     """
     told = np.asarray(told, dtype=bool) & (np.asarray(labels) >= 0)
-    return np.array([labels[told & (run == r)][0] for r in np.unique(run[told])],
-                    dtype=np.int64)
+    _, first = np.unique(run[told], return_index=True)
+    return np.asarray(labels)[told][first].astype(np.int64)
 
 
 def pose_bounds(right: np.ndarray, weight: np.ndarray, labels: np.ndarray, pose: np.ndarray,
