@@ -270,3 +270,22 @@ def test_random_14_clean_keeps_each_level_of_a_region_its_own_slot(monkeypatch):
             places.setdefault(int(s), set()).add((region, level))
     assert len(places) >= 5
     assert all(len(p) == 1 for p in places.values()), places
+
+
+def test_one_pick_then_place_is_no_mate():
+    """Red (0, 1) and yellow (2, 3) act at two slots: ten episodes put them side by side
+    only in orders that break one slot (30 pairs, none agreeing). One episode has red's pick
+    followed by blue's place (4, 5, a third slot, footprints apart): that pair agrees, at a
+    rate of 1 in 31, which alone would make blue red's mate at 20 to 1; one pick then place
+    is one coincidence of order, and two are asked."""
+    kinds = np.array([PICK, PLACE] * 3)
+    colour, twin = np.array([0, 0, 1, 1, 2, 2]), np.array([1, 0, 3, 2, 5, 4])
+    actions, episodes, start = [], [], 0
+    for seq in [[1, 3, 0, 2]] * 10 + [[1, 0, 5]]:
+        episodes.append((start, start + len(seq)))
+        actions += seq + [-1]
+        start += len(seq) + 1
+    actions = np.array(actions[:-1])
+    out = slots.sequence_mates(actions, episodes, np.eye(6), colour, kinds, twin, 0.2)
+    assert not out.any()
+    assert slots.MIN_MATE_AGREEMENTS == 2
