@@ -5,8 +5,9 @@ and its colour mostly reads the top object's. Between two actions at the slot it
 object, so a run of its frames that is uncovered somewhere takes the colour those frames
 read (:func:`uncovered_colour`). A run covered throughout (:func:`covered_runs`) has no
 such frame. How far a reading of those runs can be trusted is measured the way every
-reading here is, against what the actions state (:func:`~vggc_cp.vision.trust.run_colour_kappa`: the covered
-runs whose colour the episode's actions state, one vote each). On stacks three high of two
+reading here is, against what the actions state
+(:func:`~vggc_cp.vision.trust.run_colour_kappa` on the covered frames: the covered runs
+whose colour the episode's actions state, one vote each). On stacks three high of two
 colours (random-1082, draw 37) the covered pixels agreed with the stated colour at or below
 chance (kappa -0.7 to 0.1): the order of a stack's lower objects was a coin toss, the
 graph merged stack orders consistently, and nothing else the tool measured disagreed.

@@ -104,8 +104,8 @@ def run_colour_kappa(labels: np.ndarray, run: np.ndarray, frames: np.ndarray,
         :func:`~vggc_cp.vision.occupancy.site_labels` (a colour, empty or unlabelled).
     run : ndarray of int, shape (N,)
     frames : ndarray of bool, shape (N,)
-        The frames the reading is judged on (those covered, :func:`~vggc_cp.vision.covered.
-        covered_frames`, or those not).
+        The frames the reading is judged on (those a slot above covers,
+        :func:`~vggc_cp.vision.covered.covered_frames`, or those none covers).
     seen : ndarray, shape (N, C)
         The site's colour posterior per frame.
 
