@@ -45,9 +45,9 @@ covered pixels, and is trusted only as far as its reading agrees with them
 **Colours no pixel reads.** A site's pixels are judged on its colour the way its presence
 is, one vote a stated run (:func:`~vggc_cp.vision.trust.run_colour_kappa`); where they agree
 with the actions no more often than the colour most stated runs hold, the unread runs take
-the stated shares of the colours (:func:`majority_colour`), as a presence no better than the
-majority takes the majority (:func:`majority_guess`). Nothing reads action names or
-ground-truth states.
+the stated shares of the colours (:func:`~vggc_cp.vision.run_colours.majority_colour`), as a
+presence no better than the majority takes the majority (:func:`majority_guess`). Nothing
+reads action names or ground-truth states.
 """
 
 from __future__ import annotations
@@ -57,14 +57,9 @@ import numpy as np
 from vggc_cp.recorded import NO_FACTS, RecordedFacts, recorded_facts
 from vggc_cp.trace import PICK, Trace
 from vggc_cp.vision.conservation import conserve, slot_groups
-from vggc_cp.vision.covered import (
-    covered_frames,
-    covered_trust,
-    nearest_covered,
-    uncovered_colour,
-)
-from vggc_cp.vision.density import kernel_posterior
+from vggc_cp.vision.covered import covered_trust, nearest_covered, uncovered_colour
 from vggc_cp.vision.resets import joined_runs, reset_labels, ruled_out_reading
+from vggc_cp.vision.run_colours import majority_colour, window_colour
 from vggc_cp.vision.slots import (
     EMPTY,
     UNLABELLED,
@@ -74,13 +69,7 @@ from vggc_cp.vision.slots import (
 )
 from vggc_cp.vision.stacks import slots_above, stacked_sites
 from vggc_cp.vision.support import supported
-from vggc_cp.vision.trust import (
-    READ_Z,
-    pose_bounds,
-    reading_kappa,
-    run_colour_kappa,
-    stated_colours,
-)
+from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
 from vggc_cp.vision.untouched import (
     agreement,
     held_out_frames,
@@ -329,13 +318,15 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
       is hidden is outvoted by the frames in which it is seen; or, where the footprint
       presence does no better on the labelled frames than saying what most of them hold,
       that (:func:`majority_guess`).
-      A run read per pose also takes the colour its window shows (:func:`window_colour`);
+      A run read per pose also takes the colour its window shows
+      (:func:`~vggc_cp.vision.run_colours.window_colour`);
       a run of a slot that another slot covers in some of its frames takes the colour of its
       uncovered frames (:func:`~vggc_cp.vision.covered.uncovered_colour`), and one covered
       in all of them that of the nearest stated looks of covered stacks, where they read
       better than the covered pixels (:func:`~vggc_cp.vision.covered.nearest_covered`).
       A site whose pixels read its colour no better than the stated majority gives its other
-      unread runs the stated shares of the colours (:func:`majority_colour`).
+      unread runs the stated shares of the colours
+      (:func:`~vggc_cp.vision.run_colours.majority_colour`).
 
     Then objects rest on something: where a frame's readings put something above an empty
     slot of a stack, the stack takes its most likely filling with nothing in the air
@@ -373,7 +364,7 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     mates : ndarray of bool, shape (A, A), optional
         :func:`action_mates` (computed when not given).
     bandwidth : float
-        Width of the colour kernel (:func:`window_colour`).
+        Width of the colour kernel (:func:`~vggc_cp.vision.run_colours.window_colour`).
     rests : bool
         The slots were read from where the hand rests after each action
         (:func:`vggc_cp.vision.places.trace_slots`): a pose may then also pool every pick
@@ -622,119 +613,3 @@ def majority_guess(own: float, labels: np.ndarray) -> float | None:
         return None
     full = float(np.mean(labels[known] >= 0))
     return None if own > max(full, 1.0 - full) else float(full > 0.5)
-
-
-def window_colour(posterior: np.ndarray, looks: dict, examples: list[list[np.ndarray]],
-                  bandwidth: float) -> dict[int, set[int]]:
-    """Colour of the unlabelled runs of the sites read per pose, in place.
-
-    The colours' examples are what the labelled frames show in the sites' windows
-    (:func:`~vggc_cp.vision.untouched.window_chroma`, frames whose pose reads the site and
-    that read present); a run takes the mean posterior of its frames that show an object,
-    weighted by their strength. Nothing changes where a colour has fewer than two examples
-    or a run no such frame.
-
-    Parameters
-    ----------
-    posterior : ndarray, shape (N, A, C)
-    looks : dict
-        Site -> (chroma (N, 2), strength (N,), shows (N,) bool, run (N,), loose).
-    examples : list of list of ndarray
-        Per colour, the chroma arrays of its examples.
-    bandwidth : float
-
-    Returns
-    -------
-    dict
-        Site -> the ids of the runs it set.
-    """
-    done: dict[int, set[int]] = {}
-    pooled = [np.concatenate(parts) if parts else np.zeros((0, 2)) for parts in examples]
-    if min(len(p) for p in pooled) < 2:
-        return done
-    for a, (chroma, strength, shows, run, loose) in looks.items():
-        seen = loose[shows[loose]]
-        if not len(seen):
-            continue
-        post = kernel_posterior(chroma[seen], pooled, bandwidth)
-        done[int(a)] = {int(r) for r in np.unique(run[seen])}
-        for r in np.unique(run[seen]):
-            these = run[seen] == r
-            w = strength[seen][these]
-            posterior[loose[run[loose] == r], a] = np.average(post[these], axis=0, weights=w)
-    return done
-
-
-def majority_colour(posterior: np.ndarray, seen: np.ndarray, presence: np.ndarray,
-                    runs: dict, above: dict[int, list[int]] | None = None,
-                    read: dict[int, set[int]] | None = None) -> dict[int, np.ndarray]:
-    """What colour the unread runs of a site hold when its pixels are no reading of it, in
-    place: the colour as :func:`majority_guess` takes the presence.
-
-    A site's pixels read its colour (``seen``, the posterior before the run means); judged
-    one vote a stated run (:func:`~vggc_cp.vision.trust.run_colour_kappa`, on the frames no
-    slot above covers), a reading that agrees with what the actions state no more often than
-    saying the colour most stated runs hold (kappa at most 0) is not a reading of the site.
-    On a robot's camera the footprint of a site may lie on the arm and read its grey for
-    every colour, a vote of the same colour whatever the site holds; the run's mean of such
-    a posterior (near one half each) was a coin toss that the object counts then settled
-    either way (multifruit-4x6 robot s364, draw 38: two places never acted on in two
-    episodes took each other's colours, and the graph split three states). Such a site's
-    unlabelled runs, uncovered throughout and not read by a window
-    (``read``, :func:`window_colour`), take the shares of the colours its stated runs hold
-    (one each, half a run added to every colour), which the counts
-    (:func:`~vggc_cp.vision.conservation.conserve`) may still overrule. Sites whose stated
-    runs hold one colour (nothing judged) keep their pixels.
-
-    Parameters
-    ----------
-    posterior, seen : ndarray, shape (N, A, C)
-    presence : ndarray, shape (N, A)
-    runs : dict
-        Site -> (labels, run, loose, acting) of :func:`settle`.
-    above : dict, optional
-        Site -> sites stacked on it (:func:`~vggc_cp.vision.stacks.slots_above`).
-    read : dict, optional
-        Site -> ids of the runs a window read (:func:`window_colour`).
-
-    Returns
-    -------
-    dict
-        Site -> the colour shares its runs took, where it took them.
-
-    Examples
-    --------
-    A site whose pixels always read colour 0, stated 0 in one run and 1 in three: no
-    reading; its unlabelled run (frames 4-5) takes the stated shares.
-
-    >>> labels = np.array([0, 1, 1, 1, -2, -2])
-    >>> run, loose = np.array([0, 1, 2, 3, 4, 4]), np.array([4, 5])
-    >>> seen = np.tile([[[0.6, 0.4]]], (6, 1, 1))
-    >>> post = seen.copy()
-    >>> out = majority_colour(post, seen, np.ones((6, 1)), {0: (labels, run, loose, None)})
-    >>> np.round(post[4, 0], 3).tolist()
-    [0.3, 0.7]
-    """
-    out: dict[int, np.ndarray] = {}
-    n_col = posterior.shape[2]
-    if n_col < 2:
-        return out
-    for a, (labels, run, loose, _) in runs.items():
-        if not len(loose):
-            continue
-        tops = (above or {}).get(a, [])
-        clear = ~covered_frames(presence, tops) if tops else np.ones(len(labels), dtype=bool)
-        kappa, _, _ = run_colour_kappa(labels, run, clear, seen[:, a])
-        if not np.isfinite(kappa) or kappa > 0.0:
-            continue
-        truth = stated_colours(labels, run, clear)
-        shares = (np.bincount(truth, minlength=n_col) + 0.5) / (len(truth) + 0.5 * n_col)
-        done = (read or {}).get(a, set())
-        ids, inv = np.unique(run[loose], return_inverse=True)
-        groups = np.split(loose[np.argsort(inv, kind="stable")],
-                          np.cumsum(np.bincount(inv))[:-1])
-        for r, members in zip(ids.tolist(), groups):
-            if r not in done and clear[members].all():
-                posterior[members, a] = shares
-        out[int(a)] = shares
-    return out
