@@ -289,3 +289,32 @@ def test_one_pick_then_place_is_no_mate():
     out = slots.sequence_mates(actions, episodes, np.eye(6), colour, kinds, twin, 0.2)
     assert not out.any()
     assert slots.MIN_MATE_AGREEMENTS == 2
+
+
+def test_a_pixels_twin_never_met_yields_to_one_seen_alternating():
+    """Pick 0 and place 2 alternate once in each of two episodes, never broken; place 3,
+    which the footprints pair with 0 (an arm's move under a pick taken twice), never shares
+    an episode with it, and place 1 breaks the rule: the sequence's two alternations
+    outweigh the pixels' choice, which it has nothing for. One alternation is not enough
+    (any pick and place of one episode give it), and a pixels' choice met in an episode
+    stands."""
+    kinds = np.array([PICK, PLACE, PLACE, PLACE], dtype=np.int8)
+    colour = np.zeros(4, dtype=np.int64)
+    ov = np.array([[1, 0, .01, .4], [0, 1, 0, 0], [.01, 0, 1, 0], [.4, 0, 0, 1]])
+    episodes = [(0, 2), (3, 5), (6, 8), (9, 10)]
+    actions = np.array([2, 0, -1, 0, 2, -1, 1, 1, -1, 3])
+    counts = slots.alternations(actions, slots.action_episodes(10, episodes), kinds, 0,
+                                np.array([1, 2, 3]))
+    assert counts.tolist() == [[1, 0], [0, 2], [0, 0]]
+    assert not slots.qualifies(counts).any()                  # two are not 20 to 1
+    assert slots.twins(ov, colour, kinds)[0] == 3
+    assert slots.sequence_twins(actions, episodes, ov, colour, kinds)[0] == 2
+    once = np.array([2, 0, -1, 0, 1, -1, 1, 1, -1, 3])        # one alternation only
+    assert slots.sequence_twins(once, episodes, ov, colour, kinds)[0] == 3
+    met = np.array([2, 0, -1, 0, 2, -1, 0, 3, -1, 3])         # 0 then 3 in one episode
+    assert slots.sequence_twins(met, episodes, ov, colour, kinds)[0] == 3
+    # the pixels' first choice broken (1), their nearest kept one (3) never met: the same
+    broken = ov.copy()
+    broken[0, 1] = broken[1, 0] = 0.5
+    assert slots.twins(broken, colour, kinds)[0] == 1
+    assert slots.sequence_twins(actions, episodes, broken, colour, kinds)[0] == 2

@@ -9,7 +9,9 @@ overlaps the block's below it; the trace's own sequence says what it can:
 
 * **twins** (:func:`sequence_twins`): a pick and the place at its slot alternate in every
   episode; a candidate that breaks this once is not the twin, one that never does is taken at
-  odds of :data:`TWIN_ODDS`; the footprints decide the rest (:func:`twins`). A slot has one
+  odds of :data:`TWIN_ODDS`; the footprints decide the rest (:func:`twins`), but not for a
+  candidate never met in an episode with the action while another was seen alternating
+  with it (:data:`MIN_TWIN_AGREEMENTS`). A slot has one
   pick and one place of a colour, so an action whose nearest candidate pairs with another
   action both ways has no twin in the trace (:func:`exclusive_twins`); being twins is
   mutual, so an action that names none takes the one action that names it
@@ -47,6 +49,10 @@ TWIN_ODDS = 20.0
 #: (:func:`sequence_mates`): the one kind of pair that agrees, a pick then a place, can
 #: follow by the order of an episode alone, and one such pair is one coincidence.
 MIN_MATE_AGREEMENTS = 2
+#: Alternations, never broken, from which a candidate takes the twin's place from a pixels'
+#: choice that never met the action in an episode (:func:`sequence_twins`): two, as for a
+#: mate; one alternation is what any pick and place of one episode give.
+MIN_TWIN_AGREEMENTS = 2
 
 
 def twins(ov: np.ndarray, colour: np.ndarray, kinds: np.ndarray) -> np.ndarray:
@@ -93,7 +99,14 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
     one whose footprint overlaps ``a``'s most (then the one seen alternating most often) is
     the twin; where none does, or no candidate ever breaks the rule (nothing to tell them
     apart), the footprints decide (:func:`twins`) among the candidates that never break it
-    (a robot arm's footprint overlapping the wrong place's most is not taken); where none of
+    (a robot arm's footprint overlapping the wrong place's most is not taken), unless their
+    choice never met ``a`` in an episode while another candidate was seen alternating with
+    it :data:`MIN_TWIN_AGREEMENTS` times or more: then the candidate seen alternating most
+    often is the twin (some evidence against none; an action taken once or twice under a
+    robot arm has the arm's move for its footprint: multifruit-4x6 robot s377, a pick taken
+    twice, paired by the pixels with a place one region off taken once, made the red count
+    one too many and a whole episode another state's nodes; on the tuning split every
+    pixels' choice so overruled was wrong); where none of
     those overlaps ``a``'s footprint, the one candidate the sequence leaves (seen
     alternating, every other one broken) is the twin, and none where it leaves several.
 
@@ -135,15 +148,19 @@ def sequence_twins(actions: np.ndarray, episodes: list[tuple[int, int]], ov: np.
             out[a] = max(allowed)[2]
             continue
         kept = counts[:, 0] == 0                        # never seen to break the rule
-        if out[a] >= 0 and kept[cand == out[a]].all():
-            continue                                    # the pixels' choice stands
-        near = kept & (ov[a, cand] > 0)
-        if near.any():                                  # the nearest footprint kept
-            out[a] = int(max(zip(ov[a, cand[near]], cand[near]))[1])
-        elif kept.sum() == 1 and len(cand) > 1 and counts[kept, 1].sum() > 0:
-            out[a] = int(cand[kept][0])                 # the one the sequence leaves
-        else:
-            out[a] = -1
+        if out[a] < 0 or not kept[cand == out[a]].all():
+            near = kept & (ov[a, cand] > 0)
+            if near.any():                              # the nearest footprint kept
+                out[a] = int(max(zip(ov[a, cand[near]], cand[near]))[1])
+            elif kept.sum() == 1 and len(cand) > 1 and counts[kept, 1].sum() > 0:
+                out[a] = int(cand[kept][0])             # the one the sequence leaves
+            else:
+                out[a] = -1
+        seen = kept & (counts[:, 1] >= MIN_TWIN_AGREEMENTS)
+        if out[a] >= 0 and seen.any() and not counts[cand == out[a]].any():
+            # the pixels' choice never met ``a`` in an episode: the sequence has nothing for
+            # it, and something for a candidate seen alternating, never broken
+            out[a] = int(max(zip(counts[seen, 1], ov[a, cand[seen]], cand[seen]))[2])
     return out
 
 
