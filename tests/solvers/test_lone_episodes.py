@@ -82,6 +82,28 @@ def test_an_episode_read_as_states_of_its_own_is_a_doubt_and_its_walk_the_path_i
     assert lone_episodes(problem, labels).chains == ()
 
 
+def test_a_lone_episode_off_home_is_a_doubt_named_with_the_home_and_walked_from_it():
+    """Twenty-two episodes from 'A' (twenty through states each sees alone, so a lone
+    episode is no surprise by the count), and one read wrong from its first frame: it starts
+    at 'X', where none of the others does. 22 of 22 start at 'A' (odds 23 to 1): the graph is
+    flagged naming the home, and the doubt's walk starts there, not at 'B', where the same
+    actions walk too."""
+    own = [["A", "pick_1", "HA", "place_1", "A", "pick_2", f"H{i}", "place_2", f"S{i}"]
+           for i in range(20)]
+    also = [["A", "pick_2", "HB", "place_2", "B", "pick_1", "HB1", "place_1", "B"]] * 2
+    problem, path, labels = _problem(own + also + [["X", "pick_1", "HX", "place_1", "X2"]])
+    lone = lone_episodes(problem, labels)
+    a, ha = int(labels[0]), int(labels[1])
+    assert not lone.surprising and lone.doubtful and lone.home == a
+    conf = doubt_lone(Confidence("mdl", 0.0, 5, None, 4.0, False, ()), lone)
+    assert conf.suspect and "observations 110-112" in conf.reasons[0]
+    assert f"does not start at node {a}, where 22 of the other 22 episodes start" in \
+        conf.reasons[0]
+    assert "odds of 23 to 1" in conf.reasons[0]
+    (d,) = lone_doubts(problem, path, labels, lone)
+    assert d.evidence["moved_to"] == a and d.evidence["moved_path"] == [a, ha, a]
+
+
 @pytest.mark.slow
 def test_multifruit_4x6_robot_s2_episode_read_swapped_is_moved_onto_the_path_it_took():
     """multifruit-4x6 robot, trace seed 2 (tuning split, 400 transitions): one episode of

@@ -330,10 +330,12 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
 
 def doubt_lone(conf: Confidence, lone) -> Confidence:
     """``conf`` flagged when episodes that visit no node another episode visits are less
-    likely than :data:`~vggc_cp.solvers.episodes.LONE_ALPHA` by chance
-    (:func:`~vggc_cp.solvers.episodes.lone_episodes`): such an episode's images may have
+    likely than :data:`~vggc_cp.solvers.episodes.LONE_ALPHA` by chance, or one of them starts
+    away from the node the other episodes start at (at odds of
+    :data:`~vggc_cp.solvers.episodes.HOME_ODDS` to 1 or more;
+    :func:`~vggc_cp.solvers.episodes.lone_episodes`): such an episode's images may have
     been read wrong throughout, which no bound on the readings sees. The reason names the
-    episode, the chance and what to record.
+    episode, the chance (or the home) and what to record.
 
     >>> from vggc_cp.solvers.episodes import LoneEpisodes
     >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
@@ -343,13 +345,20 @@ def doubt_lone(conf: Confidence, lone) -> Confidence:
     """
     if not lone.doubtful:
         return conf
-    chain = lone.chains[0]
-    more = (f" (and {len(lone.chains) - 1} more such episode(s))" if len(lone.chains) > 1
-            else "")
+    chains = lone.doubted
+    chain = chains[0]
+    more = f" (and {len(chains) - 1} more such episode(s))" if len(chains) > 1 else ""
+    if lone.surprising:
+        why = (f"{len(lone.chains)} such episode(s) where {lone.expected:.3f} would be "
+               f"expected by chance (chance {lone.chance:.3f}; {100 * lone.share:.0f} % of "
+               f"the episodes' nodes are their own)")
+    else:
+        why = (f"it does not start at node {lone.home}, where {lone.home_starts} of the "
+               f"other {lone.episodes - 1} episodes start (odds of "
+               f"{lone.home_starts + 1} to {lone.episodes - lone.home_starts} that an episode "
+               f"starts there)")
     return conf.flagged(
         f"the episode of observations {int(chain[0])}-{int(chain[-1])} visits only nodes no "
-        f"other episode visits{more}: {len(lone.chains)} such episode(s) where "
-        f"{lone.expected:.3f} would be expected by chance (chance {lone.chance:.3f}; "
-        f"{100 * lone.share:.0f} % of the episodes' nodes are their own), so its images may "
-        f"have been read wrong throughout; record an episode from that episode's start "
+        f"other episode visits{more}: {why}, so its images may have been read wrong "
+        f"throughout; record an episode from that episode's start "
         f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")

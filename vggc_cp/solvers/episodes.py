@@ -12,6 +12,17 @@ on a path of its own, parallel to the one it took (on the tuning split and draws
 had one, every one a wrong graph; multifruit-4x6 robot s2: one episode of seven frames, five
 nodes too many).
 
+Where the recording starts its episodes alike (a robot reset to one home: every episode but
+a few starts at one node, the *home*), where an episode starts is known before its images
+are read: by Laplace's rule, an episode starts away from home with probability ``(n - m + 1)
+/ (n + 2)`` when ``m`` of the ``n`` other episodes start at home. A lone episode whose first
+node is not the home, where the others start there at odds of :data:`HOME_ODDS` to 1 or
+more, is *off home* (:attr:`LoneEpisodes.off_home`): a doubt however many lone episodes
+chance allows, and walked from the home only (multifruit-4x6 robot s373, draw 40: 77 of 78
+episodes start at home, and one, read wrong in all its eight frames, ran on six nodes of its
+own, 74 nodes for 68; the Poisson test gave it a chance of 0.054). An episode whose
+recording starts it with a reset is no evidence either way (its first frame is pinned).
+
 :func:`move_lone_episodes` moves such an episode onto the path its actions walk on the rest
 of the graph where the lone episodes are more than chance gives (:data:`LONE_ALPHA`) and the
 move makes the description length of the whole graph shorter (:func:`~vggc_cp.solvers.mdl.
@@ -62,13 +73,20 @@ class WalkGraph:
             self.ahead.setdefault((s, a), set()).add(d)
             self.labels_of.setdefault((s, d), set()).add(a)
 
-    def walk(self, start: int, actions: np.ndarray, here: np.ndarray) -> np.ndarray | None:
+    def walk(self, start: int, actions: np.ndarray, here: np.ndarray,
+             tail: bool = False) -> np.ndarray | None:
         """The nodes ``actions`` visit from ``start``, where the episode now visits the nodes
         ``here``. An action that is an edge there leads where the edge does (None where it
         leads to two nodes); one that is none returns, where the episode returns to a node it
         visited before, to the node the walk visited then (None where the walk visited two
         there: one node of the episode would be two of the walk) -- a new edge, allowed where
-        no other action joins the two nodes (Exactly-One); None otherwise."""
+        no other action joins the two nodes (Exactly-One); None otherwise.
+
+        With ``tail``, an action that is no edge and leads the episode to a node it has not
+        visited ends the walk: the rest of the episode keeps its nodes (``here``), a state the
+        rest of the graph has not seen, entered by a new edge -- unless the rest returns to a
+        node the walk has re-placed (one node would be two). A walk that ends at its first
+        step is None."""
         path = [start]
         for k, a in enumerate(actions.tolist()):
             ahead = self.ahead.get((path[-1], a))
@@ -78,6 +96,11 @@ class WalkGraph:
                 path.append(next(iter(ahead)))
                 continue
             before = {path[j] for j in np.flatnonzero(here[:k + 1] == here[k + 1])}
+            if tail and not before:
+                rest = here[k + 1:]
+                if k == 0 or np.isin(rest, here[:k + 1]).any():
+                    return None
+                return np.concatenate([np.asarray(path, dtype=np.int64), rest])
             if len(before) != 1:
                 return None
             (back,) = before
@@ -89,6 +112,9 @@ class WalkGraph:
 
 #: The chance of the lone episodes below which they are a doubt (a 5 % test).
 LONE_ALPHA = 0.05
+#: The odds at which the other episodes' starts make one node the home (module docstring):
+#: 20 to 1, the odds the description-length margin and the object counts are taken at.
+HOME_ODDS = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,17 +133,45 @@ class LoneEpisodes:
     chance : float
         The probability of at least ``len(chains)`` lone episodes under that Poisson law
         (1 where there is none).
+    off_home : tuple of ndarray of int
+        The lone episodes that start away from the home (module docstring), in order.
+    home : int
+        The node most episodes start at (-1 where no episode is counted).
+    home_starts : int
+        How many episodes start there (``m``), of ``episodes`` (``n + 1``).
+    episodes : int
+        The episodes counted (those no recorded reset starts).
     """
 
     chains: tuple[np.ndarray, ...]
     share: float
     expected: float
     chance: float
+    off_home: tuple[np.ndarray, ...] = ()
+    home: int = -1
+    home_starts: int = 0
+    episodes: int = 0
+
+    @property
+    def surprising(self) -> bool:
+        """Lone episodes less likely than :data:`LONE_ALPHA` by chance."""
+        return bool(self.chains) and self.chance < LONE_ALPHA
 
     @property
     def doubtful(self) -> bool:
-        """Lone episodes less likely than :data:`LONE_ALPHA` by chance."""
-        return bool(self.chains) and self.chance < LONE_ALPHA
+        """Lone episodes less likely than :data:`LONE_ALPHA` by chance, or one off home."""
+        return self.surprising or bool(self.off_home)
+
+    @property
+    def doubted(self) -> tuple[np.ndarray, ...]:
+        """The lone episodes in doubt: all where they are surprising, else those off home."""
+        return self.chains if self.surprising else self.off_home
+
+    def starts_for(self, chain: np.ndarray) -> set[int] | None:
+        """The nodes a walk of ``chain`` may start from: the home for an episode off home,
+        any (None) otherwise."""
+        off = any(int(c[0]) == int(chain[0]) for c in self.off_home)
+        return {self.home} if off else None
 
 
 def poisson_tail(count: int, mean: float) -> float:
@@ -181,14 +235,24 @@ def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     share = sum(own) / sum(len(v) for _, v in free)
     expected = float(sum(share ** len(v) for _, v in free))
     lone = tuple(c for (c, v), k in zip(free, own) if k == len(v))
-    return LoneEpisodes(lone, float(share), expected, poisson_tail(len(lone), expected))
+    # where the episodes start: the home, and the lone episodes that start elsewhere
+    first = labels[[int(c[0]) for c, _ in free]]
+    home = int(np.bincount(first).argmax())
+    m = int(np.count_nonzero(first == home))
+    off = tuple(c for c in lone if labels[c[0]] != home
+                and (m + 1) / (len(free) - 1 - m + 1) >= HOME_ODDS)
+    return LoneEpisodes(lone, float(share), expected, poisson_tail(len(lone), expected),
+                        off, home, m, len(free))
 
 
-def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray):
+def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray,
+               starts: set[int] | None = None):
     """Every path the actions of the episode ``chain`` (its observations in order) walk on the
-    graph of the other episodes (:meth:`WalkGraph.walk`), from a node of its first node's role
-    that it does not visit, through none of its nodes: ``(description length of the graph
-    with the episode moved there, start node, path, moved labels)``, by start node."""
+    graph of the other episodes (:meth:`WalkGraph.walk` with its ``tail``: a walk may end
+    where the rest of the graph has not seen the state the episode goes on to, and the rest
+    keeps its nodes), from a node of its first node's role that it does not visit (of
+    ``starts`` only, where given), through none of its nodes: ``(description length of the
+    graph with the episode moved there, start node, path, moved labels)``, by start node."""
     labels = np.asarray(labels, dtype=np.int64)
     roles = np.full(int(labels.max()) + 1, -1)
     roles[labels] = np.asarray(problem.roles)
@@ -202,11 +266,15 @@ def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray):
     mine = set(here.tolist())
     out = []
     for other in np.flatnonzero(roles == roles[here[0]]):
-        if int(other) in mine:
+        if int(other) in mine or (starts is not None and int(other) not in starts):
             continue
-        moved = graph.walk(int(other), act_of[chain[:-1]], here)
-        if moved is None or mine & set(moved.tolist()):
+        moved = graph.walk(int(other), act_of[chain[:-1]], here, tail=True)
+        if moved is None:
             continue
+        ours = np.isin(moved, list(mine))
+        walked = int(np.argmax(ours)) if ours.any() else len(moved)
+        if not np.array_equal(moved[walked:], here[walked:]):
+            continue            # the walk passes through one of the episode's own nodes
         flipped = labels.copy()
         flipped[chain] = moved
         out.append((description_length(problem, flipped), int(other), moved, flipped))
@@ -216,9 +284,10 @@ def lone_walks(problem: Problem, labels: np.ndarray, chain: np.ndarray):
 def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray, int]:
     """``labels`` with the lone episodes moved onto the path their actions walk (module
     docstring), and how many were moved: where the lone episodes are less likely than
-    :data:`LONE_ALPHA` by chance, each in turn (in order of observation) goes to its walk of
-    least description length (ties: the lowest start node) if that is shorter than the
-    graph's as it is. Node numbers are kept (the moved episode's own nodes are left empty).
+    :data:`LONE_ALPHA` by chance, each in turn (in order of observation), else each lone
+    episode off home (walked from the home only), goes to its walk of least description
+    length (ties: the lowest start node) if that is shorter than the graph's as it is. Node
+    numbers are kept (the moved episode's own nodes are left empty).
 
     Examples
     --------
@@ -238,8 +307,8 @@ def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray
     if not lone.doubtful:
         return labels, 0
     moved, now = 0, description_length(problem, labels)
-    for chain in lone.chains:
-        walks = lone_walks(problem, labels, chain)
+    for chain in lone.doubted:
+        walks = lone_walks(problem, labels, chain, lone.starts_for(chain))
         if not walks:
             continue
         length, _, _, flipped = min(walks, key=lambda w: (w[0], w[1]))

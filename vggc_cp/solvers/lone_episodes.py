@@ -41,8 +41,10 @@ from vggc_cp.solvers.read_doubts import dense_problem, node_majority
 
 def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                 lone: LoneEpisodes, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
-    """A merge doubt per lone episode whose actions, walked from another node of its first
-    node's role on the graph of every other episode
+    """A merge doubt per lone episode in doubt (:attr:`~vggc_cp.solvers.episodes.LoneEpisodes.
+    doubted`: all of them where they are surprising, else those that start away from the
+    recording's home) whose actions, walked from another node of its first node's role (the
+    home, for an episode off home) on the graph of every other episode
     (:meth:`~vggc_cp.solvers.episodes.WalkGraph.walk`), give a path of that graph: the
     episode's first node ``u`` and the walk's start ``w`` might be one state, the episode's
     frames that path's nodes. Of several such walks, the one whose flip costs the least
@@ -54,14 +56,14 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     surprising episode first (in order of observation).
     """
     rule = rule or DoubtRule()
-    if not lone.chains or rule.limit == 0:
+    if not lone.doubted or rule.limit == 0:
         return ()
     labels = np.asarray(labels, dtype=np.int64)
     sites = getattr(getattr(problem, "readings", None), "sites", None)
     found: list[Doubt] = []
     flips = None
-    for chain in lone.chains[:rule.limit]:
-        walks = lone_walks(problem, labels, chain)
+    for chain in lone.doubted[:rule.limit]:
+        walks = lone_walks(problem, labels, chain, lone.starts_for(chain))
         if not walks:
             continue
         _, other, moved, flipped = min(walks, key=lambda w: (w[0], w[1]))
