@@ -104,6 +104,26 @@ def test_a_lone_episode_off_home_is_a_doubt_named_with_the_home_and_walked_from_
     assert d.evidence["moved_to"] == a and d.evidence["moved_path"] == [a, ha, a]
 
 
+def test_a_lone_episode_no_walk_fits_still_names_a_doubt_the_nearest_merge():
+    """The misread episode takes pick_1 then place_2 back to its first node: no walk fits
+    (place_2 from 'HA' back to 'A' would be a second label between them). The graph is
+    flagged, and each of its nodes is a merge doubt with the node of its role the images
+    leave closest (blocks-3 clean s386, draw 42: warned with no doubt, nothing for `suggest`
+    to probe)."""
+    misread = ["X", "pick_1", "HX", "place_2", "X"]
+    problem, path, labels = _problem([HOME] * 6 + [misread])
+    lone = lone_episodes(problem, labels)
+    assert lone.doubtful
+    doubts = lone_doubts(problem, path, labels, lone)
+    mine = {int(labels[30]), int(labels[31])}
+    assert {d.nodes[0] for d in doubts} == mine          # one per node of the episode
+    for d in doubts:
+        assert d.kind == MERGE and d.nodes[1] not in mine
+        assert d.evidence["nearest"] is True and d.evidence["lone_episode"] == [30, 32]
+        assert d.evidence["moved_to"] == d.nodes[1]
+    assert "no walk fits" in format_doubts(doubts)[1]
+
+
 @pytest.mark.slow
 def test_multifruit_4x6_robot_s2_episode_read_swapped_is_moved_onto_the_path_it_took():
     """multifruit-4x6 robot, trace seed 2 (tuning split, 400 transitions): one episode of

@@ -81,6 +81,10 @@ def format_doubts(doubts, limit: int = SHOWN_DOUBTS) -> list[str]:
                 if ev.get("contradicted") else
                 "the runner-up graph decides it the other way" if ev.get("runner_up") else
                 f"episode {ev['lone_episode'][0]}-{ev['lone_episode'][-1]} visits only nodes "
+                f"of its own; no walk fits, node {ev.get('moved_to')} is the nearest"
+                if isinstance(ev.get("lone_episode"), list) and ev["lone_episode"]
+                and ev.get("nearest") else
+                f"episode {ev['lone_episode'][0]}-{ev['lone_episode'][-1]} visits only nodes "
                 f"of its own; might be the path from node {ev.get('moved_to')}"
                 if isinstance(ev.get("lone_episode"), list) and ev["lone_episode"] else
                 f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "

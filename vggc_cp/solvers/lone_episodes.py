@@ -35,6 +35,7 @@ import numpy as np
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.episodes import LoneEpisodes, lone_walks
+from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.solvers.read_doubts import dense_problem, node_majority
 
@@ -52,8 +53,11 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     flip, plus ``lone_episode`` (its first and last observation), ``moved_to`` (``w``),
     ``moved_path`` (the walk, one node per observation), ``read_sites`` (the sites whose
     reading differs between the episode's frames and the walk's nodes, where the problem
-    reads sites), ``lone_chance`` and ``lone_expected``. At most ``rule.limit``, the most
-    surprising episode first (in order of observation).
+    reads sites), ``lone_chance`` and ``lone_expected``. Where no walk fits, the closest
+    merge the images leave between one of the episode's nodes and another node
+    (:func:`_nearest_doubt`, ``nearest`` in its evidence), so that a flagged graph names a
+    doubt. At most ``rule.limit``, the most surprising episode first (in order of
+    observation).
     """
     rule = rule or DoubtRule()
     if not lone.doubted or rule.limit == 0:
@@ -64,11 +68,12 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     flips = None
     for chain in lone.doubted[:rule.limit]:
         walks = lone_walks(problem, labels, chain, lone.starts_for(chain))
-        if not walks:
-            continue
-        _, other, moved, flipped = min(walks, key=lambda w: (w[0], w[1]))
         if flips is None:
             flips = Flips(dense_problem(problem), path, labels)
+        if not walks:
+            found.extend(_nearest_doubt(flips, path, labels, chain, lone, rule))
+            continue
+        _, other, moved, flipped = min(walks, key=lambda w: (w[0], w[1]))
         u = int(labels[chain[0]])
         found.append(flips.doubt(
             MERGE, (u, other), np.flatnonzero(labels == u), np.flatnonzero(labels == other),
@@ -77,6 +82,54 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
             read_sites=_differing_sites(problem, sites, labels, chain, moved),
             lone_chance=round(lone.chance, 6), lone_expected=round(lone.expected, 6)))
     return tuple(found)
+
+
+def _nearest_doubt(flips: Flips, path: ThresholdPath, labels: np.ndarray, chain: np.ndarray,
+                   lone: LoneEpisodes, rule: DoubtRule) -> tuple[Doubt, ...]:
+    """Where no walk fits a lone episode (its actions are taken nowhere else from a node of
+    the role: blocks-3 clean s386, draw 42, an episode that stacks a third block and takes it
+    back four times), a merge doubt per node ``u`` of the episode: with the node ``v`` of
+    ``u``'s role the episode does not visit whose observations lie nearest ``u``'s (least
+    mean distance; of equally near ones, the one whose join the description length favours
+    most), nearest first -- so that the warning names what to probe (`suggest` tries ``u``'s
+    actions from ``v``). Evidence as for a walk, with ``nearest`` instead of
+    ``moved_path``."""
+    problem = flips.problem
+    labels = np.asarray(labels, dtype=np.int64)
+    roles = np.asarray(problem.roles)
+    sites = getattr(getattr(problem, "readings", None), "sites", None)
+    mine = np.unique(labels[chain])
+    found = []
+    for u in mine.tolist():
+        a = np.flatnonzero(labels == u)
+        role = int(roles[a[0]])
+        dist = problem.dist_pick if role == 0 else problem.dist_place
+        near = []
+        for v in np.setdiff1d(np.unique(labels[roles == role]), mine).tolist():
+            b = np.flatnonzero(labels == v)
+            near.append((round(float(dist[np.ix_(problem.local[a], problem.local[b])].mean()),
+                               9), v, b))
+        if not near:
+            continue
+        least = min(n[0] for n in near)
+        ranked = []
+        for _, v, b in (n for n in near if n[0] == least):
+            flipped = labels.copy()
+            flipped[a] = v
+            ranked.append((description_length(problem, flipped), v, b, flipped))
+        length, v, b, flipped = min(ranked, key=lambda r: (r[0], r[1]))
+        read = []
+        if sites is not None:
+            held = np.asarray(sites.held)
+            differ = (held[a] != node_majority(held, labels)[v]).any(axis=0)
+            read = sorted({problem.action_names[int(k)]
+                           for k in np.asarray(sites.action)[differ]})
+        found.append(((least, length, u), flips.doubt(
+            MERGE, (u, v), a, b, flipped, rule.typical,
+            lone_episode=[int(chain[0]), int(chain[-1])], moved_to=v, nearest=True,
+            read_sites=read, lone_chance=round(lone.chance, 6),
+            lone_expected=round(lone.expected, 6))))
+    return tuple(d for _, d in sorted(found, key=lambda f: f[0]))
 
 
 def _differing_sites(problem, sites, labels: np.ndarray, chain: np.ndarray,
