@@ -199,3 +199,38 @@ def test_a_right_graph_the_cuts_made_is_not_doubted_for_them():
     for node in set(labels.tolist()):
         assert len(set(trace.states[labels == node].tolist())) == 1
     assert not learned.confidence.suspect
+
+
+def test_a_node_read_apart_whose_cut_loses_by_less_than_ln_20_is_a_flagged_split_doubt():
+    """multifruit-4x6 robot s387 (draw 42, silent): two states seen once each, A and B,
+    lie within the threshold and share a node; the sites read them apart at one site and
+    alike at three, so the cut costs the new node's statement at every site and loses by
+    about a nat: not made, and not settled at 20 to 1 either way. The node is a split doubt
+    (its two sides, the nats, the site), and the verdict's check flags the graph naming it.
+    Where the sites read the two alike, nothing."""
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_near_cuts
+    from vggc_cp.solvers.doubts import SPLIT
+    from vggc_cp.solvers.read_doubts import near_cut_doubts
+    from vggc_cp.solvers.read_splits import near_cuts
+
+    # A and B end their episodes (observations 1 and 3): no action codes them apart
+    trace = make_trace([["X", "pick_1", "A"], ["Y", "pick_2", "B"]], NAMES)
+    problem = _close(trace, [["A", "B"]])
+    held = [[1, 1, 0, 1], [1, 0, 1, 1], [0, 1, 1, 0], [2, 0, 1, 1]]
+    read = _with_reads(problem, held, np.ones((4, 4), bool))
+    labels, stats = congruence_merge(read, threshold=0.1)
+    assert labels[1] == labels[3] and stats.read_splits == 0        # the cut is not made
+    ((u, a, b, loss, sites),) = near_cuts(read, labels)
+    assert u == labels[1] and {int(a[0]), int(b[0])} == {1, 3}
+    assert 0.0 < loss < np.log(20.0) and sites == ["pick_1"]
+    conf = doubt_near_cuts(Confidence("mdl", 1.0, 5, None, 4.0, False, ()),
+                           near_cuts(read, labels))
+    assert conf.suspect and f"node {u} might be two states" in conf.reasons[0]
+    path = threshold_path(read, [0.05, 0.1, 0.5], rule="fewest")
+    (d,) = near_cut_doubts(read, path, labels, near_cuts(read, labels))
+    assert d.kind == SPLIT and d.nodes == (u,)
+    assert d.evidence["read_cut_nats"] == pytest.approx(loss, abs=1e-4)
+    alike = _with_reads(problem, [[1, 1, 0, 1], [1, 0, 1, 1], [0, 1, 1, 0], [1, 0, 1, 1]],
+                        np.ones((4, 4), bool))
+    assert near_cuts(alike, labels) == []

@@ -328,6 +328,34 @@ def corroborate(conf: Confidence, doubts, max_nats: float = 3.0) -> Confidence:
     return conf
 
 
+def doubt_near_cuts(conf: Confidence, near) -> Confidence:
+    """``conf`` flagged when a node that the readings read apart keeps together only because
+    its cut would make the code longer by less than ln 20 nats
+    (:func:`vggc_cp.solvers.read_splits.near_cuts`): the recording does not settle at 20 to
+    1 whether the node is one state or two (two states seen once each share a node:
+    multifruit-4x6 robot s387, draw 42, silent). The reason names the node, a few
+    observations of each side, the sites and what to record.
+
+    >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    >>> near = [(7, np.array([268]), np.array([341]), 1.02, ["place_red_1"])]
+    >>> doubt_near_cuts(c, near).reasons[0][:60]
+    'node 7 might be two states: the readings set observations 26'
+    >>> doubt_near_cuts(c, []).suspect
+    False
+    """
+    if not near:
+        return conf
+    u, a, b, loss, sites = near[0]
+    more = f" (and {len(near) - 1} more such node(s))" if len(near) > 1 else ""
+    return conf.flagged(
+        f"node {u} might be two states{more}: the readings set observations "
+        f"{', '.join(str(int(o)) for o in a[:3])} apart from "
+        f"{', '.join(str(int(o)) for o in b[:3])} at {', '.join(sites) or 'some site'}, and "
+        f"cutting the node makes the code only {loss:.2f} nats longer (< ln 20 = 3.00): the "
+        f"recording does not settle it; record episodes that act there from the node "
+        f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+
+
 def doubt_lone(conf: Confidence, lone) -> Confidence:
     """``conf`` flagged when episodes that visit no node another episode visits are less
     likely than :data:`~vggc_cp.solvers.episodes.LONE_ALPHA` by chance, or one of them starts

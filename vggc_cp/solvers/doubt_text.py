@@ -73,6 +73,9 @@ def format_doubts(doubts, limit: int = SHOWN_DOUBTS) -> list[str]:
         ratio = ev.get("distance", 0.0) / ev["threshold"] if ev.get("threshold") else 0.0
         steps = ev.get("steps")
         note = ("the graph breaks it: " + broken_fact_note(d) if broken_fact_note(d) else
+                f"read apart, the cut {ev['read_cut_nats']:.2f} nats longer: "
+                f"{', '.join(ev.get('read_sites', []))}"
+                if isinstance(ev.get("read_cut_nats"), (int, float)) else
                 "the hands hold different colours" if ev.get("forbidden") == "hand" else
                 "an action refused in one is taken in the other" if ev.get("forbidden") == "refused"
                 else

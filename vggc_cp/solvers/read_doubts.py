@@ -279,6 +279,27 @@ class SiteActions:
                 for k in sorted(sites, key=lambda k: self._names[int(self._site[k])])}
 
 
+def near_cut_doubts(problem, path: ThresholdPath, labels: np.ndarray, near,
+                    rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
+    """A split doubt per node the readings read apart but whose cut the code does not
+    settle at 20 to 1 (``near``: :func:`vggc_cp.solvers.read_splits.near_cuts`): the two
+    sides of its least losing cut, with ``read_cut_nats`` (what the cut loses) and
+    ``read_sites`` (the sites that read the sides apart) in the evidence. At most
+    ``rule.limit``, least loss first."""
+    rule = rule or DoubtRule()
+    if not near or rule.limit == 0:
+        return ()
+    labels = np.asarray(labels, dtype=np.int64)
+    flips = Flips(dense_problem(problem), path, labels)
+    out = []
+    for u, a, b, loss, sites in near[:rule.limit]:
+        flipped = labels.copy()
+        flipped[b] = int(labels.max()) + 1
+        out.append(flips.doubt(SPLIT, (int(u),), a, b, flipped, rule.typical,
+                               read_cut_nats=round(float(loss), 4), read_sites=list(sites)))
+    return tuple(out)
+
+
 def dense_problem(problem):
     """A problem of descriptor codes made dense (its matrices), any other as it is."""
     return problem.dense() if hasattr(problem, "dense") else problem

@@ -418,3 +418,79 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
             nxt += 1
             cuts += 1
     return labels, cuts
+
+
+#: How much longer a cut may make the code and still leave the node a doubt (nats): ln 20,
+#: the odds the description-length margin of the chosen graph is read at.
+NEAR_CUT_NATS = float(np.log(20.0))
+
+
+def near_cuts(problem, labels: np.ndarray, max_nats: float = NEAR_CUT_NATS,
+              rows: np.ndarray | None = None) -> list[tuple[int, np.ndarray, np.ndarray, float,
+                                                            list[str]]]:
+    """Nodes of ``labels`` that the combined readings read apart and that a cut would keep
+    deterministic, but whose code the cut makes longer by less than ``max_nats``: the
+    recording does not settle them at 20 to 1 either way. Two states seen once each in one
+    node, read apart at one site, lose their cut by about 1 nat (the second node's statement
+    at every site against one site's entropy): multifruit-4x6 robot s387 (draw 42), s352 and
+    s366, each silent or warned by luck.
+
+    Returns ``(node, observations of one side, of the other, nats the cut loses, sites read
+    apart)`` per such node (its least losing lone cut), least loss first; empty without site
+    reads. Reads the problem's transitions and readings only.
+
+    Node 0 holds observations 0 and 2, read apart at site ``a`` only and alike at three
+    others: the cut is not made (:func:`split_by_readings`), and it loses by 1.10 nats:
+
+    >>> from vggc_cp.solvers.base import Readings, SiteReads
+    >>> held = np.array([[1, 1, 0, 1], [0, 0, 1, 1], [2, 1, 0, 1], [0, 1, 1, 0]])
+    >>> sites = SiteReads(held=held, stated=np.ones((4, 4), bool), kappa=np.ones(4),
+    ...                   action=np.arange(4))
+    >>> class P:
+    ...     src, act, dst = np.array([1, 3]), np.array([1, 2]), np.array([0, 2])
+    ...     readings = Readings.from_rows(np.zeros((4, 1)), sites)
+    ...     action_names = ("a", "b", "c", "d")
+    >>> split_by_readings(P(), np.array([0, 1, 0, 2]))[1]
+    0
+    >>> [(u, a.tolist(), b.tolist(), round(n, 2), st) for u, a, b, n, st in
+    ...  near_cuts(P(), np.array([0, 1, 0, 2]))]
+    [(0, [0], [2], 1.1, ['a'])]
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    rows = combined_readings(problem) if rows is None else rows
+    if rows is None or len(labels) < 2:
+        return []
+    code = _Code(problem, rows)
+    src = np.asarray(problem.src, dtype=np.int64)
+    act = np.asarray(problem.act, dtype=np.int64)
+    dst = np.asarray(problem.dst, dtype=np.int64)
+    n_act = int(act.max()) + 1 if len(act) else 1
+    sites = getattr(problem.readings, "sites", None)
+    out = []
+    for u in np.unique(labels).tolist():
+        obs = np.flatnonzero(labels == u)
+        if len(obs) < 2:
+            continue
+        sub = rows[obs]
+        whole = code.length(obs)
+        best = None
+        for side in _cuts(sub):
+            placed = _place(sub, side)
+            if not (_deterministic(labels, obs, side, src, act, dst, n_act)
+                    and _deterministic(labels, obs, placed, src, act, dst, n_act)):
+                continue
+            loss = code.length(obs[placed == 0]) + code.length(obs[placed == 1]) - whole
+            if best is None or loss < best[0]:
+                best = (loss, placed)
+        if best is None or not 0.0 <= best[0] < max_nats:
+            continue
+        loss, placed = best
+        a, b = obs[placed == 0], obs[placed == 1]
+        names = []
+        if sites is not None:
+            held = np.asarray(sites.held)
+            differ = (held[a][:, None, :] != held[b][None, :, :]).all(axis=(0, 1))
+            names = sorted({problem.action_names[int(k)]
+                            for k in np.asarray(sites.action)[differ]})
+        out.append((int(u), a, b, float(loss), names))
+    return sorted(out, key=lambda n: (n[3], n[0]))

@@ -13,12 +13,16 @@ chosen):
    a reading puts on their path (:mod:`vggc_cp.solvers.read_doubts`): flagged or noted
    (:func:`~vggc_cp.solvers.doubt_checks.doubt_readings`), listed before the others, pairs
    and episodes in turn;
-3. episodes none of whose nodes another episode visits, beyond chance
+3. nodes the readings read apart that a cut would keep deterministic but whose cut makes
+   the code longer by less than ln 20 nats (:func:`~vggc_cp.solvers.read_splits.near_cuts`):
+   flagged (:func:`~vggc_cp.solvers.doubt_checks.doubt_near_cuts`), each a split doubt
+   (:func:`~vggc_cp.solvers.read_doubts.near_cut_doubts`), listed first;
+4. episodes none of whose nodes another episode visits, beyond chance
    (:mod:`vggc_cp.solvers.lone_episodes`): flagged, each with the walk its actions take on
    the rest of the graph, listed first;
-4. what the recording states (resets, refusals) and the graph breaks
+5. what the recording states (resets, refusals) and the graph breaks
    (:mod:`vggc_cp.solvers.broken_facts`): certain errors, flagged, listed first of all;
-5. a graph warned or noted with no doubt yet: the decisions on the way to the runner-up
+6. a graph warned or noted with no doubt yet: the decisions on the way to the runner-up
    graph (:func:`runner_up`), else the nodes held-out transitions dispute, else the nodes
    the runner-up splits or joins -- so that a warning always says what is doubtful.
 
@@ -38,7 +42,13 @@ from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.broken_facts import broken_facts, facts_check
 from vggc_cp.solvers.coded import CodedProblem
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.doubt_checks import corroborate, doubt_forbidden, doubt_lone, doubt_readings
+from vggc_cp.solvers.doubt_checks import (
+    corroborate,
+    doubt_forbidden,
+    doubt_lone,
+    doubt_near_cuts,
+    doubt_readings,
+)
 from vggc_cp.solvers.doubts import (
     Doubt,
     DoubtRule,
@@ -49,7 +59,13 @@ from vggc_cp.solvers.doubts import (
 from vggc_cp.solvers.episodes import lone_episodes
 from vggc_cp.solvers.lone_episodes import lone_doubts
 from vggc_cp.solvers.merge import ThresholdPath
-from vggc_cp.solvers.read_doubts import dense_problem, episode_doubts, read_doubts
+from vggc_cp.solvers.read_doubts import (
+    dense_problem,
+    episode_doubts,
+    near_cut_doubts,
+    read_doubts,
+)
+from vggc_cp.solvers.read_splits import near_cuts
 from vggc_cp.trace import Trace
 
 #: Largest trace (observations) whose doubts are looked for on a problem of descriptor codes:
@@ -134,7 +150,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
             confidence: Confidence, dls, trace: Trace | None = None
             ) -> tuple[Confidence, tuple[Doubt, ...]]:
     """The confidence of the graph ``labels`` chosen on ``path`` with the checks its doubts
-    raise, and its doubts, most pressing first (module docstring, steps 1-5).
+    raise, and its doubts, most pressing first (module docstring, steps 1-6).
 
     Parameters
     ----------
@@ -176,6 +192,15 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         # the pairs and the episodes in turn, so that the list keeps some of each
         read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
         doubts = (*read, *(d for d in doubts if d.nodes not in pairs))[:rule.listed]
+    # nodes the readings read apart that keep together by less than ln 20 nats of code: the
+    # recording does not settle them; flagged, listed first
+    near = near_cuts(problem, labels)
+    if near:
+        conf = doubt_near_cuts(conf, near)
+        if not _too_large(problem):
+            found = near_cut_doubts(problem, path, labels, near, rule)
+            named = {f.nodes for f in found}
+            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
     # episodes that share no node with any other, beyond chance: their images may have been
     # read wrong throughout, which no bound on the readings sees; flagged, listed first
     lone = lone_episodes(problem, labels)
