@@ -71,7 +71,7 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
         if flips is None:
             flips = Flips(dense_problem(problem), path, labels)
         if not walks:
-            found.extend(_nearest_doubt(flips, path, labels, chain, lone, rule))
+            found.extend(_nearest_doubt(flips, labels, chain, lone, rule))
             continue
         _, other, moved, flipped = min(walks, key=lambda w: (w[0], w[1]))
         u = int(labels[chain[0]])
@@ -84,8 +84,8 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     return tuple(found)
 
 
-def _nearest_doubt(flips: Flips, path: ThresholdPath, labels: np.ndarray, chain: np.ndarray,
-                   lone: LoneEpisodes, rule: DoubtRule) -> tuple[Doubt, ...]:
+def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray, lone: LoneEpisodes,
+                   rule: DoubtRule) -> tuple[Doubt, ...]:
     """Where no walk fits a lone episode (its actions are taken nowhere else from a node of
     the role: blocks-3 clean s386, draw 42, an episode that stacks a third block and takes it
     back four times), a merge doubt per node ``u`` of the episode: with the node ``v`` of
@@ -118,16 +118,11 @@ def _nearest_doubt(flips: Flips, path: ThresholdPath, labels: np.ndarray, chain:
             flipped[a] = v
             ranked.append((description_length(problem, flipped), v, b, flipped))
         length, v, b, flipped = min(ranked, key=lambda r: (r[0], r[1]))
-        read = []
-        if sites is not None:
-            held = np.asarray(sites.held)
-            differ = (held[a] != node_majority(held, labels)[v]).any(axis=0)
-            read = sorted({problem.action_names[int(k)]
-                           for k in np.asarray(sites.action)[differ]})
         found.append(((least, length, u), flips.doubt(
             MERGE, (u, v), a, b, flipped, rule.typical,
             lone_episode=[int(chain[0]), int(chain[-1])], moved_to=v, nearest=True,
-            read_sites=read, lone_chance=round(lone.chance, 6),
+            read_sites=_differing_sites(problem, sites, labels, a, np.full(len(a), v)),
+            lone_chance=round(lone.chance, 6),
             lone_expected=round(lone.expected, 6))))
     return tuple(d for _, d in sorted(found, key=lambda f: f[0]))
 

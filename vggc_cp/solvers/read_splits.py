@@ -210,6 +210,19 @@ def _deterministic(labels: np.ndarray, obs: np.ndarray, side: np.ndarray, src: n
     return True
 
 
+def _lone_cut(labels: np.ndarray, obs: np.ndarray, sub: np.ndarray, side: np.ndarray,
+              src: np.ndarray, act: np.ndarray, dst: np.ndarray, n_act: int
+              ) -> np.ndarray | None:
+    """The cut ``side`` of the node ``obs`` with its undecided observations placed
+    (:func:`_place`), where it stands alone: deterministic with them on neither side and
+    once placed (a cut refused with them on neither side is refused wherever they go); else
+    None."""
+    if not _deterministic(labels, obs, side, src, act, dst, n_act):
+        return None
+    placed = _place(sub, side)
+    return placed if _deterministic(labels, obs, placed, src, act, dst, n_act) else None
+
+
 def read_apart(sub: np.ndarray, side: np.ndarray) -> int:
     """At how many sites the two sides of a node are read apart: both sides hold something
     known there (:func:`combined_readings`, ``sub`` its rows of the node, shape (m, S')) and
@@ -395,13 +408,8 @@ def split_by_readings(problem, labels: np.ndarray, rows: np.ndarray | None = Non
         best_gain, best_cut = 1e-9, None
         sub = rows[obs]
         for side in _cuts(sub):
-            found = None
-            # a cut refused with its undecided observations on neither side is refused
-            # wherever they go: they are placed only for one that stands
-            if _deterministic(labels, obs, side, src, act, dst, n_act):
-                placed = _place(sub, side)
-                if _deterministic(labels, obs, placed, src, act, dst, n_act):
-                    found = {u: (obs, placed)}
+            placed = _lone_cut(labels, obs, sub, side, src, act, dst, n_act)
+            found = None if placed is None else {u: (obs, placed)}
             if found is None and joint:             # the cuts it forces, if any
                 found = _joint_cut(labels, u, side, rows, src, act, dst, n_act)
             if found is None:
@@ -472,16 +480,16 @@ def near_cuts(problem, labels: np.ndarray, max_nats: float = NEAR_CUT_NATS,
         if len(obs) < 2:
             continue
         sub = rows[obs]
-        whole = code.length(obs)
         best = None
         for side in _cuts(sub):
-            placed = _place(sub, side)
-            if not (_deterministic(labels, obs, side, src, act, dst, n_act)
-                    and _deterministic(labels, obs, placed, src, act, dst, n_act)):
+            placed = _lone_cut(labels, obs, sub, side, src, act, dst, n_act)
+            if placed is None:
                 continue
-            loss = code.length(obs[placed == 0]) + code.length(obs[placed == 1]) - whole
+            loss = code.length(obs[placed == 0]) + code.length(obs[placed == 1])
             if best is None or loss < best[0]:
                 best = (loss, placed)
+        if best is not None:
+            best = (best[0] - code.length(obs), best[1])
         if best is None or not 0.0 <= best[0] < max_nats:
             continue
         loss, placed = best
