@@ -337,25 +337,30 @@ def test_the_episodes_of_a_problem_are_its_chains_of_transitions():
 
 
 def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | None = None,
-                       low: float | None = None):
+                       low: float | None = None, second: float | None = None):
     """States 'A' and 'B' (hand empty) and their held states: 'A' -pick_1-> 'HA' -place_1->
     'A', the same from 'B', then a last episode 'A' -pick_1-> 'HA'. Site 0 (pick_1's) is
     stated full, then empty, alike everywhere; site 1 (pick_2's) holds something in 'A' and
     'HA' only, stated by the actions in the first two episodes and only read in the last
     (agreement ``kappa`` beyond chance), unless ``stated_last``. The images put every state
     apart. With ``low``, the evidence bounds the last episode's reading of site 1 itself
-    (``SiteReads.trust_low``: the poses that read it). Returns the problem, its merge path
-    and the labels (the true partition)."""
+    (``SiteReads.trust_low``: the poses that read it). With ``second``, a second site
+    (pick_3's, another slot) holds something in 'B' and 'HB' only, stated alike and read in
+    the last episode at that kappa. Returns the problem, its merge path and the labels (the
+    true partition)."""
     from vggc_cp.solvers.base import Readings, SiteReads
 
     trace = make_trace([["A", "pick_1", "HA", "place_1", "A"],
                         ["B", "pick_1", "HB", "place_1", "B"], ["A", "pick_1", "HA"]], NAMES)
     src, act, dst = trace.transitions()
     states = trace.states
-    held = np.array([[0 if s.startswith("H") else 1, 1 if s.endswith("A") else 0]
-                     for s in states])
+    held = np.array([[0 if s.startswith("H") else 1, 1 if s.endswith("A") else 0,
+                      1 if s.endswith("B") else 0] for s in states])
+    kappas = np.array([np.nan, kappa, np.nan if second is None else second])
+    if second is None:
+        held, kappas = held[:, :2], kappas[:2]
     stated = np.ones_like(held, dtype=bool)
-    stated[6:, 1] = stated_last
+    stated[6:, 1:] = stated_last
     frame_trust = None
     if trust is not None:                        # the last episode's run took this reading
         frame_trust = np.where(stated, 1.0, kappa)
@@ -364,8 +369,7 @@ def _episode_on_a_read(kappa: float, stated_last: bool = False, trust: float | N
     if low is not None:
         trust_low = np.full(held.shape, np.nan)
         trust_low[6:, 1] = low
-    sites = SiteReads(held, stated, np.array([np.nan, kappa]), np.array([0, 1]), frame_trust,
-                      trust_low)
+    sites = SiteReads(held, stated, kappas, np.arange(held.shape[1]), frame_trust, trust_low)
     readings = Readings.from_rows(np.where(stated, 1 + held, 0), sites)
     roles = trace.roles()
     apart = {r: 1.0 - (states[roles == r][:, None] == states[roles == r][None, :])
@@ -393,12 +397,29 @@ def test_an_episode_only_an_untrusted_reading_puts_on_its_path_is_a_doubt():
     for kappa, stated in ((0.9, False), (0.3, True)):
         problem, path, labels = _episode_on_a_read(kappa, stated)
         assert episode_doubts(problem, path, labels, z=0.0) == ()
-    # a kappa of 0.9 from the 4 frames that state site 1 shows too little to settle it,
-    # where the same reading, stated in the last episode too, needs no kappa
+    # the same reading, stated in the last episode too, needs no kappa
     assert episode_doubts(*_episode_on_a_read(0.3, True)) == ()
-    (d,) = episode_doubts(*_episode_on_a_read(0.9))
-    assert d.evidence["read_kappa"] == 0.9 and d.evidence["read_kappa_low"] < 0.6
+
+
+def test_an_episode_needs_a_slot_read_below_substantial_to_be_a_doubt():
+    """A kappa of 0.9 from the 4 frames that state site 1 shows too little to settle the
+    placement for sure, but a misplaced episode needs a slot read wrong to start from: with
+    every slot that sets the paths apart read substantially, no doubt. A second slot read at
+    0.3 beside it is one (the counts tie the two together): the doubt names the bound that
+    did not settle it and the slot read worst."""
+    assert episode_doubts(*_episode_on_a_read(0.9)) == ()
+    assert episode_doubts(*_episode_on_a_read(0.9, second=0.8)) == ()
+    (d,) = episode_doubts(*_episode_on_a_read(0.9, second=0.3))
+    ev = d.evidence
+    assert ev["read_kappa"] == 0.9 and ev["read_kappa_low"] < 0.6
+    assert ev["read_sites"] == ["pick_2", "pick_3"]
+    assert ev["read_weakest"] == {"sites": ["pick_3"], "kappa": 0.3}
     assert "kappa 0.90, >= " in format_doubts([d])[1]
+    from vggc_cp.solvers.confidence import Confidence
+    from vggc_cp.solvers.doubt_checks import doubt_readings
+
+    conf = doubt_readings(Confidence("mdl", 1.0, 5, None, 4.0, False, ()), [d])
+    assert "the one read worst, pick_3, agrees only 0.30 beyond chance" in conf.reasons[0]
 
 
 def test_an_episode_is_not_moved_onto_a_node_that_takes_what_the_recording_refused_there():
@@ -512,16 +533,19 @@ def test_an_episode_read_by_poses_few_frames_show_is_a_doubt():
     """Site 1 reads at kappa 0.99, which (at a lenient z) settles the last episode; but the
     poses that read its run were seen in so few stated frames that the reading is sure of
     only 0.1 (random-782 robot: one frame of a pose seen in nine stated frames read yellow
-    one region off): the episode's placement rests on them. Without that bound, or with a
-    sure one, it is settled."""
+    one region off): where a slot beside it reads below substantial (0.3), the episode's
+    placement rests on them. Without that bound, or with a sure one, it is settled; with
+    every slot read substantially, too (a misplacement needs a slot read wrong to start
+    from)."""
     z = 0.1
-    assert episode_doubts(*_episode_on_a_read(0.99), z=z) == ()
-    assert episode_doubts(*_episode_on_a_read(0.99, low=0.9), z=z) == ()
-    (d,) = episode_doubts(*_episode_on_a_read(0.99, low=0.1), z=z)
+    assert episode_doubts(*_episode_on_a_read(0.99, second=0.3), z=z) == ()
+    assert episode_doubts(*_episode_on_a_read(0.99, low=0.9, second=0.3), z=z) == ()
+    (d,) = episode_doubts(*_episode_on_a_read(0.99, low=0.1, second=0.3), z=z)
     assert d.evidence["episode"] == [6, 7] and d.evidence["read_kappa"] == 0.99
-    assert d.evidence["read_kappa_low"] == 0.1
+    assert d.evidence["read_kappa_low"] < 0.6      # neither slot's bound settles it
+    assert episode_doubts(*_episode_on_a_read(0.99, low=0.1), z=z) == ()
     # a point estimate (z = 0) takes no bound, the evidence's or its own
-    assert episode_doubts(*_episode_on_a_read(0.99, low=0.1), z=0.0) == ()
+    assert episode_doubts(*_episode_on_a_read(0.99, low=0.1, second=0.3), z=0.0) == ()
 
 
 def test_an_episode_doubt_flags_the_graph_and_names_the_episode():

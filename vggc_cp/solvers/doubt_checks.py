@@ -195,7 +195,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"from node {ev['moved_to']} instead of node {ev.get('moved_from', d.nodes[0])}"
             f"{more}: only the images' "
             f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames whose "
-            f"actions state it {_agreement(ev)}; if so, {100 * risk:.1f} % of plans between "
+            f"actions state it {_agreement(ev)}{_weakest(ev)}; if so, {100 * risk:.1f} % of "
+            f"plans between "
             f"two observations start or end at a misplaced one{also}; record an episode from "
             f"that episode's start that acts there (`vggc-cp suggest SOLUTION TRACE -o "
             f"next.json`)")
@@ -206,6 +207,25 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
 
 def _sites(evidence: dict) -> str:
     return ", ".join(evidence.get("read_sites", [])) or "some site"
+
+
+def _weakest(evidence: dict) -> str:
+    """The slot read worst among an episode doubt's sites, in words (empty where the
+    evidence does not name it, or it is the only slot).
+
+    >>> ev = {"read_sites": ["pick_red_1", "pick_red_2", "place_red_1", "place_red_2"],
+    ...       "read_weakest": {"sites": ["pick_red_1", "place_red_1"], "kappa": 0.31}}
+    >>> _weakest(ev)
+    '; the counts of objects tie these sites together, and the one read worst, pick_red_1, place_red_1, agrees only 0.31 beyond chance'
+    >>> _weakest({"read_sites": ["pick_red_1"], "read_weakest": {"sites": ["pick_red_1"],
+    ...                                                          "kappa": 0.31}}), _weakest({})
+    ('', '')
+    """
+    weak = evidence.get("read_weakest")
+    if not isinstance(weak, dict) or set(weak["sites"]) >= set(evidence.get("read_sites", [])):
+        return ""
+    return (f"; the counts of objects tie these sites together, and the one read worst, "
+            f"{', '.join(weak['sites'])}, agrees only {weak['kappa']:.2f} beyond chance")
 
 
 def _agreement(evidence: dict) -> str:
