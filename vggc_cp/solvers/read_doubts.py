@@ -482,8 +482,12 @@ def slots_of(held: np.ndarray) -> np.ndarray:
 
     >>> slots_of(np.array([[1, 0, 1, 2], [0, 0, 0, 1]])).tolist()
     [0, 1, 0, 2]
+    >>> slots_of(np.zeros((3, 0), dtype=np.int64)).tolist()
+    []
     """
     held = np.asarray(held)
+    if held.ndim != 2 or held.shape[1] == 0:
+        return np.zeros(held.shape[-1] if held.ndim else 0, dtype=np.int64)
     _, first, inverse = np.unique(held.T, axis=0, return_index=True, return_inverse=True)
     order = np.empty(len(first), dtype=np.int64)
     order[np.argsort(first)] = np.arange(len(first))
