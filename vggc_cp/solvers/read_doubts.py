@@ -338,7 +338,7 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
       carries the others with it, and a misplaced episode needs one to start from. Where
       every slot that sets the paths apart reads substantially, only the few stated frames
       behind the kappas are in question, not the reading: measured on 691 candidate
-      episodes of the tuning split's robot and randomized traces, all 11 truly misplaced
+      episodes of the robot traces of the tuning split and draws 42-43, all 11 truly misplaced
       ones had a slot read below 0.6 (0.52 at most), and this condition drops 25 of the 55
       right episodes the bounds alone had doubted, 30 stay (draws 42 and 43, seen: five false
       alarms fewer, random-1131, random-1135 and random-1145 robot, random-1138 clean,
