@@ -441,10 +441,11 @@ def episode_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                           sites[sep].max()))
                 for frames, sites in ((nodes.frame_trust_low, nodes.trust_low),
                                       (nodes.frame_trust, nodes.trust)))
+            if best >= max_kappa or (best_move is not None and best >= best_move[0]):
+                continue
             weak, weak_kappa = weakest_slot(differ, nodes.frame_trust[chain], nodes.trust,
                                             slot_of)
-            if best < max_kappa and weak_kappa < max_kappa and (
-                    best_move is None or best < best_move[0]):
+            if weak_kappa < max_kappa:
                 best_move = (best, int(other), moved, sep, point, weak, weak_kappa)
         if best_move is not None:
             candidates.append((best_move[0], int(chain[0]), chain, int(shared[0]),
@@ -486,8 +487,8 @@ def slots_of(held: np.ndarray) -> np.ndarray:
     []
     """
     held = np.asarray(held)
-    if held.ndim != 2 or held.shape[1] == 0:
-        return np.zeros(held.shape[-1] if held.ndim else 0, dtype=np.int64)
+    if held.shape[1] == 0:
+        return np.zeros(0, dtype=np.int64)
     _, first, inverse = np.unique(held.T, axis=0, return_index=True, return_inverse=True)
     order = np.empty(len(first), dtype=np.int64)
     order[np.argsort(first)] = np.arange(len(first))
