@@ -363,30 +363,3 @@ def test_an_untouched_slot_is_judged_by_what_episodes_start_with():
                                          SLOT, COLOUR, odds=0.0)
     assert changed == 1
     assert (new_p[last, 2:4] == 1.0).all() and (new_p[last, 4:6] == 0.0).all()
-
-
-def test_the_actions_facts_bound_the_counts():
-    """random-1164 robot after suggested rounds, in small: one yellow and one blue. Three
-    episodes state every slot (no slot left to read: a count of one yellow, stated); four
-    start in a pose that reads an empty slot yellow at full trust. As votes the four
-    misreadings outweigh the three facts and the counts come out two yellows; a count the
-    actions of an episode rule out is no candidate, so it is one, and no count one object
-    away is allowed."""
-    yellow = np.array([[1.0, 0.0]])
-    stated = [(np.array([1, 1]), np.zeros(0), np.zeros((0, 2)))] * 3
-    misread = [(np.array([1, 1]), np.array([0.9999]), yellow)] * 4
-    lo, hi = cons.fact_bounds(stated + misread, 2)
-    assert lo.tolist() == [1, 1] and hi == 2
-    counts, margin = cons.best_counts(stated + misread, np.array([2, 1]))
-    assert counts.tolist() == [1, 1] and margin == np.inf
-    # without the fully stated episodes the facts allow a second yellow, and it wins
-    assert cons.best_counts(misread, np.array([1, 1]))[0].tolist() == [2, 1]
-
-
-def test_facts_that_contradict_one_another_bound_nothing():
-    """An episode whose stated slots hold two objects and one that leaves room for none
-    beside the one it states cannot both be right (a slot structure read wrong): no bound."""
-    eps = [(np.array([2]), np.zeros(1), np.ones((1, 1))), (np.array([1]), np.zeros(0),
-                                                             np.ones((0, 1)))]
-    assert cons.fact_bounds(eps, 1) == (None, 0)
-    assert cons.fact_bounds([], 1) == (None, 0)

@@ -6,16 +6,8 @@ hand, is the same, ``K_c`` (objects at places no action of the trace touches nev
 and are left out of the count alike). ``K_c`` is the count under which the episodes'
 readings are most likely (:func:`best_counts`), searched from the count most observations
 show (:func:`object_counts`): a slot an arm hides in most frames can make the most frequent
-count wrong, and the episodes whose actions state where the objects are outweigh it. Counts
-the actions rule out are not candidates (:func:`fact_bounds`): an episode's touched slots and
-hand hold at least ``fixed_c``, and its ``L`` untouched slots at most ``L`` more objects; an
-episode whose actions state every slot is a count, not a vote against one. Readings are votes
-but not independent ones: one pose of the hand that misreads a slot misreads it in every
-episode that starts there, and the episodes recorded on request start where the recording
-did (random-1164 robot, draw 45, after two rounds of suggested episodes: 21 of 47 episodes,
-17 of them from one start state, read a second yellow at full trust, 14 stated every slot
-and one yellow, and the counts, two yellows by 0.56 nats, were left unsettled; the graph
-merged the yellow's two places, 33 nodes for 35). Where the recording does not settle the counts (a count one object away at least 1/20 as likely:
+count wrong, and the episodes whose actions state where the objects are outweigh it. Where
+the recording does not settle the counts (a count one object away at least 1/20 as likely:
 a slot above another read full where nothing stands, in a short recording), nothing is
 assigned.
 
@@ -234,11 +226,9 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
 
     Each episode contributes the log-likelihood of its best assignment
     (:func:`~vggc_cp.vision.assignment.counted_loglik`) given what its touched slots and the
-    hand hold; the counts move one object of one colour at a time from ``start`` while that
-    raises the total (a slot misread in most frames would make the most frequent count
-    wrong; the episodes whose actions state where the objects are outweigh it), among the
-    counts the episodes' facts allow (:func:`fact_bounds`; from their least counts where
-    ``start`` breaks them). The margin is to the allowed counts one object away.
+    hand hold; the counts move one object of one colour at a time from ``start`` while that raises the total (a
+    slot misread in most frames would make the most frequent count wrong; the episodes
+    whose actions state where the objects are outweigh it).
 
     Parameters
     ----------
@@ -251,8 +241,8 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
     -------
     counts : ndarray of int64, shape (C,)
     margin : float
-        Log-likelihood of ``counts`` less the best of the allowed counts one object away
-        (``inf`` where there is none).
+        Log-likelihood of ``counts`` less the best of the counts one object away (``inf``
+        where there is none).
 
     >>> ones = np.ones((2, 1))
     >>> eps = [(np.array([1]), np.array([0.9, 0.1]), ones)] * 3 + \\
@@ -270,23 +260,15 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
                             for fixed, p, post, *rest in episodes)
         return seen[key]
 
-    lo, hi = fact_bounds(episodes, len(start))
-
-    def allowed(k):
-        return lo is None or (bool((k >= lo).all()) and int(k.sum()) <= hi)
-
     def neighbours(k):
         for c in range(len(k)):
             for step in (-1, 1):
                 near = k.copy()
                 near[c] += step
-                if near[c] >= 0 and allowed(near):
+                if near[c] >= 0:
                     yield near
 
-    best = np.asarray(start, dtype=np.int64).copy()
-    if not allowed(best):
-        best = lo.copy()
-    score = total(best)
+    best, score = np.asarray(start, dtype=np.int64).copy(), total(start)
     improved = True
     while improved:
         improved = False
@@ -297,27 +279,6 @@ def best_counts(episodes: list[tuple], start: np.ndarray) -> tuple[np.ndarray, f
                 break
     margin = min((score - total(k) for k in neighbours(best)), default=np.inf)
     return best, float(margin)
-
-
-def fact_bounds(episodes: list[tuple], n_col: int) -> tuple[np.ndarray | None, int]:
-    """What the actions state of the counts: every episode's touched slots and hand hold
-    ``fixed[c]`` objects of colour ``c`` at its start, so ``K_c >= fixed[c]``, and its
-    ``L`` untouched slots hold one object each at most, so ``sum K <= sum fixed + L``.
-    Returns the least counts and the most objects (``None, 0`` where the facts contradict
-    one another: a slot structure read wrong somewhere, and they bound nothing).
-
-    >>> eps = [(np.array([1, 1]), np.zeros(0)), (np.array([0, 1]), np.zeros(2))]
-    >>> lo, hi = fact_bounds(eps, 2)
-    >>> lo.tolist(), hi
-    ([1, 1], 2)
-    """
-    if not episodes:
-        return None, 0
-    lo = np.max([np.asarray(e[0], dtype=np.int64) for e in episodes], axis=0)
-    hi = min(int(np.sum(e[0])) + len(e[1]) for e in episodes)
-    if int(lo.sum()) > hi or len(lo) != n_col:
-        return None, 0
-    return lo, hi
 
 
 def count_trust(margin: float) -> float:
