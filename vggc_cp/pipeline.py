@@ -66,7 +66,7 @@ from vggc_cp.solvers.confidence import (
     resample,
 )
 from vggc_cp.solvers.doubts import Doubt
-from vggc_cp.solvers.mdl import description_length
+from vggc_cp.solvers.mdl import description_length, sure_reading_gap
 from vggc_cp.solvers.merge import ThresholdPath, noise_scale, threshold_path
 from vggc_cp.solvers.pairs import coded_threshold_path
 from vggc_cp.solvers.verdict import graph_doubts, runner_up, verdict
@@ -170,7 +170,11 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     best = path.results[k]
     other = runner_up(path, dls)
     n_trans = max(len(problem.act), 1)
-    margin = (dls[other] - dls[k]) / n_trans if other is not None else float("inf")
+    # in the code of the actions, stated facts and the readings that are surely right
+    margin = (float("inf") if other is None else
+              (dls[other] - dls[k] + max(sure_reading_gap(problem, path.merged_labels(k),
+                                                          path.merged_labels(other)), 0.0))
+              / n_trans)
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)

@@ -187,11 +187,14 @@ def test_trusted_readings_break_a_tie_of_the_actions_and_nothing_else():
 
 def test_a_graph_the_readings_chose_keeps_the_margin_of_the_actions():
     """The trusted readings choose among a tie, but the confidence's margin stays in the
-    actions' code: the graph they chose is warned that another size is nearly as probable."""
+    actions' code where they are not surely right (no stated frame judges them here): the
+    graph they chose is warned that another size is nearly as probable."""
+    from vggc_cp.solvers.mdl import surely_trusted_readings
     from vggc_cp.solvers.merge import ThresholdPath
     from vggc_cp.solvers.verdict import runner_up
 
     p, one, two = _tie_problem(1.0)
+    assert surely_trusted_readings(p.readings) is None
     results = [one, two]
     k = select_mdl(results, p)
     assert k == 1                                   # the readings chose
@@ -447,3 +450,32 @@ def test_a_join_exactly_one_forbids_but_images_and_actions_favour_is_warned():
     for change in ({"steps": 0.1}, {"dl_nats": -2.9}, {"forbidden": None}):
         d = Doubt("merge", (0, 1), ((0,), (3,)), {**base, **change})
         assert not doubt_forbidden(quiet, [d], labels).suspect, change
+
+
+def test_readings_that_are_surely_right_settle_a_tie_in_the_margin():
+    """A tie of the actions (one pick node or two) that the images read apart: judged on
+    200 stated frames at kappa 1.0 the reading is surely right (lower bound >= 0.9) and its
+    code is part of the margin, beyond ln 20 for enough frames read apart; judged on four
+    stated frames, or on none, it adds nothing and the margin stays the actions'."""
+    from types import SimpleNamespace
+
+    from vggc_cp.solvers.base import Readings, SiteReads
+    from vggc_cp.solvers.mdl import TIE_NATS, sure_reading_gap, surely_trusted_readings
+
+    def problem(n_stated, n_read=24):
+        held = np.array([[0], [1]] * (n_stated // 2) + [[1]] * (n_read // 2)
+                        + [[2]] * (n_read // 2))
+        stated = np.array([[True]] * n_stated + [[False]] * n_read)
+        sites = SiteReads(held, stated, np.array([1.0]), np.array([0]))
+        return SimpleNamespace(readings=Readings.from_rows(np.zeros((len(held), 1)), sites))
+
+    n = 200 + 24
+    apart = np.r_[np.zeros(200, int), np.ones(12, int), np.full(12, 2)]
+    together = np.r_[np.zeros(200, int), np.ones(24, int)]
+    assert sure_reading_gap(problem(200), apart, together) > TIE_NATS
+    assert sure_reading_gap(problem(200), apart, apart) == 0.0
+    assert sure_reading_gap(problem(4), apart[196:], together[196:]) == 0.0
+    assert surely_trusted_readings(problem(4).readings) is None
+    unjudged = problem(0)
+    assert surely_trusted_readings(unjudged.readings) is None
+    assert len(apart) == len(together) == n

@@ -84,11 +84,13 @@ def runner_up(path: ThresholdPath, dls) -> int | None:
     description length (``dls``, one per graph of ``path``) among graphs of another size,
     the nearest on the path of equal ones; None when there is none.
 
-    The margin stays in the code of the actions and stated facts even where the trusted
-    readings chose among a tie (:func:`~vggc_cp.solvers.mdl.choice_lengths`): they break a
-    tie but do not settle it (a run of frames read wrong at a well-read site is common
-    under a robot's arm), so a graph they chose keeps the warning that the actions leave
-    another size at least 1/20 as probable."""
+    The runner-up is chosen in the code of the actions and stated facts; the margin to it
+    also counts the readings that are surely right
+    (:func:`~vggc_cp.solvers.mdl.sure_reading_gap`), not every trusted reading that chose
+    among a tie (:func:`~vggc_cp.solvers.mdl.choice_lengths`): those break a tie but do not
+    settle it (a run of frames read wrong at a well-read site is common under a robot's
+    arm), so a graph they alone chose keeps the warning that the actions leave another size
+    at least 1/20 as probable."""
     k = path.selected
     if k is None:
         return None
