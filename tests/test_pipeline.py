@@ -189,30 +189,33 @@ def test_the_fallback_runs_only_where_the_policy_says(shipped):
 
 
 @pytest.mark.slow  # a PyBullet trace
-def test_a_margin_warning_on_a_right_graph_lists_the_close_call_it_rests_on():
-    """random-3 clean, seed 0, |D| = 176 (the tuning split). The right 49 nodes, warned by the
-    description-length margin alone (0.00 nats: a false alarm), with no close call near t*.
-    The doubt listed is the decision toward the runner-up graph the margin rests on, a join
-    of two nodes, and its two sides are two states: a person who looks at it can dismiss the
-    warning. (Until session 35 this test's trace was blocks-3 clean seed 47, whose runner-up
-    graph is one the read cuts part again, and multifruit-2x3 randomized seed 12 until
-    session 20, whose margin warning went when objects were conserved.)"""
+def test_a_tie_the_surely_right_readings_settle_is_not_a_margin_warning():
+    """random-3 clean, seed 0, |D| = 176 (the tuning split). The right 49 nodes. In the
+    actions' code a graph of another size ties with it (two states seen once each: one node
+    or two cost the same edges), which warned it until session 52 (a false alarm). The images
+    tell the two apart at sites read at kappa 1.0 over hundreds of stated frames, surely
+    right, so their code joins the margin and the graph is quiet. (Until session 52 this
+    test asserted the warning and the close call it rests on; blocks-3 clean seed 47 until
+    session 35, multifruit-2x3 randomized seed 12 until session 20.)"""
     from vggc_cp.sim.explore import generate
+    from vggc_cp.solvers.mdl import TIE_NATS, sure_reading_gap
+    from vggc_cp.solvers.verdict import runner_up
 
     trace = generate("random-3", 176, seed=0, look="clean").trace
     learned = learn_graph(trace.without_states())
     assert learned.chosen.best.n_nodes == 49
     same = learned.labels[:, None] == learned.labels[None, :]
     np.testing.assert_array_equal(same, trace.states[:, None] == trace.states[None, :])
+    cand = learned.chosen
+    dls = cand.description_lengths
+    k, other = cand.path.selected, runner_up(cand.path, dls)
+    assert dls[other] - dls[k] < TIE_NATS                     # the actions tie
+    gap = sure_reading_gap(cand.problem, cand.path.merged_labels(k),
+                           cand.path.merged_labels(other))
+    assert dls[other] - dls[k] + gap >= TIE_NATS              # the readings settle it
     conf = learned.confidence
-    assert conf.suspect and [r for r in conf.reasons if "margin" in r] == list(conf.reasons)
-    assert learned_doubts(learned.chosen) == () and len(learned.doubts) == 1
-    d = learned.doubts[0]
-    assert d.kind == "merge" and 0 <= d.evidence["dl_nats"] < DoubtRule().max_nats
-    assert f"{d.evidence['dl_nats']:.2f} nats" in conf.reasons[0]
-    sides = [{str(trace.states[o]) for o in side} for side in d.observations]
-    assert all(len(side) == 1 for side in sides) and sides[0] != sides[1]
-    assert learned.solution_record()["doubts"][0]["nodes"] == list(d.nodes)
+    assert conf.margin * len(cand.problem.act) == pytest.approx(dls[other] - dls[k] + gap)
+    assert not conf.suspect and not any("margin" in r for r in conf.reasons)
 
 
 @pytest.mark.slow  # a PyBullet trace
