@@ -69,6 +69,7 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem, Readings, SolveResult
 from vggc_cp.solvers.selection import PATH, register_selection
+from vggc_cp.vision.trust import READ_Z, kappa_lower, stated_shares
 
 
 def description_length(problem: Problem, labels: np.ndarray) -> float:
@@ -127,10 +128,9 @@ def select_mdl(results: Sequence[SolveResult], problem: Problem | None = None) -
 
 
 def surely_trusted_readings(readings: Readings | None, min_kappa: float = TRUSTED_KAPPA,
-                            z: float | None = None) -> Readings | None:
+                            z: float = READ_Z) -> Readings | None:
     """:func:`trusted_readings` where the reading of each frame is *surely* trusted: the
-    lower confidence bound (one-sided, at ``z``; :data:`~vggc_cp.vision.trust.READ_Z` by
-    default) of the kappa of the reading that set it (``SiteReads.trust``, else the site's
+    lower confidence bound (one-sided, at the normal quantile ``z``: 95 %) of the kappa of the reading that set it (``SiteReads.trust``, else the site's
     kappa), judged on the site's stated frames (:func:`~vggc_cp.vision.trust.kappa_lower`),
     and the bound the evidence gives that reading itself where it does
     (``SiteReads.trust_low``: the few stated frames of the poses that read it), reach
@@ -149,21 +149,17 @@ def surely_trusted_readings(readings: Readings | None, min_kappa: float = TRUSTE
     >>> surely_trusted_readings(Readings.from_rows(np.zeros((6, 1)), few)) is None
     True
     """
-    from vggc_cp.vision.trust import READ_Z, kappa_lower
-
     sites = None if readings is None else readings.sites
     if sites is None:
         return None
-    z = READ_Z if z is None else z
     held = np.asarray(sites.held, dtype=np.int64)
     stated = np.asarray(sites.stated, dtype=bool)
     kappa = np.asarray(sites.kappa, dtype=np.float64)
     own = getattr(sites, "trust", None)
     frame = (np.broadcast_to(kappa, held.shape) if own is None
              else np.asarray(own, dtype=np.float64))
-    n_stated = stated.sum(axis=0)
-    full = np.where(stated, held > 0, False).sum(axis=0) / np.maximum(n_stated, 1)
-    low = kappa_lower(frame, np.maximum(full, 1.0 - full)[None, :], n_stated[None, :], z)
+    n_stated, share = stated_shares(held, stated)
+    low = kappa_lower(frame, share[None, :], n_stated[None, :], z)
     told = getattr(sites, "trust_low", None)
     if told is not None:
         told = np.asarray(told, dtype=np.float64)

@@ -35,7 +35,7 @@ from vggc_cp.solvers.closure import PartitionClosure
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt, DoubtRule, Flips
 from vggc_cp.solvers.episodes import WalkGraph, episode_chains
 from vggc_cp.solvers.merge import ThresholdPath
-from vggc_cp.vision.trust import READ_Z, kappa_lower
+from vggc_cp.vision.trust import READ_Z, kappa_lower, stated_shares
 
 #: Agreement beyond chance (Cohen's kappa) below which a site's reading does not settle that
 #: two nodes are two states: below 0.6 is "moderate" agreement at best (Landis and Koch 1977).
@@ -118,9 +118,7 @@ class _NodeReads:
                             else np.where(stated | np.isinf(self.trust), np.inf,
                                           np.asarray(own, dtype=np.float64)))
         # a kappa judged on few stated frames is trusted only as far as its lower bound
-        n_stated = stated.sum(axis=0)
-        full = np.where(stated, held > 0, False).sum(axis=0) / np.maximum(n_stated, 1)
-        share = np.maximum(full, 1.0 - full)
+        n_stated, share = stated_shares(held, stated)
         self.trust_low = kappa_lower(self.trust, share, n_stated, z)
         self.frame_trust_low = kappa_lower(self.frame_trust, share[None, :],
                                            n_stated[None, :], z)

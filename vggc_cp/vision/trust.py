@@ -48,6 +48,21 @@ def kappa_lower(kappa, majority, n, z: float = READ_Z):
     return np.where(finite, (lo - m_) / np.maximum(1.0 - m_, 1e-12), kappa)
 
 
+def stated_shares(held: np.ndarray, stated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How many stated frames judge each site's reading, and the share among them of the
+    commoner of full and empty (``majority`` of :func:`kappa_lower`); shapes (S,).
+
+    >>> n, share = stated_shares(np.array([[0, 2], [1, 0], [1, 1]]),
+    ...                          np.array([[True, True], [True, False], [True, False]]))
+    >>> n.tolist(), share.round(2).tolist()
+    ([3, 1], [0.67, 1.0])
+    """
+    held, stated = np.asarray(held), np.asarray(stated, dtype=bool)
+    n_stated = stated.sum(axis=0)
+    full = np.where(stated, held > 0, False).sum(axis=0) / np.maximum(n_stated, 1)
+    return n_stated, np.maximum(full, 1.0 - full)
+
+
 def reading_kappa(agreement_: float | None, labels: np.ndarray) -> float:
     """Agreement of a site's reading with its stated frames beyond chance (Cohen's kappa
     against saying what most stated frames hold).
