@@ -69,7 +69,6 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem, Readings, SolveResult
 from vggc_cp.solvers.selection import PATH, register_selection
-from vggc_cp.vision.trust import READ_Z, kappa_lower, stated_shares
 
 
 def description_length(problem: Problem, labels: np.ndarray) -> float:
@@ -128,13 +127,14 @@ def select_mdl(results: Sequence[SolveResult], problem: Problem | None = None) -
 
 
 def surely_trusted_readings(readings: Readings | None, min_kappa: float = TRUSTED_KAPPA,
-                            z: float = READ_Z) -> Readings | None:
+                            z: float | None = None) -> Readings | None:
     """:func:`trusted_readings` where the reading of each frame is *surely* trusted: the
-    lower confidence bound (one-sided, at the normal quantile ``z``: 95 %) of the kappa of the reading that set it (``SiteReads.trust``, else the site's
-    kappa), judged on the site's stated frames (:func:`~vggc_cp.vision.trust.kappa_lower`),
-    and the bound the evidence gives that reading itself where it does
-    (``SiteReads.trust_low``: the few stated frames of the poses that read it), reach
-    ``min_kappa``. None where no such reading is left.
+    lower confidence bound (one-sided, at the normal quantile ``z``;
+    :data:`~vggc_cp.vision.trust.READ_Z`, 95 %, by default) of the kappa of the reading
+    that set it (``SiteReads.trust``, else the site's kappa), judged on the site's stated
+    frames (:func:`~vggc_cp.vision.trust.kappa_lower`), and the bound the evidence gives
+    that reading itself where it does (``SiteReads.trust_low``: the few stated frames of
+    the poses that read it), reach ``min_kappa``. None where no such reading is left.
 
     Two sites read at kappa 1.0, each with two frames to read: judged on 200 stated frames
     (half of them full) both readings are sure, on 4 they are not (bound 0.19).
@@ -149,9 +149,13 @@ def surely_trusted_readings(readings: Readings | None, min_kappa: float = TRUSTE
     >>> surely_trusted_readings(Readings.from_rows(np.zeros((6, 1)), few)) is None
     True
     """
+    # imported here: the CLI's parser imports this module, and vision pulls in scipy
+    from vggc_cp.vision.trust import READ_Z, kappa_lower, stated_shares
+
     sites = None if readings is None else readings.sites
     if sites is None:
         return None
+    z = READ_Z if z is None else z
     held = np.asarray(sites.held, dtype=np.int64)
     stated = np.asarray(sites.stated, dtype=bool)
     kappa = np.asarray(sites.kappa, dtype=np.float64)
