@@ -474,6 +474,7 @@ def test_readings_that_are_surely_right_settle_a_tie_in_the_margin():
     together = np.r_[np.zeros(200, int), np.ones(24, int)]
     assert sure_reading_gap(problem(200), apart, together) > TIE_NATS
     assert sure_reading_gap(problem(200), apart, apart) == 0.0
+    assert sure_reading_gap(problem(200), apart, None) == 0.0      # no graph at a threshold
     assert sure_reading_gap(problem(4), apart[196:], together[196:]) == 0.0
     assert surely_trusted_readings(problem(4).readings) is None
     unjudged = problem(0)

@@ -177,10 +177,14 @@ def surely_trusted_readings(readings: Readings | None, min_kappa: float = TRUSTE
     return Readings.from_rows(rows)
 
 
-def sure_reading_gap(problem: Problem, chosen: np.ndarray, other: np.ndarray) -> float:
+def sure_reading_gap(problem: Problem, chosen: np.ndarray | None,
+                     other: np.ndarray | None) -> float:
     """How many nats longer the surely trusted readings (:func:`surely_trusted_readings`)
-    are coded given the graph ``other`` than given ``chosen`` (0 where there are none):
-    what they add to the description-length margin of ``chosen`` over ``other``."""
+    are coded given the graph ``other`` than given ``chosen`` (0 where there are none, or
+    where either graph is None: a threshold the solver found no graph at): what they add
+    to the description-length margin of ``chosen`` over ``other``."""
+    if chosen is None or other is None:
+        return 0.0
     sure = surely_trusted_readings(getattr(problem, "readings", None))
     if sure is None:
         return 0.0
