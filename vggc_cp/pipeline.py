@@ -170,11 +170,11 @@ def assess_path(trace: Trace, problem: Problem | CodedProblem, path: ThresholdPa
     best = path.results[k]
     other = runner_up(path, dls)
     n_trans = max(len(problem.act), 1)
-    # in the code of the actions, stated facts and the readings that are surely right
-    margin = (float("inf") if other is None else
-              (dls[other] - dls[k] + max(sure_reading_gap(problem, path.merged_labels(k),
-                                                          path.merged_labels(other)), 0.0))
-              / n_trans)
+    margin = float("inf")
+    if other is not None:
+        # in the code of the actions, stated facts and the readings that are surely right
+        gap = sure_reading_gap(problem, path.merged_labels(k), path.merged_labels(other))
+        margin = (dls[other] - dls[k] + max(gap, 0.0)) / n_trans
     plateau = plateau_length([r.labels for r in path.results], k)
     resampled = (resample(problem, path.thresholds[k], best.labels, trace.episode_index(),
                           options.folds, options.warning) if options.folds >= 2 else None)
