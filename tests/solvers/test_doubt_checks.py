@@ -11,11 +11,13 @@ import pytest
 from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_checks import (
     MAX_PLAN_RISK,
+    START_ODDS,
     doubt_readings,
     misplaced_share,
     plan_risk,
     plans_through,
     sole_edges,
+    start_odds,
 )
 from vggc_cp.solvers.doubts import SPLIT, Doubt
 
@@ -72,7 +74,8 @@ def _chain(n_nodes: int = 6, reps: int = 10):
 
 
 def test_a_doubtful_episode_that_alone_shows_a_shortcut_risks_the_plans_that_take_it():
-    labels, src, act, dst, episode = _chain()
+    # five other episodes start at node 0: odds 11 to 1, the starts do not settle it
+    labels, src, act, dst, episode = _chain(reps=5)
     d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
         "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_sites": ["pick_3"],
         "read_kappa": 0.3})
@@ -98,3 +101,68 @@ def test_an_edge_other_episodes_show_too_is_not_at_risk():
     m = moved / (sizes + moved)
     want = np.mean([1 - (1 - m[u]) * (1 - m[v]) for u in range(6) for v in range(6) if u != v])
     assert plan_risk([d], labels, src, act, dst) == pytest.approx(want)
+
+
+def test_the_other_episodes_starts_settle_an_episode_the_images_put_where_they_start():
+    # ten passes from node 0, each an episode; the doubtful one starts at node 0 too, and
+    # the other path would start it at node 1, where no episode starts: 10.5 / 0.5 = 21
+    labels, src, act, dst, episode = _chain(reps=10)
+    d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
+        "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_sites": ["pick_3"],
+        "read_kappa": 0.3})
+    assert start_odds(d, labels, dst) == pytest.approx(21.0)
+    assert 21.0 > START_ODDS
+    assert plan_risk([d], labels, src, act, dst) > MAX_PLAN_RISK
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    conf = doubt_readings(quiet, [d], labels, SimpleNamespace(src=src, act=act, dst=dst))
+    assert not conf.suspect and not conf.reasons
+    assert len(conf.notes) == 1 and "the starts settle it" in conf.notes[0]
+    assert "21 times as often as at node 1" in conf.notes[0]
+    # without the transitions nothing says where episodes start: the renders' risk decides
+    assert not doubt_readings(quiet, [d], labels).notes[0].endswith("the starts settle it")
+
+
+def test_starts_spread_over_both_nodes_settle_nothing():
+    labels, src, act, dst, episode = _chain(reps=10)
+    labels = labels.copy()
+    # half the passes start at node 1 instead (relabel their first observation)
+    starts = np.setdiff1d(np.arange(len(labels)), dst)
+    labels[starts[:5]] = 1
+    d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {"episode": episode, "moved_path": [1, 2]})
+    assert start_odds(d, labels, dst) == pytest.approx(5.5 / 5.5)
+    same = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {"episode": episode, "moved_path": [0, 2]})
+    assert start_odds(same, labels, dst) == 1.0
+    assert start_odds(Doubt(SPLIT, (0,), ((0,), (1,)), {"episode": episode}), labels, dst) == 1.0
+
+
+def test_an_episode_starting_where_no_other_does_flags_whatever_its_plan_risk():
+    # ten passes from node 0; the doubtful episode starts at node 1, where none does, and
+    # the other path would start it at node 0
+    labels, src, act, dst, episode = _chain(reps=10)
+    labels = labels.copy()
+    labels[episode[0]] = 1
+    d = Doubt(SPLIT, (1,), ((1,), (episode[0],)), {
+        "episode": episode, "moved_to": 0, "moved_path": [0, 5], "read_sites": ["pick_3"],
+        "read_kappa": 0.3})
+    assert start_odds(d, labels, dst) == pytest.approx(0.5 / 10.5)
+    problem = SimpleNamespace(src=src, act=act, dst=dst)
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    conf = doubt_readings(quiet, [d], labels, problem)
+    assert conf.suspect and "the other episodes start there 21 times as often" in conf.reasons[0]
+    # the same doubt judged without the transitions: its renders' risk alone, a note
+    assert not doubt_readings(quiet, [d], labels).suspect
+
+
+def test_settled_episodes_leave_room_for_the_next_within_the_limit():
+    labels, src, act, dst, episode = _chain(reps=10)
+    problem = SimpleNamespace(src=src, act=act, dst=dst)
+    settled = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
+        "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_kappa": 0.3})
+    # an episode of the passes, moved from node 2 to node 3 mid-walk: its start stays
+    open_ = Doubt(SPLIT, (2,), ((2,), (2,)), {
+        "episode": [0, 10], "moved_to": 3, "moved_path": [0, 1, 3, 4, 3, 4, 3, 2, 1, 0, 1],
+        "read_kappa": 0.3})
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    one = doubt_readings(quiet, [settled, open_], labels, problem, limit=1)
+    assert not any("the starts settle it" in n for n in (*one.notes, *one.reasons))
+    assert any("observations 0-10" in n for n in (*one.notes, *one.reasons))

@@ -11,6 +11,11 @@ of change of :mod:`vggc_cp.solvers.confidence`:
   (:func:`vggc_cp.solvers.read_doubts.read_doubts`);
 * :func:`doubt_lone` -- episodes that visit no node another episode visits, beyond chance
   (:func:`vggc_cp.solvers.episodes.lone_episodes`).
+
+Where an episode starts is evidence too (:func:`start_odds`): an episode doubt whose start the
+other episodes' starts back (the images put it where they start, 20 times as often as where
+the doubt would move it) flags nothing; one the starts contradict (it starts where they
+almost never do, and the doubt would move it where they do) flags whatever its plan risk.
 """
 
 from __future__ import annotations
@@ -152,15 +157,73 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
     return float(fail[pairs].mean()) if pairs.any() else 0.0
 
 
+#: The odds at which the other episodes' starts settle where an episode starts: 20 to 1
+#: (3 nats), the bar of the description-length margin and of the doubts' ``dl_nats``.
+START_ODDS = 20.0
+
+
+def episode_starts(n_obs: int, dst: np.ndarray) -> np.ndarray:
+    """The first observation of every episode: those no transition leads to, ascending.
+
+    >>> episode_starts(6, np.array([1, 2, 4])).tolist()
+    [0, 3, 5]
+    """
+    return np.setdiff1d(np.arange(n_obs), np.asarray(dst, dtype=np.int64))
+
+
+def start_odds(doubt, labels: np.ndarray, dst: np.ndarray) -> float:
+    """How much more often the *other* episodes start at an episode doubt's first node than
+    at the other path's (``moved_path[0]``): ``(n_now + 1/2) / (n_alt + 1/2)`` over their
+    first observations' nodes (:func:`episode_starts`; half a start added to each, the
+    Krichevsky-Trofimov estimate), 1 where the two paths start at one node or the doubt
+    names no other path.
+
+    Where episodes are recorded from a home state, every one starts at its node, and an
+    episode the images put there too is not moved to a node none starts at by a reading
+    that agrees with the stated frames less than substantially: the prior odds of the
+    starts and the reading point one way, and at :data:`START_ODDS` the doubt is settled
+    (on the tuning split random-16 and random-19 robot, right graphs all of whose episodes
+    start at one node, were warned by such doubts alone). At ``1 / START_ODDS`` the two
+    point apart: the episode starts where the others almost never do, and the doubt would
+    move it where they do (multifruit-4x6 robot s410, draw 46: 15 doubted episodes, 14 of
+    them rightly at the home node and settled, one truly misplaced, starting at a node of
+    its own) -- a warning whatever its plan risk.
+
+    Ten other episodes start at node 0 and none at node 1:
+
+    >>> from vggc_cp.solvers.doubts import SPLIT, Doubt
+    >>> d = Doubt(SPLIT, (0,), ((0,), (20,)), {"episode": [20, 21], "moved_path": [1, 2]})
+    >>> labels = np.array([0, 2] * 11)
+    >>> start_odds(d, labels, np.arange(1, 22, 2))
+    21.0
+    """
+    ev = doubt.evidence
+    path = ev.get("moved_path")
+    if not isinstance(path, list) or not path:
+        return 1.0
+    labels = np.asarray(labels, dtype=np.int64)
+    first = int(ev["episode"][0])
+    now, alt = int(labels[first]), int(path[0])
+    if now == alt:
+        return 1.0
+    starts = episode_starts(len(labels), dst)
+    at = labels[starts[starts != first]]
+    return (float(np.sum(at == now)) + 0.5) / (float(np.sum(at == alt)) + 0.5)
+
+
 def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
-                   problem=None) -> Confidence:
+                   problem=None, limit: int | None = None) -> Confidence:
     """``conf`` flagged when a doubt rests on an untrustworthy reading
     (:func:`vggc_cp.solvers.read_doubts.read_doubts`: its evidence has ``read_kappa``): two nodes
     that nothing the actions state sets apart, told apart only by what the images read at
     sites whose reading agrees with the stated frames less than substantially beyond
     chance; or episodes that only such a reading puts on their path
     (:func:`vggc_cp.solvers.read_doubts.episode_doubts`: its evidence has ``episode``, too)
-    and that, were they misplaced, would fail more than :data:`MAX_PLAN_RISK` of the plans
+    whose start the other episodes' starts contradict (given the ``problem``:
+    :func:`start_odds` at most ``1 / START_ODDS``), or whose start they do not settle (under
+    :data:`START_ODDS`; settled ones are noted when no other is left; of the others the
+    first ``limit`` are judged) and that, were they misplaced, would fail more than
+    :data:`MAX_PLAN_RISK` of the plans
     between two observations (with ``labels`` only): plans that start or end at a misplaced
     render (:func:`misplaced_share`) or, given the ``problem`` (its transitions), that also
     take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable either way: the episode is a note
@@ -179,6 +242,38 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
             f"actions state it {_agreement(ev)}; record episodes that act there from both "
             f"nodes (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+    settled, against = [], []
+    if moves and labels is not None and problem is not None:
+        odds = [start_odds(d, labels, problem.dst) for d in moves]
+        settled = [(o, d) for o, d in zip(odds, moves) if o >= START_ODDS]
+        against = [(o, d) for o, d in zip(odds, moves) if o <= 1.0 / START_ODDS]
+        moves = [d for o, d in zip(odds, moves) if 1.0 / START_ODDS < o < START_ODDS]
+    moves = moves[:limit]
+    if against:
+        o, d = against[0]
+        ev = d.evidence
+        first, last = ev["episode"]
+        more = f" (and {len(against) - 1} more such episode(s))" if len(against) > 1 else ""
+        conf = conf.flagged(
+            f"the episode of observations {first}-{last} starts at node {labels[first]}, "
+            f"and might start at node {ev['moved_path'][0]} instead{more}: the other "
+            f"episodes start there {1.0 / o:.0f} times as often as at node {labels[first]} "
+            f"(half a start added to each), and only the images' reading at {_sites(ev)} "
+            f"puts it where it is, which agrees with the frames whose actions state it "
+            f"{_agreement(ev)}; record an episode from that episode's start that acts there "
+            f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+    if settled and not moves:
+        o, d = settled[0]
+        ev = d.evidence
+        first, last = ev["episode"]
+        more = f" (and {len(settled) - 1} more such episode(s))" if len(settled) > 1 else ""
+        conf = conf.noted(
+            f"the episode of observations {first}-{last} might start at node "
+            f"{ev['moved_path'][0]} instead of node {labels[first]}{more}: only the images' "
+            f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames "
+            f"whose actions state it {_agreement(ev)}; but the other episodes start at node "
+            f"{labels[first]} {o:.0f} times as often as at node {ev['moved_path'][0]} (half "
+            f"a start added to each): the starts settle it")
     if moves:
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]

@@ -188,8 +188,8 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
                  [d for d in read if "episode" in d.evidence])
         # nodes (episodes) only an untrustworthy reading of the images sets apart (puts on
         # their path): flagged, or noted where the episodes would misplace few plans; first
-        conf = doubt_readings(conf, (*kinds[0][:rule.limit], *kinds[1][:rule.limit]), labels,
-                              problem)
+        conf = doubt_readings(conf, (*kinds[0][:rule.limit], *kinds[1]), labels, problem,
+                              rule.limit)
         pairs = {d.nodes for d in read}
         # the pairs and the episodes in turn, so that the list keeps some of each
         read = tuple(d for two in zip_longest(*kinds) for d in two if d is not None)
