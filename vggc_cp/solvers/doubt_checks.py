@@ -236,7 +236,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
     moves = [d for d in read if "episode" in d.evidence]
     for d in pairs[:1]:
         ev = d.evidence
-        more = f" (and {len(pairs) - 1} more such pair(s))" if len(pairs) > 1 else ""
+        more = _more(len(pairs) - 1, "pair(s)")
         conf = conf.flagged(
             f"nodes {d.nodes[0]} and {d.nodes[1]} might be one state{more}: only the images' "
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
@@ -250,10 +250,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         moves = [d for o, d in zip(odds, moves) if 1.0 / START_ODDS < o < START_ODDS]
     moves = moves[:limit]
     if against:
-        o, d = against[0]
-        ev = d.evidence
-        first, last = ev["episode"]
-        more = f" (and {len(against) - 1} more such episode(s))" if len(against) > 1 else ""
+        o, ev, first, last, more = _first_episode(against)
         conf = conf.flagged(
             f"the episode of observations {first}-{last} starts at node {labels[first]}, "
             f"and might start at node {ev['moved_path'][0]} instead{more}: the other "
@@ -263,10 +260,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"{_agreement(ev)}; record an episode from that episode's start that acts there "
             f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")
     if settled and not moves:
-        o, d = settled[0]
-        ev = d.evidence
-        first, last = ev["episode"]
-        more = f" (and {len(settled) - 1} more such episode(s))" if len(settled) > 1 else ""
+        o, ev, first, last, more = _first_episode(settled)
         conf = conf.noted(
             f"the episode of observations {first}-{last} might start at node "
             f"{ev['moved_path'][0]} instead of node {labels[first]}{more}: only the images' "
@@ -277,7 +271,7 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
     if moves:
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]
-        more = f" (and {len(moves) - 1} more such episode(s))" if len(moves) > 1 else ""
+        more = _more(len(moves) - 1, "episode(s)")
         if labels is None:
             risk = 0.0
         elif problem is None:
@@ -298,6 +292,19 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
         conf = (conf.flagged(reason) if labels is None or risk > MAX_PLAN_RISK
                 else conf.noted(reason))
     return conf
+
+
+def _more(n: int, what: str) -> str:
+    """`` (and n more such what)``, or nothing where ``n`` is 0."""
+    return f" (and {n} more such {what})" if n > 0 else ""
+
+
+def _first_episode(judged: list) -> tuple:
+    """Of ``(odds, episode doubt)`` pairs, the first one's odds, evidence, first and last
+    observation, and how many more there are, in words."""
+    odds, d = judged[0]
+    first, last = d.evidence["episode"]
+    return odds, d.evidence, first, last, _more(len(judged) - 1, "episode(s)")
 
 
 def _sites(evidence: dict) -> str:
@@ -461,7 +468,7 @@ def doubt_near_cuts(conf: Confidence, near) -> Confidence:
     if not near:
         return conf
     u, a, b, loss, sites = near[0]
-    more = f" (and {len(near) - 1} more such node(s))" if len(near) > 1 else ""
+    more = _more(len(near) - 1, "node(s)")
     return conf.flagged(
         f"node {u} might be two states{more}: the readings set observations "
         f"{', '.join(str(int(o)) for o in a[:3])} apart from "
@@ -490,7 +497,7 @@ def doubt_lone(conf: Confidence, lone) -> Confidence:
         return conf
     chains = lone.doubted
     chain = chains[0]
-    more = f" (and {len(chains) - 1} more such episode(s))" if len(chains) > 1 else ""
+    more = _more(len(chains) - 1, "episode(s)")
     if lone.surprising:
         why = (f"{len(lone.chains)} such episode(s) where {lone.expected:.3f} would be "
                f"expected by chance (chance {lone.chance:.3f}; {100 * lone.share:.0f} % of "
