@@ -32,6 +32,7 @@ from vggc_cp.sim.arm import ARM_CLEARANCE, arm_base, grasp_point, load_arm, pose
 from vggc_cp.sim.arrange import Arrangement
 from vggc_cp.sim.dynamics import Benchmark
 from vggc_cp.sim.looks import CLASS_RGBA, Look, clean_look, png_bytes, texture_image
+from vggc_cp.sim.meshes import ellipsoid, strawberry
 
 #: Centre-to-centre distance of neighbouring regions (m).
 PITCH = 0.16
@@ -179,48 +180,6 @@ def look_camera(cam: Camera, look: Look) -> Camera:
                    light_direction=r6(look.light_direction))
 
 
-def _ellipsoid(a: float, b: float, c: float, nu: int = 14, nv: int = 9):
-    verts, idx = [], []
-    for i in range(nv + 1):
-        th = math.pi * i / nv
-        for j in range(nu):
-            ph = 2 * math.pi * j / nu
-            verts.append([a * math.sin(th) * math.cos(ph), b * math.sin(th) * math.sin(ph),
-                          c * math.cos(th)])
-    for i in range(nv):
-        for j in range(nu):
-            a0, a1 = i * nu + j, i * nu + (j + 1) % nu
-            idx += [a0, a0 + nu, a1, a1, a0 + nu, a1 + nu]
-    return verts, idx
-
-
-def _strawberry(radius: float, top: float, bottom: float, nu: int = 14, nv: int = 8):
-    """A cone-like body: a rounded shoulder at ``top`` tapering to a blunt tip at ``bottom``."""
-    verts, idx = [[0.0, 0.0, top + 0.2 * radius]], []
-    rings = []
-    for i in range(1, nv + 1):
-        t = i / nv  # 0 at the top, 1 at the tip
-        z = top - (top - bottom) * t
-        rad = radius * (math.sin(math.pi / 2 * min(1.0, 3 * t)) * (1 - 0.85 * t ** 1.3))
-        ring = []
-        for j in range(nu):
-            ph = 2 * math.pi * j / nu
-            ring.append(len(verts))
-            verts.append([rad * math.cos(ph), rad * math.sin(ph), z])
-        rings.append(ring)
-    for j in range(nu):
-        idx += [0, rings[0][j], rings[0][(j + 1) % nu]]
-    for r0, r1 in zip(rings[:-1], rings[1:]):
-        for j in range(nu):
-            k = (j + 1) % nu
-            idx += [r0[j], r1[j], r0[k], r0[k], r1[j], r1[k]]
-    tip = len(verts)
-    verts.append([0.0, 0.0, bottom - 0.004])
-    for j in range(nu):
-        idx += [rings[-1][j], tip, rings[-1][(j + 1) % nu]]
-    return verts, idx
-
-
 def image_shape(size) -> tuple[int, int]:
     """``(height, width)`` of an image size: one side (square) or ``(height, width)``."""
     if isinstance(size, (tuple, list)):
@@ -310,7 +269,7 @@ class Scene:
                       (0.01 * s, 0, r + 0.008 * s))]
             return self._multibody(parts), r
         if kind == "strawberry":
-            verts, idx = _strawberry(0.034 * s, 0.012 * s, -0.036 * s)
+            verts, idx = strawberry(0.034 * s, 0.012 * s, -0.036 * s)
             parts = [(self._visual(p.GEOM_MESH, rgba or _RED, vertices=verts, indices=idx),
                       None),
                      (self._visual(p.GEOM_CYLINDER, _GREEN, radius=0.011 * s,
@@ -320,7 +279,7 @@ class Scene:
             return self._multibody(parts), 0.04 * s
         if kind == "tomato":
             a, c = 0.036 * s, 0.027 * s
-            verts, idx = _ellipsoid(a, a, c)
+            verts, idx = ellipsoid(a, a, c)
             sepal = self._visual(p.GEOM_BOX, _GREEN,
                                  halfExtents=[0.014 * s, 0.0035 * s, 0.0015 * s])
             parts = [(self._visual(p.GEOM_MESH, rgba or _RED, vertices=verts, indices=idx),
@@ -335,7 +294,7 @@ class Scene:
                                    length=0.01 * s), (0, 0, c + 0.006 * s))]
             return self._multibody(parts), c
         if kind == "lemon":
-            verts, idx = _ellipsoid(0.045 * s, 0.03 * s, 0.03 * s)
+            verts, idx = ellipsoid(0.045 * s, 0.03 * s, 0.03 * s)
             parts = [(self._visual(p.GEOM_MESH, rgba or _YELLOW, vertices=verts, indices=idx),
                       None),
                      (self._visual(p.GEOM_SPHERE, (0.7, 0.75, 0.1, 1.0), radius=0.008 * s),
