@@ -103,23 +103,21 @@ def test_an_edge_other_episodes_show_too_is_not_at_risk():
     assert plan_risk([d], labels, src, act, dst) == pytest.approx(want)
 
 
-def test_the_other_episodes_starts_settle_an_episode_the_images_put_where_they_start():
+def test_starts_that_back_the_images_settle_nothing():
     # ten passes from node 0, each an episode; the doubtful one starts at node 0 too, and
-    # the other path would start it at node 1, where no episode starts: 10.5 / 0.5 = 21
+    # the other path would start it at node 1, where no episode starts: 10.5 / 0.5 = 21 for
+    # where it is -- and the plan risk still decides (a home node may hold misread renders)
     labels, src, act, dst, episode = _chain(reps=10)
     d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
         "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_sites": ["pick_3"],
         "read_kappa": 0.3})
     assert start_odds(d, labels, dst) == pytest.approx(21.0)
     assert 21.0 > START_ODDS
-    assert plan_risk([d], labels, src, act, dst) > MAX_PLAN_RISK
+    risk = plan_risk([d], labels, src, act, dst)
+    assert risk > MAX_PLAN_RISK
     quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
     conf = doubt_readings(quiet, [d], labels, SimpleNamespace(src=src, act=act, dst=dst))
-    assert not conf.suspect and not conf.reasons
-    assert len(conf.notes) == 1 and "the starts settle it" in conf.notes[0]
-    assert "21 times as often as at node 1" in conf.notes[0]
-    # without the transitions nothing says where episodes start: the renders' risk decides
-    assert not doubt_readings(quiet, [d], labels).notes[0].endswith("the starts settle it")
+    assert conf.suspect and f"{100 * risk:.1f} % of plans" in conf.reasons[0]
 
 
 def test_starts_spread_over_both_nodes_settle_nothing():
@@ -153,16 +151,19 @@ def test_an_episode_starting_where_no_other_does_flags_whatever_its_plan_risk():
     assert not doubt_readings(quiet, [d], labels).suspect
 
 
-def test_settled_episodes_leave_room_for_the_next_within_the_limit():
+def test_contradicted_episodes_leave_room_for_the_next_within_the_limit():
     labels, src, act, dst, episode = _chain(reps=10)
+    labels = labels.copy()
+    labels[episode[0]] = 1
     problem = SimpleNamespace(src=src, act=act, dst=dst)
-    settled = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
-        "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_kappa": 0.3})
+    against = Doubt(SPLIT, (1,), ((1,), (episode[0],)), {
+        "episode": episode, "moved_to": 0, "moved_path": [0, 5], "read_kappa": 0.3})
     # an episode of the passes, moved from node 2 to node 3 mid-walk: its start stays
     open_ = Doubt(SPLIT, (2,), ((2,), (2,)), {
         "episode": [0, 10], "moved_to": 3, "moved_path": [0, 1, 3, 4, 3, 4, 3, 2, 1, 0, 1],
         "read_kappa": 0.3})
     quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
-    one = doubt_readings(quiet, [settled, open_], labels, problem, limit=1)
-    assert not any("the starts settle it" in n for n in (*one.notes, *one.reasons))
-    assert any("observations 0-10" in n for n in (*one.notes, *one.reasons))
+    one = doubt_readings(quiet, [against, open_], labels, problem, limit=1)
+    said = (*one.notes, *one.reasons)
+    assert one.suspect and "times as often" in said[0]
+    assert any("observations 0-10" in n for n in said)

@@ -12,10 +12,11 @@ of change of :mod:`vggc_cp.solvers.confidence`:
 * :func:`doubt_lone` -- episodes that visit no node another episode visits, beyond chance
   (:func:`vggc_cp.solvers.episodes.lone_episodes`).
 
-Where an episode starts is evidence too (:func:`start_odds`): an episode doubt whose start the
-other episodes' starts back (the images put it where they start, 20 times as often as where
-the doubt would move it) flags nothing; one the starts contradict (it starts where they
-almost never do, and the doubt would move it where they do) flags whatever its plan risk.
+Where an episode starts is evidence too (:func:`start_odds`): an episode doubt that the other
+episodes' starts contradict (it starts where they almost never do, and the doubt would move it
+where they do) flags whatever its plan risk. Starts that back the images settle nothing
+(session 53: quieting such doubts made two misses of a fresh draw silent, each warned only by
+episode doubts that were right placements, or wrong in their other path too).
 """
 
 from __future__ import annotations
@@ -157,8 +158,9 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
     return float(fail[pairs].mean()) if pairs.any() else 0.0
 
 
-#: The odds at which the other episodes' starts settle where an episode starts: 20 to 1
-#: (3 nats), the bar of the description-length margin and of the doubts' ``dl_nats``.
+#: The odds of the other episodes' starts against where an episode starts at which they
+#: contradict it: 20 to 1 (3 nats), the bar of the description-length margin and of the
+#: doubts' ``dl_nats``.
 START_ODDS = 20.0
 
 
@@ -178,16 +180,17 @@ def start_odds(doubt, labels: np.ndarray, dst: np.ndarray) -> float:
     Krichevsky-Trofimov estimate), 1 where the two paths start at one node or the doubt
     names no other path.
 
-    Where episodes are recorded from a home state, every one starts at its node, and an
-    episode the images put there too is not moved to a node none starts at by a reading
-    that agrees with the stated frames less than substantially: the prior odds of the
-    starts and the reading point one way, and at :data:`START_ODDS` the doubt is settled
-    (on the tuning split random-16 and random-19 robot, right graphs all of whose episodes
-    start at one node, were warned by such doubts alone). At ``1 / START_ODDS`` the two
-    point apart: the episode starts where the others almost never do, and the doubt would
-    move it where they do (multifruit-4x6 robot s410, draw 46: 15 doubted episodes, 14 of
-    them rightly at the home node and settled, one truly misplaced, starting at a node of
-    its own) -- a warning whatever its plan risk.
+    Where episodes are recorded from a home state, every one starts at its node. At
+    ``1 / START_ODDS`` the starts and the reading that placed the episode point apart: it
+    starts where the others almost never do, and the doubt would move it where they do
+    (multifruit-4x6 robot s410, draw 46: of 15 doubted episodes the one truly misplaced
+    started at a node of its own, its other path at the home node, fifteenth in the list) --
+    a warning whatever its plan risk. Odds the other way (the images put it at the home,
+    the doubt would move it off) settle nothing: a home node can hold renders of another
+    start state read wrong, and episode doubts that are right placements are at times the
+    only warning of a graph wrong elsewhere (quieting them made multifruit-4x6 robot s352
+    silent in session 48, and random-1205 and multifruit-4x6 robot s429, draw 49, in
+    session 53).
 
     Ten other episodes start at node 0 and none at node 1:
 
@@ -220,10 +223,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
     chance; or episodes that only such a reading puts on their path
     (:func:`vggc_cp.solvers.read_doubts.episode_doubts`: its evidence has ``episode``, too)
     whose start the other episodes' starts contradict (given the ``problem``:
-    :func:`start_odds` at most ``1 / START_ODDS``), or whose start they do not settle (under
-    :data:`START_ODDS`; settled ones are noted when no other is left; of the others the
-    first ``limit`` are judged) and that, were they misplaced, would fail more than
-    :data:`MAX_PLAN_RISK` of the plans
+    :func:`start_odds` at most ``1 / START_ODDS``), or (of the others, the first ``limit``)
+    that, were they misplaced, would fail more than :data:`MAX_PLAN_RISK` of the plans
     between two observations (with ``labels`` only): plans that start or end at a misplaced
     render (:func:`misplaced_share`) or, given the ``problem`` (its transitions), that also
     take an edge only those episodes show (:func:`plan_risk`). Fewer, the graph stays usable either way: the episode is a note
@@ -242,15 +243,17 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"reading at {_sites(ev)} tells them apart, and it agrees with the frames whose "
             f"actions state it {_agreement(ev)}; record episodes that act there from both "
             f"nodes (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
-    settled, against = [], []
+    against = []
     if moves and labels is not None and problem is not None:
         odds = [start_odds(d, labels, problem.dst) for d in moves]
-        settled = [(o, d) for o, d in zip(odds, moves) if o >= START_ODDS]
         against = [(o, d) for o, d in zip(odds, moves) if o <= 1.0 / START_ODDS]
-        moves = [d for o, d in zip(odds, moves) if 1.0 / START_ODDS < o < START_ODDS]
+        moves = [d for o, d in zip(odds, moves) if o > 1.0 / START_ODDS]
     moves = moves[:limit]
     if against:
-        o, ev, first, last, more = _first_episode(against)
+        o, d = against[0]
+        ev = d.evidence
+        first, last = ev["episode"]
+        more = _more(len(against) - 1, "episode(s)")
         conf = conf.flagged(
             f"the episode of observations {first}-{last} starts at node {labels[first]}, "
             f"and might start at node {ev['moved_path'][0]} instead{more}: the other "
@@ -259,15 +262,6 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"puts it where it is, which agrees with the frames whose actions state it "
             f"{_agreement(ev)}; record an episode from that episode's start that acts there "
             f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")
-    if settled and not moves:
-        o, ev, first, last, more = _first_episode(settled)
-        conf = conf.noted(
-            f"the episode of observations {first}-{last} might start at node "
-            f"{ev['moved_path'][0]} instead of node {labels[first]}{more}: only the images' "
-            f"reading at {_sites(ev)} puts it where it is, and it agrees with the frames "
-            f"whose actions state it {_agreement(ev)}; but the other episodes start at node "
-            f"{labels[first]} {o:.0f} times as often as at node {ev['moved_path'][0]} (half "
-            f"a start added to each): the starts settle it")
     if moves:
         d, ev = moves[0], moves[0].evidence
         first, last = ev["episode"]
@@ -297,14 +291,6 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
 def _more(n: int, what: str) -> str:
     """`` (and n more such what)``, or nothing where ``n`` is 0."""
     return f" (and {n} more such {what})" if n > 0 else ""
-
-
-def _first_episode(judged: list) -> tuple:
-    """Of ``(odds, episode doubt)`` pairs, the first one's odds, evidence, first and last
-    observation, and how many more there are, in words."""
-    odds, d = judged[0]
-    first, last = d.evidence["episode"]
-    return odds, d.evidence, first, last, _more(len(judged) - 1, "episode(s)")
 
 
 def _sites(evidence: dict) -> str:
