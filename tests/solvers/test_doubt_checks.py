@@ -74,8 +74,7 @@ def _chain(n_nodes: int = 6, reps: int = 10):
 
 
 def test_a_doubtful_episode_that_alone_shows_a_shortcut_risks_the_plans_that_take_it():
-    # five other episodes start at node 0: odds 11 to 1, the starts do not settle it
-    labels, src, act, dst, episode = _chain(reps=5)
+    labels, src, act, dst, episode = _chain()
     d = Doubt(SPLIT, (0,), ((0,), (episode[0],)), {
         "episode": episode, "moved_to": 1, "moved_path": [1, 2], "read_sites": ["pick_3"],
         "read_kappa": 0.3})
