@@ -179,7 +179,8 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
     conf = doubt_forbidden(conf, doubts, labels, rule.max_nats, problem)
     facts = recorded_facts(trace) if trace is not None else None
     # listed up to rule.listed (what suggest can propose episodes for); judged on the first
-    # rule.limit of each kind
+    # rule.limit pairs, on every episode for where the other episodes start, and on the first
+    # rule.limit of the others for the plans they risk
     read = graph_doubts(problem, path, labels, read=True,
                         resets=facts.resets if facts else (),
                         rule=replace(rule, limit=rule.listed))
