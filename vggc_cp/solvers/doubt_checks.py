@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from vggc_cp.solvers.confidence import Confidence
+from vggc_cp.solvers.episodes import episode_starts
 from vggc_cp.solvers.read_doubts import bound_decided
 
 #: The share of plans between two observations that may fail before a graph stops being usable:
@@ -164,21 +165,12 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
 START_ODDS = 20.0
 
 
-def episode_starts(n_obs: int, dst: np.ndarray) -> np.ndarray:
-    """The first observation of every episode: those no transition leads to, ascending.
-
-    >>> episode_starts(6, np.array([1, 2, 4])).tolist()
-    [0, 3, 5]
-    """
-    return np.setdiff1d(np.arange(n_obs), np.asarray(dst, dtype=np.int64))
-
-
 def start_odds(doubt, labels: np.ndarray, dst: np.ndarray) -> float:
     """How much more often the *other* episodes start at an episode doubt's first node than
     at the other path's (``moved_path[0]``): ``(n_now + 1/2) / (n_alt + 1/2)`` over their
-    first observations' nodes (:func:`episode_starts`; half a start added to each, the
-    Krichevsky-Trofimov estimate), 1 where the two paths start at one node or the doubt
-    names no other path.
+    first observations' nodes (:func:`~vggc_cp.solvers.episodes.episode_starts`; half a
+    start added to each, the Krichevsky-Trofimov estimate), 1 where the two paths start at
+    one node or the doubt names no other path.
 
     Where episodes are recorded from a home state, every one starts at its node. At
     ``1 / START_ODDS`` the starts and the reading that placed the episode point apart: it

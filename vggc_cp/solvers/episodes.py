@@ -45,16 +45,24 @@ from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.mdl import description_length
 
 
+def episode_starts(n_obs: int, dst: np.ndarray) -> np.ndarray:
+    """The first observation of every episode: those no transition leads to, ascending.
+
+    >>> episode_starts(6, np.array([1, 2, 4])).tolist()
+    [0, 3, 5]
+    """
+    return np.setdiff1d(np.arange(n_obs), np.asarray(dst, dtype=np.int64))
+
+
 def episode_chains(problem: Problem) -> list[np.ndarray]:
     """Every episode's observations in the order its transitions link them (a problem's
-    transitions chain its observations: one successor and one predecessor at most)."""
+    transitions chain its observations: one successor and one predecessor at most), each
+    from its first (:func:`episode_starts`)."""
     n = problem.n_obs
     nxt = np.full(n, -1, dtype=np.int64)
     nxt[problem.src] = problem.dst
-    entered = np.zeros(n, dtype=bool)
-    entered[problem.dst] = True
     out = []
-    for first in np.flatnonzero(~entered):
+    for first in episode_starts(n, problem.dst):
         chain = [int(first)]
         while nxt[chain[-1]] >= 0:
             chain.append(int(nxt[chain[-1]]))
