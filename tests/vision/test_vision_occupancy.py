@@ -351,3 +351,24 @@ def test_a_level_one_slot_filled_in_one_episode_is_not_read_full_over_a_bare_reg
 
     trace = generate("random-3", 176, 0, size=64, look="clean").trace
     assert _same_partition(learn_graph(trace.without_states()).labels, trace.states)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed, top", [(429, "pick_0_2"), (425, "pick_2_2")])
+def test_a_column_top_no_episode_states_with_the_level_below_stands_on_it(seed, top):
+    """blocks-3 robot, 200 transitions, trace seeds 425 and 429 (draws 48 and 49, the two
+    silent misses of session 53): the episodes that act at one region's third level start
+    there with two blocks in the column and loop a place and a pick on top, so no frame
+    states the top slot with the level below, and nothing said that one stands on the
+    other. The arm's held block over region 0 read as a block there (s425), the level below
+    read empty (s429, kappa 0): whole episodes went one block off, quietly (17 nodes for 16
+    states, and 16 with two nodes holding two states each). The footprints continue the
+    column's known stack by one step (:func:`vggc_cp.vision.stacks.column_steps`), the
+    slot below is full wherever the top is, and the graph is the true one."""
+    from vggc_cp.pipeline import learn_graph
+    from vggc_cp.sim.explore import generate
+
+    trace = generate("blocks-3", 200, seed, size=64, look="robot").trace
+    blind = trace.without_states()
+    assert action_footprints(blind).stacked[list(trace.action_names).index(top)]
+    assert _same_partition(learn_graph(blind).labels, trace.states)

@@ -67,7 +67,7 @@ from vggc_cp.vision.slots import (
     action_mates,
     action_twins,
 )
-from vggc_cp.vision.stacks import slots_above, stacked_sites
+from vggc_cp.vision.stacks import column_steps, slots_above, stacked_sites
 from vggc_cp.vision.support import supported
 from vggc_cp.vision.trust import READ_Z, pose_bounds, reading_kappa
 from vggc_cp.vision.untouched import (
@@ -376,7 +376,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
     maps : ndarray, shape (A, H, W), optional
         The action footprints (at ``x``'s size): the window in which a covered slot's run
         is compared with the stated looks of covered stacks
-        (:func:`~vggc_cp.vision.covered.nearest_covered`; not without ``x`` and ``maps``).
+        (:func:`~vggc_cp.vision.covered.nearest_covered`; not without ``x`` and ``maps``),
+        and the steps by which a known stack is continued upward where no frame states its
+        top slot with the level below (:func:`~vggc_cp.vision.stacks.column_steps`).
 
     Returns
     -------
@@ -522,6 +524,9 @@ def settle(trace: Trace, presence: np.ndarray, posterior: np.ndarray, ov: np.nda
             posterior[members, a] = posterior[members, a].mean(axis=0)
     windowed = window_colour(posterior, looks, examples, bandwidth) if looks else {}
     above = slots_above(runs, ov, site_overlap, presence, trust)
+    if maps is not None:
+        # a column's top slot that no frame states with the level below: one more step
+        above = column_steps(above, runs, ov, site_overlap, maps, presence, trust)
     if facts:
         recorded_labels(runs, above, facts, actions, episodes, kinds, colour, presence,
                         posterior, stated, trust)
