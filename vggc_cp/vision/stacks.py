@@ -261,7 +261,7 @@ def _continued(above, runs, ov, site_overlap, centre, mass, presence, trust):
     out = {a: list(on) for a, on in above.items()}
     for a, on in above.items():
         for b in on:
-            if b not in runs or mass[a] <= 0 or mass[b] <= 0:
+            if a not in runs or b not in runs or mass[a] <= 0 or mass[b] <= 0:
                 continue
             step = centre[b] - centre[a]
             length = float(np.linalg.norm(step))
