@@ -165,12 +165,14 @@ def plan_risk(doubts, labels: np.ndarray, src: np.ndarray, act: np.ndarray,
 START_ODDS = 20.0
 
 
-def start_odds(doubt, labels: np.ndarray, dst: np.ndarray) -> float:
+def start_odds(doubt, labels: np.ndarray, dst: np.ndarray,
+               starts: np.ndarray | None = None) -> float:
     """How much more often the *other* episodes start at an episode doubt's first node than
     at the other path's (``moved_path[0]``): ``(n_now + 1/2) / (n_alt + 1/2)`` over their
     first observations' nodes (:func:`~vggc_cp.solvers.episodes.episode_starts`; half a
     start added to each, the Krichevsky-Trofimov estimate), 1 where the two paths start at
-    one node or the doubt names no other path.
+    one node or the doubt names no other path. ``starts`` (when given) are those first
+    observations, found once for many doubts.
 
     Where episodes are recorded from a home state, every one starts at its node. At
     ``1 / START_ODDS`` the starts and the reading that placed the episode point apart: it
@@ -201,7 +203,7 @@ def start_odds(doubt, labels: np.ndarray, dst: np.ndarray) -> float:
     now, alt = int(labels[first]), int(path[0])
     if now == alt:
         return 1.0
-    starts = episode_starts(len(labels), dst)
+    starts = episode_starts(len(labels), dst) if starts is None else starts
     at = labels[starts[starts != first]]
     return (float(np.sum(at == now)) + 0.5) / (float(np.sum(at == alt)) + 0.5)
 
@@ -237,7 +239,8 @@ def doubt_readings(conf: Confidence, doubts, labels: np.ndarray | None = None,
             f"nodes (`vggc-cp suggest SOLUTION TRACE -o next.json`)")
     against = []
     if moves and labels is not None and problem is not None:
-        odds = [start_odds(d, labels, problem.dst) for d in moves]
+        starts = episode_starts(len(labels), problem.dst)
+        odds = [start_odds(d, labels, problem.dst, starts) for d in moves]
         against = [(o, d) for o, d in zip(odds, moves) if o <= 1.0 / START_ODDS]
         moves = [d for o, d in zip(odds, moves) if o > 1.0 / START_ODDS]
     moves = moves[:limit]
