@@ -8,10 +8,15 @@ from conftest import make_trace
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.confidence import Confidence
-from vggc_cp.solvers.doubt_checks import doubt_lone
+from vggc_cp.solvers.doubt_checks import doubt_lone, doubt_lone_starts
 from vggc_cp.solvers.doubt_text import format_doubts
 from vggc_cp.solvers.doubts import MERGE
-from vggc_cp.solvers.episodes import LONE_ALPHA, lone_episodes, poisson_tail
+from vggc_cp.solvers.episodes import (
+    LONE_ALPHA,
+    lone_episodes,
+    lone_starts,
+    poisson_tail,
+)
 from vggc_cp.solvers.lone_episodes import lone_doubts
 from vggc_cp.solvers.merge import threshold_path
 
@@ -152,3 +157,71 @@ def test_multifruit_4x6_robot_s2_episode_read_swapped_is_moved_onto_the_path_it_
     for node in np.unique(labels):
         held = Counter(truth[o] for o in np.flatnonzero(labels == node))
         assert len(held) == 1, (int(node), held)
+
+
+# an episode whose first frames were read as states nothing else visits ('X', 'HX') and which
+# then joins the others' path at 'A' (the arm where the last episode left it, over a place)
+MISREAD_START = ["X", "pick_1", "HX", "place_1", "A", "pick_2", "HB", "place_2", "A"]
+
+
+def test_an_episode_whose_first_frames_are_its_own_is_a_surprising_lone_start():
+    problem, _, labels = _problem([HOME] * 8 + [MISREAD_START])
+    starts = lone_starts(problem, labels)
+    ((chain, j),) = starts.starts
+    assert chain.tolist() == list(range(40, 45)) and j == 2
+    # two of the episodes' 8 * 3 + 4 node visits are their own; nine episodes could
+    assert starts.share == pytest.approx(2 / 28)
+    assert starts.expected == pytest.approx(9 * (2 / 28) ** 2)
+    assert starts.chance == pytest.approx(poisson_tail(1, starts.expected))
+    assert starts.chance < LONE_ALPHA and starts.surprising
+    # not a lone episode: it shares node 'A' with the others
+    assert lone_episodes(problem, labels).chains == ()
+    conf = doubt_lone_starts(Confidence("mdl", 0.0, 5, None, 4.0, False, ()), starts)
+    assert conf.suspect and "observations 40-44 starts on nodes no other" in conf.reasons[0]
+    assert "first 2 observation(s)" in conf.reasons[0] and "suggest" in conf.reasons[0]
+
+
+def test_lone_starts_as_many_as_chance_gives_are_quiet():
+    """Two episodes, one starting on states of its own: three of their seven node visits
+    are lone (the first episode alone visits HA), so such a start is what chance gives
+    (``2 * (3/7) ** 2`` expected)."""
+    problem, _, labels = _problem([HOME, MISREAD_START])
+    starts = lone_starts(problem, labels)
+    assert len(starts.starts) == 1
+    assert starts.expected == pytest.approx(2 * (3 / 7) ** 2)
+    assert starts.chance > LONE_ALPHA and not starts.surprising
+    assert not doubt_lone_starts(Confidence("mdl", 0.0, 5, None, 4.0, False, ()),
+                                 starts).suspect
+
+
+def test_a_start_of_one_node_or_one_visited_again_is_no_lone_start():
+    # one frame of its own: a start state the others never saw, as random starts often are
+    one = ["X", "pick_1", "HA", "place_1", "A", "pick_2", "HB", "place_2", "A"]
+    problem, _, labels = _problem([HOME] * 8 + [one])
+    assert lone_starts(problem, labels).starts == ()
+    # its own nodes visited again after it joins: not a start only
+    again = MISREAD_START + ["pick_1", "HX", "place_1", "X"]
+    problem, _, labels = _problem([HOME] * 8 + [again])
+    assert lone_starts(problem, labels).starts == ()
+
+
+def test_the_verdict_flags_a_surprising_lone_start_and_lists_a_doubt():
+    from vggc_cp.solvers.mdl import description_length
+    from vggc_cp.solvers.verdict import verdict
+
+    problem, path, labels = _problem([HOME] * 8 + [MISREAD_START])
+    dls = [description_length(problem, r.labels) for r in path.results]
+    quiet = Confidence("mdl", 0.0, 5, None, 4.0, False, ())
+    conf, doubts = verdict(problem, path, labels, quiet, dls)
+    assert conf.suspect
+    assert any("observations 40-44 starts on nodes no other" in r for r in conf.reasons)
+    # a warned graph names what is doubtful: the start's first node and its nearest
+    first = doubts[0]
+    assert first.kind == MERGE and first.evidence["lone_start"] == [40, 41]
+    assert first.nodes[0] in {int(labels[40]), int(labels[41])}
+    assert "episode start 40-41 is on nodes of its own" in format_doubts([first])[1]
+    # the same recording without the misread start: quiet
+    problem, path, labels = _problem([HOME] * 8)
+    dls = [description_length(problem, r.labels) for r in path.results]
+    conf, _ = verdict(problem, path, labels, quiet, dls)
+    assert not conf.suspect

@@ -493,3 +493,32 @@ def doubt_lone(conf: Confidence, lone) -> Confidence:
         f"other episode visits{more}: {why}, so its images may have been read wrong "
         f"throughout; record an episode from that episode's start "
         f"(`vggc-cp suggest SOLUTION TRACE -o next.json`)")
+
+
+def doubt_lone_starts(conf: Confidence, starts) -> Confidence:
+    """``conf`` flagged when episodes that begin on nodes of their own and then join the
+    graph are less likely than :data:`~vggc_cp.solvers.episodes.LONE_ALPHA` by chance
+    (:func:`~vggc_cp.solvers.episodes.lone_starts`): the first frames of such an episode
+    may have been read wrong, while the arm still rested where the previous episode left it.
+    The reason names the episode, its first frames, the chance and what to record.
+
+    >>> from vggc_cp.solvers.episodes import LoneStarts
+    >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
+    >>> found = LoneStarts(((np.array([20, 21, 22, 23]), 2),), 0.02, 0.006, 0.006)
+    >>> flagged = doubt_lone_starts(c, found)
+    >>> flagged.suspect, doubt_lone_starts(c, LoneStarts((), 0.0, 0.0, 1.0)).suspect
+    (True, False)
+    >>> print(flagged.reasons[0][:84])
+    the episode of observations 20-23 starts on nodes no other episode visits (its first
+    """
+    if not starts.surprising:
+        return conf
+    chain, j = starts.starts[0]
+    more = _more(len(starts.starts) - 1, "episode(s)")
+    return conf.flagged(
+        f"the episode of observations {int(chain[0])}-{int(chain[-1])} starts on nodes no "
+        f"other episode visits (its first {j} observation(s)) and then joins the graph{more}: "
+        f"{len(starts.starts)} such episode(s) where {starts.expected:.3f} would be expected "
+        f"by chance (chance {starts.chance:.3f}; {100 * starts.share:.0f} % of the episodes' "
+        f"nodes are their own), so its first images may have been read wrong; record an "
+        f"episode from that episode's start (`vggc-cp suggest SOLUTION TRACE -o next.json`)")

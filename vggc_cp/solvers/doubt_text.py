@@ -90,6 +90,9 @@ def format_doubts(doubts, limit: int = SHOWN_DOUBTS) -> list[str]:
                 f"episode {ev['lone_episode'][0]}-{ev['lone_episode'][-1]} visits only nodes "
                 f"of its own; might be the path from node {ev.get('moved_to')}"
                 if isinstance(ev.get("lone_episode"), list) and ev["lone_episode"] else
+                f"episode start {ev['lone_start'][0]}-{ev['lone_start'][-1]} is on nodes of its "
+                f"own; node {ev.get('moved_to')} is the nearest"
+                if isinstance(ev.get("lone_start"), list) and ev["lone_start"] else
                 f"episode {ev['episode'][0]}-{ev['episode'][-1]} might start at node "
                 f"{ev.get('moved_to')}, kappa {_kappa(ev)}: "
                 f"{', '.join(ev.get('read_sites', []))}"

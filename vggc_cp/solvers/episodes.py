@@ -323,3 +323,107 @@ def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray
         if length < now:
             labels, now, moved = flipped, length, moved + 1
     return labels, moved
+
+
+
+#: Distinct nodes an episode's lone start must have before it counts
+#: (:func:`lone_starts`): one frame on a node of its own is a state the rest of the
+#: recording never saw, as a random start often is.
+LONE_START_NODES = 2
+
+
+@dataclass(frozen=True, eq=False)
+class LoneStarts:
+    """The episodes that begin on nodes no other episode visits and then join the graph the
+    others walk, and how surprising they are (:func:`lone_starts`).
+
+    Attributes
+    ----------
+    starts : tuple of (ndarray of int, int)
+        Each such episode's observations in order, and the position of its first
+        observation on a node another episode visits.
+    share : float
+        ``q``: the share of the episodes' node visits that are to a node no other episode
+        visits (as :attr:`LoneEpisodes.share`).
+    expected : float
+        ``lambda = sum_e q ** LONE_START_NODES`` over the episodes that could have one.
+    chance : float
+        The probability of at least ``len(starts)`` such episodes under that Poisson law (1
+        where there is none).
+    """
+
+    starts: tuple[tuple[np.ndarray, int], ...]
+    share: float
+    expected: float
+    chance: float
+
+    @property
+    def surprising(self) -> bool:
+        """Lone starts less likely than :data:`LONE_ALPHA` by chance."""
+        return bool(self.starts) and self.chance < LONE_ALPHA
+
+
+def lone_starts(problem: Problem, labels: np.ndarray) -> LoneStarts:
+    """The episodes whose first :data:`LONE_START_NODES` or more nodes no other episode
+    visits and which go on to a node another does, and their chance.
+
+    A reading of the images can go wrong for the first frames of an episode only: the arm
+    still rests where the previous episode left it, over a place it hides, until the first
+    actions move it (random-29 robot after two rounds of suggested episodes: one episode's
+    first three frames on three nodes of their own, the first of them the very state the
+    episode comes back to two actions later; 25 nodes for 22, no other check raised). Such an
+    episode then starts on a path of its own and joins the graph where the reading comes
+    right. By chance, with ``q`` the share of the episodes' node visits that no other
+    episode shares (:func:`lone_episodes`), an episode's first two nodes are both its own
+    with probability about ``q ** 2``; the count of such starts is about Poisson with mean
+    ``sum_e q ** 2`` over the episodes of three nodes or more. An episode whose first nodes
+    it visits again after it joins is not counted (its nodes are not a start only), nor one
+    that a recorded reset starts (its first frame is pinned to an earlier one), nor a lone
+    episode (no node of it is shared).
+
+    On the tuning split and draws 47-51 at e32b799 (1089 runs), such starts appeared in
+    three runs, every one a wrong graph, and at the chance of none of them below
+    :data:`LONE_ALPHA` (calibration.md, session 55).
+
+    Examples
+    --------
+    Twelve episodes through nodes 0-1-2 and one that starts on nodes 3 and 4 of its own and
+    joins at node 2:
+
+    >>> from vggc_cp.solvers.base import Problem
+    >>> labels = np.array([0, 1, 2] * 12 + [3, 4, 2])
+    >>> src = np.arange(39).reshape(13, 3)[:, :2].ravel(); dst = src + 1
+    >>> act = np.tile([0, 1], 13)
+    >>> roles = np.array([0, 1, 0] * 13)
+    >>> p = Problem(roles, src, act, dst, ("pick", "place"), np.zeros((26, 26)),
+    ...             np.zeros((13, 13)))
+    >>> found = lone_starts(p, labels)
+    >>> [(c.tolist(), j) for c, j in found.starts], round(found.chance, 3), found.surprising
+    ([([36, 37, 38], 2)], 0.034, True)
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
+    if not chains:
+        return LoneStarts((), 0.0, 0.0, 1.0)
+    nodes = [np.unique(labels[c]) for c in chains]
+    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1)
+    share = (sum(int(np.count_nonzero(visits[v] == 1)) for v in nodes)
+             / sum(len(v) for v in nodes))
+    pinned = {int(b) for _, b in getattr(problem, "resets", ())}
+    found, could = [], 0
+    for c, v in zip(chains, nodes):
+        if int(c[0]) in pinned:
+            continue
+        if len(v) > LONE_START_NODES:
+            could += 1
+        shared = np.flatnonzero(visits[labels[c]] > 1)
+        if not len(shared):
+            continue                       # a lone episode (lone_episodes)
+        j = int(shared[0])
+        own = labels[c[:j]]
+        if len(np.unique(own)) < LONE_START_NODES or np.isin(labels[c[j:]], own).any():
+            continue
+        found.append((c, j))
+    expected = float(could * share ** LONE_START_NODES)
+    return LoneStarts(tuple(found), float(share), expected,
+                      poisson_tail(len(found), expected))

@@ -34,7 +34,7 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.doubts import MERGE, Doubt, DoubtRule, Flips
-from vggc_cp.solvers.episodes import LoneEpisodes, lone_walks
+from vggc_cp.solvers.episodes import LoneEpisodes, LoneStarts, lone_walks
 from vggc_cp.solvers.mdl import description_length
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.solvers.read_doubts import dense_problem, node_majority
@@ -84,8 +84,25 @@ def lone_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
     return tuple(found)
 
 
+def lone_start_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
+                      starts: LoneStarts, rule: DoubtRule | None = None) -> tuple[Doubt, ...]:
+    """Merge doubts for the first surprising lone start
+    (:func:`~vggc_cp.solvers.episodes.lone_starts`): per node ``u`` of the episode's own
+    first frames, the node of ``u``'s role the episode does not visit whose observations lie
+    nearest (:func:`_nearest_doubt`), nearest first, with ``lone_start`` (the first and last
+    of those frames) in the evidence -- what `suggest` probes, as for a lone episode no walk
+    fits. At most ``rule.limit``; none where the starts are no surprise."""
+    rule = rule or DoubtRule()
+    if not starts.surprising or rule.limit == 0:
+        return ()
+    chain, j = starts.starts[0]
+    flips = Flips(dense_problem(problem), path, np.asarray(labels, dtype=np.int64))
+    return _nearest_doubt(flips, labels, chain[:j], starts, rule,
+                          key="lone_start")[:rule.limit]
+
+
 def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray, lone: LoneEpisodes,
-                   rule: DoubtRule) -> tuple[Doubt, ...]:
+                   rule: DoubtRule, key: str = "lone_episode") -> tuple[Doubt, ...]:
     """Where no walk fits a lone episode (its actions are taken nowhere else from a node of
     the role: blocks-3 clean s386, draw 42, an episode that stacks a third block and takes it
     back four times), a merge doubt per node ``u`` of the episode: with the node ``v`` of
@@ -93,7 +110,7 @@ def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray, lone: Lo
     mean distance; of equally near ones, the one whose join the description length favours
     most), nearest first -- so that the warning names what to probe (`suggest` tries ``u``'s
     actions from ``v``). Evidence as for a walk, with ``nearest`` instead of
-    ``moved_path``."""
+    ``moved_path``, the chain's first and last observation under ``key``."""
     problem = flips.problem
     labels = np.asarray(labels, dtype=np.int64)
     roles = np.asarray(problem.roles)
@@ -120,7 +137,7 @@ def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray, lone: Lo
         length, v, b, flipped = min(ranked, key=lambda r: (r[0], r[1]))
         found.append(((least, length, u), flips.doubt(
             MERGE, (u, v), a, b, flipped, rule.typical,
-            lone_episode=[int(chain[0]), int(chain[-1])], moved_to=v, nearest=True,
+            **{key: [int(chain[0]), int(chain[-1])]}, moved_to=v, nearest=True,
             read_sites=_differing_sites(problem, sites, labels, a, np.full(len(a), v)),
             lone_chance=round(lone.chance, 6),
             lone_expected=round(lone.expected, 6))))

@@ -46,6 +46,7 @@ from vggc_cp.solvers.doubt_checks import (
     corroborate,
     doubt_forbidden,
     doubt_lone,
+    doubt_lone_starts,
     doubt_near_cuts,
     doubt_readings,
 )
@@ -56,8 +57,8 @@ from vggc_cp.solvers.doubts import (
     find_doubts,
     runner_up_doubts,
 )
-from vggc_cp.solvers.episodes import lone_episodes
-from vggc_cp.solvers.lone_episodes import lone_doubts
+from vggc_cp.solvers.episodes import lone_episodes, lone_starts
+from vggc_cp.solvers.lone_episodes import lone_doubts, lone_start_doubts
 from vggc_cp.solvers.merge import ThresholdPath
 from vggc_cp.solvers.read_doubts import (
     dense_problem,
@@ -211,6 +212,15 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_lone(conf, lone)
         if not _too_large(problem):
             found = lone_doubts(problem, path, labels, lone)
+            named = {f.nodes for f in found}
+            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+    # episodes that start on nodes of their own and then join the graph, beyond chance:
+    # their first images may have been read wrong (the arm where the last episode left it)
+    starts = lone_starts(problem, labels)
+    if starts.surprising:
+        conf = doubt_lone_starts(conf, starts)
+        if not _too_large(problem):
+            found = lone_start_doubts(problem, path, labels, starts, rule)
             named = {f.nodes for f in found}
             doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
