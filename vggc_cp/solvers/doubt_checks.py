@@ -504,12 +504,12 @@ def doubt_lone_starts(conf: Confidence, starts) -> Confidence:
 
     >>> from vggc_cp.solvers.episodes import LoneStarts
     >>> c = Confidence("mdl", 1.0, 5, None, 4.0, False, ())
-    >>> found = LoneStarts(((np.array([20, 21, 22, 23]), 2),), 0.02, 0.006, 0.006)
+    >>> found = LoneStarts(((np.array([20, 21, 22, 23, 24]), 3),), 0.02, 0.006, 0.006)
     >>> flagged = doubt_lone_starts(c, found)
     >>> flagged.suspect, doubt_lone_starts(c, LoneStarts((), 0.0, 0.0, 1.0)).suspect
     (True, False)
     >>> print(flagged.reasons[0][:84])
-    the episode of observations 20-23 starts on nodes no other episode visits (its first
+    the episode of observations 20-24 starts on nodes no other episode visits (its first
     """
     if not starts.surprising:
         return conf
