@@ -15,8 +15,8 @@ them once the trace visits its states a few times each. Lower is better.
 
 **What the actions state.** Where the evidence says what sites hold as symbols
 (:class:`~vggc_cp.solvers.base.Readings`: the footprints give each site of each observation
-empty or an object of a colour wherever an episode's actions state it and the site's own
-reading does not contradict it, and 0, not coded, elsewhere), the model codes those too:
+empty or an object of a colour wherever an episode's actions state it, and 0, not coded,
+elsewhere), the model codes those too:
 every node has, per site, a distribution over the symbols its observations hold there::
 
     DL_read(G) = - sum_{(u, s, x)} n(u, s, x) log(n(u, s, x) / n(u))

@@ -21,9 +21,9 @@ def site_readings(fp: Footprints) -> np.ndarray:
     """What the actions state every taken site holds in every observation, as symbols,
     shape (N, S), int64.
 
-    0 where the actions do not state it (the site is read from the images there, and an arm,
-    a shaking camera or a covered slot may mislead the reading) or where the site's own
-    reading contradicts what they state (``fp.stated``), 1 where the site is empty,
+    0 where the actions do not state it (``fp.stated``: the site is read from the images
+    there, and an arm, a shaking camera or a covered slot may mislead the reading), 1 where
+    the site is empty,
     ``2 + c`` where it holds an object of colour ``c``. Sites stated alike in every
     observation (the pick and place of one slot, the classes of one region) are kept once, so
     a place counts once however many actions act there
