@@ -187,14 +187,15 @@ def test_only_the_nodes_asked_about_are_examined():
 @pytest.mark.slow
 def test_a_right_graph_the_cuts_made_is_not_doubted_for_them():
     # tuning split, random-5 clean s0: two once-seen states in one node (33 for 34, warned);
-    # cut apart, the join the doubts would have offered is one the cuts part again
+    # cut apart, the join the doubts would have offered is one the cuts part again. Since
+    # session 55 (every stated fact coded) the merge keeps them apart itself, no cut made:
+    # the graph stays right and quiet either way
     from vggc_cp.pipeline import learn_graph
     from vggc_cp.sim.explore import generate
 
     trace = generate("random-5", 350, seed=0, look="clean").trace
     learned = learn_graph(trace.without_states())
     labels = learned.labels
-    assert learned.chosen.best.stats["read_splits"] >= 1
     assert len(set(labels.tolist())) == len(set(trace.states.tolist())) == 34
     for node in set(labels.tolist()):
         assert len(set(trace.states[labels == node].tolist())) == 1
