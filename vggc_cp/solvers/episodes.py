@@ -325,7 +325,6 @@ def move_lone_episodes(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray
     return labels, moved
 
 
-
 #: Distinct nodes an episode's lone start must have before it counts
 #: (:func:`lone_starts`). A start state the rest of the recording never saw, as a random
 #: start often is, leads to states it never saw either: its first action's outcome, and
@@ -410,13 +409,15 @@ def lone_starts(problem: Problem, labels: np.ndarray) -> LoneStarts:
         return LoneStarts((), 0.0, 0.0, 1.0)
     nodes = [np.unique(labels[c]) for c in chains]
     visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1)
-    share = (sum(int(np.count_nonzero(visits[v] == 1)) for v in nodes)
-             / sum(len(v) for v in nodes))
+    # as for lone episodes: an episode a recorded reset starts counts in the others' visits
     pinned = {int(b) for _, b in getattr(problem, "resets", ())}
+    free = [(c, v) for c, v in zip(chains, nodes) if int(c[0]) not in pinned]
+    if not free:
+        return LoneStarts((), 0.0, 0.0, 1.0)
+    share = (sum(int(np.count_nonzero(visits[v] == 1)) for _, v in free)
+             / sum(len(v) for _, v in free))
     found, could = [], 0
-    for c, v in zip(chains, nodes):
-        if int(c[0]) in pinned:
-            continue
+    for c, v in free:
         if len(v) > LONE_START_NODES:
             could += 1
         shared = np.flatnonzero(visits[labels[c]] > 1)

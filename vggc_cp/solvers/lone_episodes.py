@@ -101,8 +101,9 @@ def lone_start_doubts(problem: Problem, path: ThresholdPath, labels: np.ndarray,
                           key="lone_start")[:rule.limit]
 
 
-def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray, lone: LoneEpisodes,
-                   rule: DoubtRule, key: str = "lone_episode") -> tuple[Doubt, ...]:
+def _nearest_doubt(flips: Flips, labels: np.ndarray, chain: np.ndarray,
+                   lone: LoneEpisodes | LoneStarts, rule: DoubtRule,
+                   key: str = "lone_episode") -> tuple[Doubt, ...]:
     """Where no walk fits a lone episode (its actions are taken nowhere else from a node of
     the role: blocks-3 clean s386, draw 42, an episode that stacks a third block and takes it
     back four times), a merge doubt per node ``u`` of the episode: with the node ``v`` of
