@@ -76,6 +76,9 @@ def format_doubts(doubts, limit: int = SHOWN_DOUBTS) -> list[str]:
                 f"read apart, the cut {ev['read_cut_nats']:.2f} nats longer: "
                 f"{', '.join(ev.get('read_sites', []))}"
                 if isinstance(ev.get("read_cut_nats"), (int, float)) else
+                f"colours {ev['never_together'][0]} and {ev['never_together'][1]} are never "
+                f"seen together: one class, maybe"
+                if isinstance(ev.get("never_together"), list) and ev["never_together"] else
                 "the hands hold different colours" if ev.get("forbidden") == "hand" else
                 "an action refused in one is taken in the other" if ev.get("forbidden") == "refused"
                 else

@@ -67,6 +67,7 @@ from vggc_cp.solvers.read_doubts import (
     read_doubts,
 )
 from vggc_cp.solvers.read_splits import near_cuts
+from vggc_cp.solvers.together import doubt_never_together, never_together, together_doubts
 from vggc_cp.trace import Trace
 
 #: Largest trace (observations) whose doubts are looked for on a problem of descriptor codes:
@@ -221,6 +222,15 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_lone_starts(conf, starts)
         if not _too_large(problem):
             found = lone_start_doubts(problem, path, labels, starts, rule)
+            named = {f.nodes for f in found}
+            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+    # two colours no observation shows together: one class seen two ways, maybe (objects are
+    # conserved); flagged, the doubts as for any warning below
+    apart = never_together(problem)
+    if apart:
+        conf = doubt_never_together(conf, apart)
+        if not _too_large(problem):
+            found = together_doubts(problem, path, labels, apart, rule)
             named = {f.nodes for f in found}
             doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
