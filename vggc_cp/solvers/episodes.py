@@ -194,6 +194,27 @@ def poisson_tail(count: int, mean: float) -> float:
     return float(max(1.0 - below, 0.0))
 
 
+def episode_visits(problem: Problem, labels: np.ndarray):
+    """How the episodes of two nodes or more share the nodes of ``labels``: ``(visits,
+    free, own, share)`` -- how many such episodes visit every node (shape ``(n,)``), those
+    no recorded reset starts as ``(chain, nodes)`` pairs, how many of each one's nodes no
+    other episode visits, and ``q``, the share of their node visits that are such (0 where
+    there is none). An episode a recorded reset starts (its first frame shows an earlier
+    observation's state) shares that node, or the graph breaks the fact (broken_facts): it
+    counts in the others' visits, but is no episode that could be lone by chance
+    (:func:`lone_episodes`, :func:`lone_starts`)."""
+    labels = np.asarray(labels, dtype=np.int64)
+    chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
+    nodes = [np.unique(labels[c]) for c in chains]
+    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1) if nodes \
+        else np.zeros(0, dtype=np.int64)
+    pinned = {int(b) for _, b in getattr(problem, "resets", ())}
+    free = [(c, v) for c, v in zip(chains, nodes) if int(c[0]) not in pinned]
+    own = [int(np.count_nonzero(visits[v] == 1)) for _, v in free]
+    share = sum(own) / sum(len(v) for _, v in free) if free else 0.0
+    return visits, free, own, share
+
+
 def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     """The episodes (chains of transitions, :func:`episode_chains`) of ``labels`` that visit
     no node another episode visits, and their chance (module docstring). An episode that a
@@ -228,19 +249,9 @@ def lone_episodes(problem: Problem, labels: np.ndarray) -> LoneEpisodes:
     True
     """
     labels = np.asarray(labels, dtype=np.int64)
-    chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
-    nodes = [np.unique(labels[c]) for c in chains]
-    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1) if nodes \
-        else np.zeros(0, dtype=np.int64)
-    # an episode a recorded reset starts (its first frame shows an earlier observation's
-    # state) shares that node, or the graph breaks the fact (broken_facts): it visits the
-    # nodes of others, but is no episode that could be lone by chance
-    pinned = {int(b) for _, b in getattr(problem, "resets", ())}
-    free = [(c, v) for c, v in zip(chains, nodes) if int(c[0]) not in pinned]
+    _, free, own, share = episode_visits(problem, labels)
     if not free:
         return LoneEpisodes((), 0.0, 0.0, 1.0)
-    own = [int(np.count_nonzero(visits[v] == 1)) for _, v in free]
-    share = sum(own) / sum(len(v) for _, v in free)
     expected = float(sum(share ** len(v) for _, v in free))
     lone = tuple(c for (c, v), k in zip(free, own) if k == len(v))
     # where the episodes start: the home, and the lone episodes that start elsewhere
@@ -404,18 +415,9 @@ def lone_starts(problem: Problem, labels: np.ndarray) -> LoneStarts:
     ([([60, 61, 62, 63, 64], 3)], 0.0024, True)
     """
     labels = np.asarray(labels, dtype=np.int64)
-    chains = [c for c in episode_chains(problem) if len(np.unique(labels[c])) >= 2]
-    if not chains:
-        return LoneStarts((), 0.0, 0.0, 1.0)
-    nodes = [np.unique(labels[c]) for c in chains]
-    visits = np.bincount(np.concatenate(nodes), minlength=int(labels.max()) + 1)
-    # as for lone episodes: an episode a recorded reset starts counts in the others' visits
-    pinned = {int(b) for _, b in getattr(problem, "resets", ())}
-    free = [(c, v) for c, v in zip(chains, nodes) if int(c[0]) not in pinned]
+    visits, free, _, share = episode_visits(problem, labels)
     if not free:
         return LoneStarts((), 0.0, 0.0, 1.0)
-    share = (sum(int(np.count_nonzero(visits[v] == 1)) for _, v in free)
-             / sum(len(v) for _, v in free))
     found, could = [], 0
     for c, v in free:
         if len(v) > LONE_START_NODES:

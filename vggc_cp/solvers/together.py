@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from vggc_cp.solvers.base import hand_colours
+from vggc_cp.solvers.doubts import MERGE, DoubtRule, Flips
+from vggc_cp.solvers.read_doubts import dense_problem, node_majority
 
 
 def never_together(problem) -> tuple[tuple[int, int], ...]:
@@ -76,9 +78,6 @@ def together_doubts(problem, path, labels: np.ndarray, pairs, rule=None) -> tupl
     other and whose sites hold alike (what most of each node's observations hold at every
     site, the pair's colours taken as one), with ``never_together`` (the two colours) in the
     evidence; at most ``rule.limit``, in order of the nodes. What `suggest` probes."""
-    from vggc_cp.solvers.doubts import MERGE, DoubtRule, Flips
-    from vggc_cp.solvers.read_doubts import dense_problem, node_majority
-
     rule = rule or DoubtRule()
     if not pairs or rule.limit == 0:
         return ()

@@ -81,6 +81,12 @@ def _too_large(problem) -> bool:
     return isinstance(problem, CodedProblem) and problem.n_obs > DOUBTS_MAX_OBS
 
 
+def _listed_first(found, doubts, listed: int) -> tuple:
+    """``found`` ahead of the ``doubts`` about other node pairs, at most ``listed``."""
+    named = {f.nodes for f in found}
+    return (*found, *(d for d in doubts if d.nodes not in named))[:listed]
+
+
 def runner_up(path: ThresholdPath, dls) -> int | None:
     """The graph the description-length margin of the selected one is measured to: the least
     description length (``dls``, one per graph of ``path``) among graphs of another size,
@@ -204,8 +210,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_near_cuts(conf, near)
         if not _too_large(problem):
             found = near_cut_doubts(problem, path, labels, near, rule)
-            named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+            doubts = _listed_first(found, doubts, rule.listed)
     # episodes that share no node with any other, beyond chance: their images may have been
     # read wrong throughout, which no bound on the readings sees; flagged, listed first
     lone = lone_episodes(problem, labels)
@@ -213,8 +218,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_lone(conf, lone)
         if not _too_large(problem):
             found = lone_doubts(problem, path, labels, lone)
-            named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+            doubts = _listed_first(found, doubts, rule.listed)
     # episodes that start on nodes of their own and then join the graph, beyond chance:
     # their first images may have been read wrong (the arm where the last episode left it)
     starts = lone_starts(problem, labels)
@@ -222,8 +226,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_lone_starts(conf, starts)
         if not _too_large(problem):
             found = lone_start_doubts(problem, path, labels, starts, rule)
-            named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+            doubts = _listed_first(found, doubts, rule.listed)
     # two colours no observation shows together: one class seen two ways, maybe (objects are
     # conserved); flagged, the doubts as for any warning below
     apart = never_together(problem)
@@ -231,8 +234,7 @@ def verdict(problem: Problem | CodedProblem, path: ThresholdPath, labels: np.nda
         conf = doubt_never_together(conf, apart)
         if not _too_large(problem):
             found = together_doubts(problem, path, labels, apart, rule)
-            named = {f.nodes for f in found}
-            doubts = (*found, *(d for d in doubts if d.nodes not in named))[:rule.listed]
+            doubts = _listed_first(found, doubts, rule.listed)
     # what the recording states (resets, refusals) and the graph breaks: certain errors,
     # flagged and listed first
     if facts:
