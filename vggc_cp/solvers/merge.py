@@ -44,6 +44,7 @@ from vggc_cp.solvers.base import (
     register_solver,
 )
 from vggc_cp.solvers.episodes import move_lone_episodes
+from vggc_cp.solvers.parts import move_lone_parts
 from vggc_cp.solvers.read_splits import combined_readings, split_by_readings
 from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     PATH,
@@ -65,7 +66,8 @@ class MergeStats:
     hold different colours in one node (:func:`~vggc_cp.solvers.base.hand_colours`);
     ``read_splits`` the nodes cut afterwards where the sites' readings show two states
     (:func:`with_read_splits`), ``lone_moves`` the lone episodes moved then onto the path
-    their actions walk (:func:`~vggc_cp.solvers.episodes.move_lone_episodes`).
+    their actions walk (:func:`~vggc_cp.solvers.episodes.move_lone_episodes`) and the parts
+    moved onto the rest of the graph (:func:`~vggc_cp.solvers.parts.move_lone_parts`).
     """
 
     attempts: int
@@ -461,7 +463,8 @@ def with_read_splits(problem: Problem, labels: np.ndarray, stats: MergeStats
 def _cut(problem: Problem, labels: np.ndarray, rows: np.ndarray | None = None
          ) -> tuple[np.ndarray, int, int]:
     """:func:`~vggc_cp.solvers.read_splits.split_by_readings`, then, where the problem reads
-    sites, :func:`~vggc_cp.solvers.episodes.move_lone_episodes`, nodes numbered as the merge
+    sites, :func:`~vggc_cp.solvers.episodes.move_lone_episodes` and
+    :func:`~vggc_cp.solvers.parts.move_lone_parts` (the moves counted together), nodes numbered as the merge
     numbers them (:meth:`~vggc_cp.solvers.base.Problem.labels_from_colours`), so one
     partition is one array whether cuts, moves or merges made it; with the cuts and the
     moves made."""
@@ -470,6 +473,8 @@ def _cut(problem: Problem, labels: np.ndarray, rows: np.ndarray | None = None
     moved = 0
     if rows is not None:
         labels, moved = move_lone_episodes(problem, labels)
+        labels, parts = move_lone_parts(problem, labels)
+        moved += parts
     if cuts or moved:
         labels = problem.labels_from_colours(labels[problem.pick_obs], labels[problem.place_obs])
     return labels, cuts, moved
