@@ -12,7 +12,12 @@ from vggc_cp.graph import TaskGraph
 from vggc_cp.sim.explore import random_walk
 from vggc_cp.sim.tasks import get_benchmark
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
-from vggc_cp.solvers.suggest import episodes_document, hand_classes, suggest_episodes
+from vggc_cp.solvers.suggest import (
+    decision_key,
+    episodes_document,
+    hand_classes,
+    suggest_episodes,
+)
 from vggc_cp.trace import Trace, load_trace
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "fruit-2x3.npz"
@@ -341,3 +346,45 @@ def test_a_read_pair_is_not_crowded_out_by_cheaper_probes_of_other_doubts():
     assert mine.probe_node == a and mine.actions[-1] == site
     assert f"node {b} is stated there already" in mine.why
     assert all(_legal(bench, trace.states[mine.start_observation], mine.actions))
+
+
+def test_probes_go_round_the_decisions_before_a_second_doubt_of_one():
+    """Many doubts of one decision (random-14 robot: 34 episodes each doubting that node 28
+    is one state, the three true merges ranked after them): with room for three episodes,
+    the first doubt of each decision is probed before a second of any (a merge doubt of two
+    other nodes, ranked last)."""
+    trace = load_trace(SHIPPED)
+    labels, _state, obs, a, b = _split_busiest_pick_state(trace)
+    same = [Doubt(SPLIT, (a,), ((int(obs[k]),), (int(obs[-1 - k]),)), {"moved_to": b})
+            for k in range(5)]
+    graph = TaskGraph.from_labels(labels, trace.roles(), *trace.transitions(),
+                                  trace.action_names)
+    d, c = [u for u in sorted(graph.members) if u not in (a, b) and graph.node_role[u] == 1][:2]
+    pair = Doubt(MERGE, (d, c), (tuple(np.flatnonzero(labels == d)[:2]),
+                                 tuple(np.flatnonzero(labels == c)[:2])), {})
+    assert decision_key(pair) == (MERGE, min(c, d), max(c, d))
+    assert len({decision_key(d) for d in same}) == 1
+    proposals = suggest_episodes(trace.without_states(), labels, [*same, pair],
+                                 max_episodes=3)
+    assert 5 in {p.doubt for p in proposals}, "the merge doubt ranked last gets a probe"
+
+
+def test_an_episode_the_recording_saw_refused_is_not_proposed_again():
+    """A probe refused at its first action from its start observation would be refused
+    again (the start is a reset to one state): once the recording states the refusal
+    (``meta["appended"]``), the same episode is not proposed."""
+    trace = load_trace(SHIPPED).without_states()
+    labels, _state, obs, a, b = _split_busiest_pick_state(load_trace(SHIPPED))
+    doubt = Doubt(MERGE, (a, b), (tuple(obs[:2]), tuple(obs[-2:])), {})
+    first = suggest_episodes(trace, labels, [doubt])
+    p = first[0]
+    meta = dict(trace.meta or {})
+    meta["appended"] = [{"observations": trace.n_obs, "episodes": [
+        {"start_observation": p.start_observation, "executed": [],
+         "illegal_action": p.actions[0]}]}]
+    refused = Trace(trace.observations, trace.actions, trace.action_names, None, meta)
+    again = suggest_episodes(refused, labels, [doubt])
+    assert (p.start_observation, p.actions) not in {(q.start_observation, q.actions)
+                                                    for q in again}
+    assert len(again) >= len(first) - sum(q.start_observation == p.start_observation and
+                                          q.actions[0] == p.actions[0] for q in first)
