@@ -16,8 +16,10 @@ transition ``u -a-> v`` of the part lands on an edge ``f(u) -a-> f(v)`` of the r
 (:func:`part_embeddings`; the propagation follows the edges both ways from the part's first
 node, and a step that could go two ways is no embedding). Such a move makes no edge the rest
 does not have, so the graph stays bipartite and Exactly-One. A separate region of the task
-rarely has one: over the tuning split and draws 47-54 (1,722 runs) every part of a right graph
-had none, while every part that had one belonged to a wrong graph.
+rarely has one: over the tuning split, draws 47-54 and multifruit-4x6 robot s350-383 (1,435
+runs, the graphs learned before this step) every part of a right graph had none (the right
+graphs of several parts were random-14, -1180, -1235 and -1255, parts of 13 or 21 nodes),
+while the parts that had one (six, of five runs) all belonged to wrong graphs.
 
 :func:`move_lone_parts` moves every part but the largest onto its embedding of least
 description length (:func:`~vggc_cp.solvers.mdl.description_length`, the criterion that
