@@ -40,6 +40,7 @@ import numpy as np
 from vggc_cp.trace import PICK, PLACE, Trace
 from vggc_cp.vision.slots import (
     EMPTY,
+    MIN_TWIN_AGREEMENTS,
     action_episodes,
     action_mates,
     action_twins,
@@ -172,7 +173,12 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
     place after a pick at level 1 and a place at level 0 of a column makes their after-looks
     the nearest, and linkage alone paired them across the levels (random-1181 robot, draw 47:
     8 of its 16 sure twins parted, the actions stated wrong facts at four slots, 225 nodes
-    for 78 states; with them, the true 78).
+    for 78 states; with them, the true 78). Nor does a merge make twins of a pick and a place
+    that never met in an episode while one of them alternates, never broken, with another
+    :data:`~vggc_cp.vision.slots.MIN_TWIN_AGREEMENTS` times or more (the rule
+    :func:`~vggc_cp.vision.slots.sequence_twins` keeps; random-5 robot after two suggested
+    rounds: a pick seen alternating three times with its place was paired by the after-looks
+    with a place it never met, the actions stated 994 wrong facts, 99 nodes for 35).
 
     >>> kinds = np.array([PICK, PLACE, PICK, PLACE])
     >>> dist = np.array([[0, 1, 5, 5], [1, 0, 5, 5], [5, 5, 0, 1], [5, 5, 1, 0.]])
@@ -186,8 +192,27 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
     taken[actions[actions >= 0]] = True
     groups = [[int(a)] for a in np.flatnonzero(taken & (colour >= 0))]
     keys = [{(int(colour[a]), int(kinds[a]))} for a in (g[0] for g in groups)]
-    # the sequence's sure twins start as one slot: no picture of the places parts them
-    for a, b in sure:
+    # how often every pick and place of one colour alternate and break alternation
+    counts: dict[tuple[int, int], np.ndarray] = {}
+    left = []
+    for a in np.flatnonzero(taken & (kinds == PICK) & (colour >= 0)):
+        cand = np.flatnonzero(taken & (colour == colour[a]) & (kinds != PICK))
+        alt = alternations(actions, episode_of, kinds, int(a), cand)
+        for b, c in zip(cand, alt):
+            counts[int(a), int(b)] = c
+        kept = alt[:, 0] == 0
+        if len(cand) > 1 and kept.sum() == 1 and alt[kept, 1].sum() >= MIN_TWIN_AGREEMENTS:
+            left.append((int(a), int(cand[kept][0])))   # the one the sequence leaves
+    for b in np.flatnonzero(taken & (kinds != PICK) & (colour >= 0)):   # and each place's
+        alt = np.array([c for (a, q), c in counts.items() if q == b]).reshape(-1, 2)
+        picks = [a for (a, q) in counts if q == b]
+        kept = alt[:, 0] == 0
+        if len(picks) > 1 and kept.sum() == 1 and alt[kept, 1].sum() >= MIN_TWIN_AGREEMENTS:
+            left.append((int(np.asarray(picks)[kept][0]), int(b)))
+    # the sequence's sure twins start as one slot: no picture of the places parts them; so
+    # does a pick and the one place the sequence leaves it, seen alternating (or a place
+    # and the one pick)
+    for a, b in [*sure, *left]:
         i = next((k for k, g in enumerate(groups) if a in g), None)
         j = next((k for k, g in enumerate(groups) if b in g), None)
         if i is None or j is None or i == j or keys[i] & keys[j]:
@@ -195,6 +220,19 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
         groups[i] = sorted(groups[i] + groups[j])
         keys[i] |= keys[j]
         del groups[j], keys[j]
+
+    def seen_elsewhere(a: int, b: int) -> bool:
+        # the pair never met in an episode, and one of them alternates, never broken, with
+        # another at least MIN_TWIN_AGREEMENTS times (the rule sequence_twins keeps)
+        pick, place = (a, b) if kinds[a] == PICK else (b, a)
+        if counts.get((pick, place), np.zeros(2)).any():
+            return False
+        return any(k != (pick, place) and (k[0] == pick or k[1] == place) and c[0] == 0
+                   and c[1] >= MIN_TWIN_AGREEMENTS for k, c in counts.items())
+
+    def unmet_twins(g: list[int], h: list[int]) -> bool:
+        return any(colour[a] == colour[b] and kinds[a] != kinds[b] and seen_elsewhere(a, b)
+                   for a in g for b in h)
 
     def breaks(members: list[int], key: set) -> int:
         inside = np.zeros(len(kinds), dtype=bool)
@@ -214,7 +252,8 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
                 break
             if i > j:
                 continue
-            if breaks(groups[i] + groups[j], keys[i] | keys[j]) == 0:
+            if breaks(groups[i] + groups[j], keys[i] | keys[j]) == 0 and \
+                    not unmet_twins(groups[i], groups[j]):
                 groups[i] = sorted(groups[i] + groups[j])
                 keys[i] |= keys[j]
                 del groups[j], keys[j]
