@@ -94,3 +94,11 @@ def test_two_episodes_on_nodes_of_their_own_join_the_graph():
     assert metrics.nodes == len(set(trace.states.tolist())) == 45
     assert metrics.exec == 1.0
     assert not learned.confidence.suspect
+
+
+def test_a_part_as_large_as_the_largest_stays():
+    """Two copies of one episode, neither larger: which would be the copy, nothing says."""
+    p = _problem([[0, 1], [0, 1]])
+    labels = np.array([0, 1, 2, 3, 4, 5])
+    same, moved = move_lone_parts(p, labels)
+    assert moved == 0 and same.tolist() == labels.tolist()

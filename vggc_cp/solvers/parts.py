@@ -21,10 +21,11 @@ runs, the graphs learned before this step) every part of a right graph had none 
 graphs of several parts were random-14, -1180, -1235 and -1255, parts of 13 or 21 nodes),
 while the parts that had one (six, of five runs) all belonged to wrong graphs.
 
-:func:`move_lone_parts` moves every part but the largest onto its embedding of least
-description length (:func:`~vggc_cp.solvers.mdl.description_length`, the criterion that
-chooses the graph) where that is shorter than the graph as it is; a part with no embedding,
-or whose move the code does not favour, stays. Only the problem's transitions and the
+:func:`move_lone_parts` moves every part with fewer observations than the largest onto its
+embedding of least description length (:func:`~vggc_cp.solvers.mdl.description_length`,
+the criterion that chooses the graph) where that is shorter than the graph as it is; a part
+with no embedding, or whose move the code does not favour, stays, and so does a part as
+large as the largest (which of the two would be the copy, nothing says). Only the problem's transitions and the
 description length are read, never ground-truth states.
 """
 
@@ -132,10 +133,11 @@ def part_embeddings(problem: Problem, labels: np.ndarray, part: np.ndarray,
 
 
 def move_lone_parts(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray, int]:
-    """``labels`` with every part but the largest moved onto its embedding of least
-    description length where that is shorter than the graph as it is (module docstring),
-    each in turn (the smallest first), and how many were moved. Node numbers are kept (a
-    moved part's nodes are left empty).
+    """``labels`` with every part smaller than the largest (in observations) moved onto its
+    embedding of least description length where that is shorter than the graph as it is
+    (module docstring), each in turn (the smallest first), and how many were moved. A part
+    as large as the largest stays: which of the two would be the copy, nothing says. Node
+    numbers are kept (a moved part's nodes are left empty).
 
     Examples
     --------
@@ -155,9 +157,15 @@ def move_lone_parts(problem: Problem, labels: np.ndarray) -> tuple[np.ndarray, i
     parts = graph_parts(problem, labels)
     if len(parts) < 2:
         return labels, 0
+    # a part's size: the observations on its nodes; one as large as the largest may be the
+    # original as well as the copy, and is left as it is
+    seen = np.bincount(labels, minlength=int(labels.max()) + 1)
+    size = [int(seen[g].sum()) for g in parts]
+    largest = max(size)
     now = description_length(problem, labels)
     moved = 0
-    for part in sorted(parts[1:], key=lambda g: (len(g), int(g[0]))):
+    for _, part in sorted(((n, g) for n, g in zip(size, parts) if n < largest),
+                          key=lambda x: (x[0], int(x[1][0]))):
         best = None
         for f in part_embeddings(problem, labels, part):
             lut = np.arange(int(labels.max()) + 1)
