@@ -105,8 +105,8 @@ class LearnConfig:
         ``folds`` re-runs are the held-out folds (0: no re-runs, no confidence; else at
         least 2).
     warning : WarningRule
-        When the graph is flagged: its chance of change above ``max_change`` with another
-        check (alone with ``change_alone``), or a fixed check
+        When the graph is flagged: its chance of change above ``max_change`` (with another
+        check only, where ``change_alone`` is off), or a fixed check
         (:mod:`vggc_cp.solvers.confidence`).
     fallback : str
         When ``auto`` tries its fallback evidences (:data:`FALLBACKS`): ``refused``

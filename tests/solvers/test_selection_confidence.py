@@ -245,9 +245,10 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     """Known answers: distances 0 within a true state and 1 across. At a threshold below 1
     every re-run reproduces the true graph: chance of change 0, no warning. A graph that
     merged two true states (what a threshold above 1 would not give either) changes in
-    every re-run: chance 1, a note naming the merged node, and warned as soon as another
-    check questions it too (here the actions favouring the split by 4 nats; any check
-    flagging, or ``change_alone``)."""
+    every re-run: chance 1, warned by default (``change_alone``); with the chance alone a
+    note (``change_alone=False``), a note naming the merged node, and warned as soon as
+    another check questions it too (here the actions favouring the split by 4 nats; any
+    check flagging)."""
     problem, truth, episode = walk_problem()
     right = resample(problem, 0.5, truth, episode, folds=5)
     assert (right.runs, right.changed, right.p_change, right.unstable) == (5, 0, 0.0, ())
@@ -261,7 +262,7 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     wrong = resample(problem, 0.5, merged, episode, folds=5)
     assert wrong.changed == wrong.runs and wrong.p_change == 1.0
     assert [u for u, _ in wrong.unstable] == [a]
-    noted = assess(0.2, 5, wrong, 10.0)
+    noted = assess(0.2, 5, wrong, 10.0, WarningRule(change_alone=False))
     assert not noted.suspect and noted.reasons == () and noted.unstable == (a,)
     assert f"nodes {a}" in noted.notes[0] and "vggc-cp suggest" in noted.notes[0]
     assert "note, not a warning" in noted.summary()
@@ -273,10 +274,10 @@ def test_a_right_graph_is_quiet_and_a_merged_one_is_warned():
     assert warned.suspect and warned.notes == () and len(warned.reasons) == 2
     assert f"nodes {a}" in warned.reasons[0] and f"node {a} might be two" in warned.reasons[1]
     assert warned.as_dict()["p_change"] == 1.0 and warned.as_dict()["unstable"] == [int(a)]
-    alone = assess(0.2, 5, wrong, 10.0, WarningRule(change_alone=True))
+    alone = assess(0.2, 5, wrong, 10.0)
     assert alone.suspect and alone.reasons == noted.notes and alone.notes == ()
     # with a fixed check failing too (a plateau of 1) the chance of change is a reason again
-    both = assess(0.2, 1, wrong, 10.0)
+    both = assess(0.2, 1, wrong, 10.0, WarningRule(change_alone=False))
     assert both.suspect and both.reasons[0] == noted.notes[0] and both.notes == ()
 
 

@@ -6,14 +6,15 @@ recording left out, whose partition of the observations they keep differs from t
 partition on those observations. Its complement is the graph's *support* (as the bootstrap
 support of a clade in a phylogeny: the share of resampled data sets that reproduce it). The
 graph is flagged **suspect** when ``p_change > max_change`` (default 0.3: support below 70 %,
-the usual bar of bootstrap support, Hillis and Bull 1993) and another check questions it too
-(a fixed check below, or one the doubts raise); alone, it is a *note* (``Confidence.notes``,
-``WarningRule.change_alone``): support below 70 % is not evidence of a wrong answer (Hillis
-and Bull found 70 % support to mean about 95 % chance of being right), a re-run on 4/5 of a
-recording loses the only episodes of some situations, and on the tuning split the chance of
-change alone caught no wrong graph while warning on right ones. The reasons (or the note)
-name the nodes that changed most often in the re-runs and point at ``vggc-cp doubts`` /
-``vggc-cp suggest``.
+the usual bar of bootstrap support, Hillis and Bull 1993), or when a fixed check below or one
+the doubts raise questions it. From session 18 to session 55 the chance of change alone was a
+*note* (``Confidence.notes``; ``WarningRule(change_alone=False)`` keeps that): then it caught
+no wrong graph on the tuning split while warning on right ones. Since session 56 it flags
+alone again: with the checks built since, no quiet run of the tuning split, of draws 50-54
+or of any stored table of sessions 54-56 (6,010 runs) had a chance of change above 30 % but
+the two misses of draw 55 that it was the only sign of (random-1268 clean and randomized,
+25 nodes for 25, two states of one node, 35 %). The reasons name the nodes that changed
+most often in the re-runs and point at ``vggc-cp doubts`` / ``vggc-cp suggest``.
 
 **The math.** The recording is cut into units: its episodes, or, when it has fewer than
 ``folds`` episodes, ``folds`` contiguous blocks of observations (one long walk). Re-run ``r``
@@ -106,22 +107,22 @@ class WarningRule:
         of 57 wrong graphs that these checks catch (held-out split and random-200..209,
         notebooks/calibration.md): both run until one number catches them all.
     change_alone : bool
-        Flag a graph on its chance of change alone. Off (the default), a chance above
-        ``max_change`` that no other check corroborates is a note (:attr:`Confidence.notes`),
-        reported and not flagged; it joins the reasons as soon as another check flags the
-        graph. A re-run on 4/5 of the recording loses the only episodes of some situations,
-        and support below 70 % is not evidence of a wrong answer (Hillis and Bull 1993 found
-        70 % support to mean about 95 % chance of being right). Chosen on the tuning split:
-        in every tuning table since session 12 the chance of change alone caught none of the
-        wrong graphs (18 of 93 in session 17) and warned on 0 to 2 right ones (2 of 75 in
-        session 17); notebooks/calibration.md, session 18.
+        Flag a graph on its chance of change alone (the default since session 56). Off, a
+        chance above ``max_change`` that no other check corroborates is a note
+        (:attr:`Confidence.notes`), reported and not flagged; it joins the reasons as soon
+        as another check flags the graph. Off was the default from session 18 (in every
+        tuning table since session 12 the chance of change alone had caught none of the
+        wrong graphs and warned on 0 to 2 right ones; notebooks/calibration.md, session
+        18); with the checks built since, of 6,010 stored runs (sessions 54-56) only two had
+        a chance above 30 % and no other flag, both misses (draw 55, random-1268 clean and
+        randomized; calibration.md, session 56).
     """
 
     max_change: float = 0.3
     runs: int = 20
     seed: int = 0
     fixed_checks: bool = True
-    change_alone: bool = False
+    change_alone: bool = True
 
     def __post_init__(self):
         from vggc_cp.errors import VggcError
@@ -514,7 +515,8 @@ def assess(margin: float, plateau: int, resampled: Resampled | None, obs_per_nod
         reasons += fixed_check_reasons(total, int(plateau),
                                        None if resampled is None else resampled.heldout,
                                        float(obs_per_node), read_choice)
-    # alone, a chance of change is a note: it joins the reasons when another check flags
+    # alone, a chance of change is a reason (change_alone) or a note that joins the reasons
+    # when another check flags
     notes = () if (reasons or rule.change_alone) else tuple(change)
     reasons = ([] if notes else change) + reasons
     return Confidence(criterion, float(margin), int(plateau),
