@@ -10,9 +10,10 @@ the usual bar of bootstrap support, Hillis and Bull 1993), or when a fixed check
 the doubts raise questions it. From session 18 to session 55 the chance of change alone was a
 *note* (``Confidence.notes``; ``WarningRule(change_alone=False)`` keeps that): then it caught
 no wrong graph on the tuning split while warning on right ones. Since session 56 it flags
-alone again: with the checks built since, no quiet run of the tuning split, of draws 50-54
-or of any stored table of sessions 54-56 (6,010 runs) had a chance of change above 30 % but
-the two misses of draw 55 that it was the only sign of (random-1268 clean and randomized,
+alone again: with the checks built since, no quiet row of any table stored in sessions
+54-56 (6,010 rows: tuning splits and draws 47-55, some traces learned by several code
+versions) had a chance of change above 30 % but the two misses of draw 55 that it was the
+only sign of (random-1268 clean and randomized,
 25 nodes for 25, two states of one node, 35 %). The reasons name the nodes that changed
 most often in the re-runs and point at ``vggc-cp doubts`` / ``vggc-cp suggest``.
 
