@@ -464,8 +464,8 @@ def _cut(problem: Problem, labels: np.ndarray, rows: np.ndarray | None = None
          ) -> tuple[np.ndarray, int, int]:
     """:func:`~vggc_cp.solvers.read_splits.split_by_readings`, then, where the problem reads
     sites, :func:`~vggc_cp.solvers.episodes.move_lone_episodes` and
-    :func:`~vggc_cp.solvers.parts.move_lone_parts` (the moves counted together), nodes numbered as the merge
-    numbers them (:meth:`~vggc_cp.solvers.base.Problem.labels_from_colours`), so one
+    :func:`~vggc_cp.solvers.parts.move_lone_parts` (the moves counted together), nodes
+    numbered as the merge numbers them (:meth:`~vggc_cp.solvers.base.Problem.labels_from_colours`), so one
     partition is one array whether cuts, moves or merges made it; with the cuts and the
     moves made."""
     rows = combined_readings(problem) if rows is None else rows

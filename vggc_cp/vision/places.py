@@ -221,14 +221,20 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
         keys[i] |= keys[j]
         del groups[j], keys[j]
 
+    # each action's partners seen alternating, never broken, MIN_TWIN_AGREEMENTS times or more
+    partners: dict[int, set[int]] = {}
+    for (pick, place), c in counts.items():
+        if c[0] == 0 and c[1] >= MIN_TWIN_AGREEMENTS:
+            partners.setdefault(pick, set()).add(place)
+            partners.setdefault(place, set()).add(pick)
+
     def seen_elsewhere(a: int, b: int) -> bool:
         # the pair never met in an episode, and one of them alternates, never broken, with
         # another at least MIN_TWIN_AGREEMENTS times (the rule sequence_twins keeps)
         pick, place = (a, b) if kinds[a] == PICK else (b, a)
         if counts.get((pick, place), np.zeros(2)).any():
             return False
-        return any(k != (pick, place) and (k[0] == pick or k[1] == place) and c[0] == 0
-                   and c[1] >= MIN_TWIN_AGREEMENTS for k, c in counts.items())
+        return bool(partners.get(pick, set()) - {place} or partners.get(place, set()) - {pick})
 
     def unmet_twins(g: list[int], h: list[int]) -> bool:
         return any(colour[a] == colour[b] and kinds[a] != kinds[b] and seen_elsewhere(a, b)
