@@ -35,6 +35,7 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.mdl import description_length
+from vggc_cp.vision.resets import components
 
 #: Most embeddings of one part that :func:`move_lone_parts` weighs (a part of a few pick /
 #: place nodes may fit many places of a large graph; the first found are kept).
@@ -55,24 +56,11 @@ def graph_parts(problem: Problem, labels: np.ndarray) -> list[np.ndarray]:
     """
     labels = np.asarray(labels, dtype=np.int64)
     s, d = labels[problem.src], labels[problem.dst]
-    n = int(labels.max()) + 1 if labels.size else 0
-    root = np.arange(n)
-
-    def find(x: int) -> int:
-        while root[x] != x:
-            root[x] = root[root[x]]
-            x = root[x]
-        return x
-
-    for a, b in zip(s.tolist(), d.tolist()):
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            root[max(ra, rb)] = min(ra, rb)
-    touched = np.unique(np.concatenate([s, d])) if s.size else np.zeros(0, dtype=np.int64)
-    groups: dict[int, list[int]] = {}
-    for u in touched.tolist():
-        groups.setdefault(find(u), []).append(u)
-    parts = [np.array(sorted(g), dtype=np.int64) for g in groups.values()]
+    if not s.size:
+        return []
+    comp = components(int(labels.max()) + 1, zip(s.tolist(), d.tolist()))
+    touched = np.unique(np.concatenate([s, d]))
+    parts = [touched[comp[touched] == c] for c in np.unique(comp[touched])]
     return sorted(parts, key=lambda g: (-len(g), int(g[0])))
 
 

@@ -194,21 +194,22 @@ def place_groups(actions: np.ndarray, episodes: list[tuple[int, int]], dist: np.
     keys = [{(int(colour[a]), int(kinds[a]))} for a in (g[0] for g in groups)]
     # how often every pick and place of one colour alternate and break alternation
     counts: dict[tuple[int, int], np.ndarray] = {}
-    left = []
     for a in np.flatnonzero(taken & (kinds == PICK) & (colour >= 0)):
         cand = np.flatnonzero(taken & (colour == colour[a]) & (kinds != PICK))
-        alt = alternations(actions, episode_of, kinds, int(a), cand)
-        for b, c in zip(cand, alt):
+        for b, c in zip(cand, alternations(actions, episode_of, kinds, int(a), cand)):
             counts[int(a), int(b)] = c
-        kept = alt[:, 0] == 0
-        if len(cand) > 1 and kept.sum() == 1 and alt[kept, 1].sum() >= MIN_TWIN_AGREEMENTS:
-            left.append((int(a), int(cand[kept][0])))   # the one the sequence leaves
-    for b in np.flatnonzero(taken & (kinds != PICK) & (colour >= 0)):   # and each place's
-        alt = np.array([c for (a, q), c in counts.items() if q == b]).reshape(-1, 2)
-        picks = [a for (a, q) in counts if q == b]
-        kept = alt[:, 0] == 0
-        if len(picks) > 1 and kept.sum() == 1 and alt[kept, 1].sum() >= MIN_TWIN_AGREEMENTS:
-            left.append((int(np.asarray(picks)[kept][0]), int(b)))
+
+    def the_one_left(pairs: list[tuple[int, int]]) -> list[tuple[int, int]]:
+        # of an action's candidate pairs, the one the sequence leaves: every other broken,
+        # this one never, seen alternating MIN_TWIN_AGREEMENTS times or more
+        kept = [k for k in pairs if counts[k][0] == 0]
+        return kept if len(pairs) > 1 and len(kept) == 1 and \
+            counts[kept[0]][1] >= MIN_TWIN_AGREEMENTS else []
+
+    left = [k for a in sorted({a for a, _ in counts})
+            for k in the_one_left([p for p in counts if p[0] == a])]
+    left += [k for b in sorted({b for _, b in counts})      # and each place's one pick
+             for k in the_one_left([p for p in counts if p[1] == b])]
     # the sequence's sure twins start as one slot: no picture of the places parts them; so
     # does a pick and the one place the sequence leaves it, seen alternating (or a place
     # and the one pick)
