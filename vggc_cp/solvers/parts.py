@@ -35,7 +35,6 @@ import numpy as np
 
 from vggc_cp.solvers.base import Problem
 from vggc_cp.solvers.mdl import description_length
-from vggc_cp.vision.resets import components
 
 #: Most embeddings of one part that :func:`move_lone_parts` weighs (a part of a few pick /
 #: place nodes may fit many places of a large graph; the first found are kept).
@@ -54,6 +53,8 @@ def graph_parts(problem: Problem, labels: np.ndarray) -> list[np.ndarray]:
     >>> [part.tolist() for part in graph_parts(p, np.array([0, 1, 2, 3, 4]))]
     [[0, 1, 2], [3, 4]]
     """
+    from vggc_cp.vision.resets import components  # scipy: not at the CLI's start
+
     labels = np.asarray(labels, dtype=np.int64)
     s, d = labels[problem.src], labels[problem.dst]
     if not s.size:
