@@ -1,6 +1,7 @@
-"""Resets and refusals a recording states (``meta["appended"]``): read from a real appended
-trace they are true of its ground truth; a record that does not fit the trace is refused at
-load, naming the field; solvers see them, so the hashes do too."""
+"""Resets and refusals a recording states (``meta["appended"]``) and the undo pairs it declares
+(``meta["undo"]``): read from a real appended trace they are true of its ground truth (the undo
+pairs of every task's dynamics); a record that does not fit the trace is refused at load,
+naming the field; solvers see them, so the hashes do too."""
 
 from __future__ import annotations
 
@@ -40,8 +41,10 @@ def appended():
 
 def test_resets_and_refusals_of_a_recording_are_true(appended):
     trace, new, bench = appended
-    assert recorded_facts(trace) is NO_FACTS
+    before = recorded_facts(trace)
+    assert not before.resets and not before.refusals and before.undo
     facts = recorded_facts(new)
+    assert facts.undo == before.undo              # appending keeps the declaration
     assert len(facts.resets) == 3 and len(facts.refusals) == 4
     for a, b in facts.resets:      # the episode's first observation shows the start's state
         assert b >= trace.n_obs and a < trace.n_obs and new.actions[b - 1] == -1
@@ -82,6 +85,63 @@ def test_a_record_that_does_not_fit_the_trace_is_refused_at_load(appended, tmp_p
         load_trace(path)
     msg = str(err.value)
     assert msg.startswith(f"{path}: field 'meta.appended") and field + "'" in msg
+
+
+@pytest.mark.parametrize("name", ["fruit-2x3", "multifruit-2x3", "blocks-2", "blocks-3",
+                                  "random-3", "random-7", "random-12"])
+def test_the_undo_pairs_a_task_declares_are_true_of_its_dynamics(name):
+    bench = get_benchmark(name)
+    pairs = bench.undo_pairs
+    kinds = {n: n.split("_")[0] for n in bench.action_names}
+    assert pairs and all(kinds[p] == "pick" and kinds[q] == "place" for p, q in pairs)
+    assert len({a for pair in pairs for a in pair}) == 2 * len(pairs) == len(bench.action_names)
+    states = bench.all_states()
+    assert len(states) <= 20000, "a small task: every state is checked"
+    for s in states:
+        for p, q in pairs:
+            for first, then in ((p, q), (q, p)):
+                mid = bench.step(s, first)
+                if mid is not None:          # legal: the other one is legal and comes back
+                    assert bench.step(mid, then) == s, (name, s, first, then)
+
+
+def test_a_generated_trace_declares_its_undo_pairs_and_they_hold_on_it(appended):
+    trace, _, bench = appended
+    pairs = recorded_facts(trace).undo
+    assert [(trace.action_names[p], trace.action_names[q]) for p, q in pairs] == \
+        list(bench.undo_pairs)
+    twin = {**dict(pairs), **{q: p for p, q in pairs}}
+    acts, back = trace.actions, 0
+    for t in range(len(acts) - 1):
+        if acts[t] >= 0 and acts[t + 1] == twin.get(int(acts[t])):
+            assert trace.states[t + 2] == trace.states[t]
+            back += 1
+    assert back, "the walk undoes an action somewhere"
+
+
+def test_solvers_see_the_undo_pairs_so_the_hashes_do(appended):
+    trace, _, _ = appended
+    bare = replace(trace, meta={k: v for k, v in trace.meta.items() if k != "undo"})
+    assert not recorded_facts(bare)
+    assert bare.content_hash() != trace.content_hash()
+    assert bare.identity_hash() != trace.identity_hash()
+
+
+@pytest.mark.parametrize("undo, field, says", [
+    ("pick_red_0", "meta.undo", "is not a list"),
+    ([["place_red_0", "pick_red_0"]], "meta.undo[0]", "expected [pick, place]"),
+    ([["pick_red_0", "place_red_9"]], "meta.undo[0]", "two action names of the trace"),
+    ([["pick_red_0", "place_red_0"], ["pick_red_0", "place_red_1"]], "meta.undo[1]",
+     "names 'pick_red_0' again"),
+])
+def test_an_undo_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_path, undo,
+                                                                  field, says):
+    trace, _, _ = appended
+    path = tmp_path / "bad.npz"
+    save_trace(replace(trace, meta={**trace.meta, "undo": undo}), path)
+    with pytest.raises(TraceError) as err:
+        load_trace(path)
+    assert str(err.value).startswith(f"{path}: field '{field}'") and says in str(err.value)
 
 
 def test_a_trace_without_the_record_states_nothing():
@@ -125,6 +185,7 @@ def test_solve_says_what_it_read_and_refuses_a_record_that_does_not_fit(appended
     assert main(["solve", str(path), "-o", str(tmp_path / "s.json"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "recorded       3 reset(s), 4 refused action(s)" in out
+    assert "recorded       3 undo pair(s) (meta.undo)" in out
     meta = copy.deepcopy(new.meta)
     meta["appended"][0]["episodes"][0]["start_observation"] = -1
     bad = tmp_path / "bad.npz"

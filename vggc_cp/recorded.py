@@ -1,4 +1,5 @@
-"""What a recording states beyond its transitions: resets and refused actions (beyond the paper).
+"""What a recording states beyond its transitions: resets, refused actions and the actions that
+undo each other (beyond the paper).
 
 An episode recorded on request (``vggc-cp suggest`` -> ``generate --episodes --append``,
 ``docs/FORMATS.md``: ``meta["appended"]``) states two facts no image has to be read for:
@@ -15,6 +16,17 @@ An episode recorded on request (``vggc-cp suggest`` -> ``generate --episodes --a
 gets a :class:`~vggc_cp.errors.TraceError` naming the field and index). A trace without that
 field states neither; everything else in ``meta`` is ignored, so nothing learned ever reads the
 simulator's ground truth.
+
+A recording can also declare what the robot's skills are known to do, whatever the scene:
+
+* **undo pairs** -- ``meta["undo"]``, a list of ``[pick, place]`` action names: the place
+  puts back what the pick took (the same class, the same place, the same level), so taking
+  one right after the other returns the scene to the state before, either way round. A
+  robot's skill library knows this of its own skills (``pick(red, 3)`` and ``place(red, 3)``);
+  ``vggc-cp generate`` records it for every task. A graph that takes the pick from node
+  ``u`` to ``v`` and the place from ``v`` to ``w != u`` is wrong: ``u`` and ``w`` are one
+  state, or ``v`` holds two (:mod:`vggc_cp.solvers.broken_facts`). Nothing reads the
+  names' spelling: a trace without the field declares no pair.
 """
 
 from __future__ import annotations
@@ -38,20 +50,26 @@ class RecordedFacts:
     refusals : tuple of (int, int)
         ``(o, k)``: action ``k`` (an index into ``action_names``) was refused in the state of
         observation ``o``.
+    undo : tuple of (int, int)
+        ``(p, q)``: pick ``p`` and place ``q`` (indices into ``action_names``) undo each other.
     """
 
     resets: tuple[tuple[int, int], ...] = ()
     refusals: tuple[tuple[int, int], ...] = ()
+    undo: tuple[tuple[int, int], ...] = ()
 
     def __bool__(self) -> bool:
-        return bool(self.resets or self.refusals)
+        return bool(self.resets or self.refusals or self.undo)
 
     def key(self) -> bytes:
-        """Canonical bytes of the facts (empty where there are none), for cache keys."""
+        """Canonical bytes of the facts (empty where there are none), for cache keys; the
+        undo pairs join only where there are some (keys of traces without them unchanged)."""
         if not self:
             return b""
-        return json.dumps([list(map(list, self.resets)), list(map(list, self.refusals))]
-                          ).encode()
+        parts = [list(map(list, self.resets)), list(map(list, self.refusals))]
+        if self.undo:
+            parts.append(list(map(list, self.undo)))
+        return json.dumps(parts).encode()
 
 
 NO_FACTS = RecordedFacts()
@@ -67,8 +85,51 @@ def _int(value, src: str, field: str) -> int:
     return value
 
 
+def undo_pairs(trace) -> tuple[tuple[int, int], ...]:
+    """The undo pairs ``trace.meta["undo"]`` declares (module docstring), as indices into
+    ``action_names``; empty where the field is absent. Bad input raises a
+    :class:`~vggc_cp.errors.TraceError` naming the field and index.
+
+    >>> import numpy as np
+    >>> from vggc_cp.trace import Trace
+    >>> names = ("pick_a", "pick_b", "place_a", "place_b")
+    >>> t = Trace(np.zeros((2, 2, 2, 3), np.uint8), np.array([0]), names, None,
+    ...           {"undo": [["pick_a", "place_a"], ["pick_b", "place_b"]]})
+    >>> undo_pairs(t)
+    ((0, 2), (1, 3))
+    >>> undo_pairs(Trace(t.observations, t.actions, names, None, {"undo": [["place_a", "pick_a"]]}))
+    Traceback (most recent call last):
+    ...
+    vggc_cp.errors.TraceError: the trace: field 'meta.undo[0]' is ['place_a', 'pick_a']: expected [pick, place], two action names of the trace
+    """
+    pairs = (trace.meta or {}).get("undo")
+    if pairs is None:
+        return ()
+    src = trace.source or "the trace"
+    if not isinstance(pairs, list):
+        raise _bad(src, "meta.undo", "is not a list")
+    index = {name: k for k, name in enumerate(trace.action_names)}
+    out, seen = [], set()
+    for i, pair in enumerate(pairs):
+        ok = (isinstance(pair, list) and len(pair) == 2 and all(isinstance(x, str) and x in index
+                                                                for x in pair)
+              # the kinds by the names' prefix, as vggc_cp.trace.action_kind reads them
+              and pair[0].startswith("pick") and pair[1].startswith("place"))
+        if not ok:
+            raise _bad(src, f"meta.undo[{i}]", f"is {pair!r}: expected [pick, place], two "
+                       f"action names of the trace")
+        twice = [x for x in pair if x in seen]
+        if twice:
+            raise _bad(src, f"meta.undo[{i}]", f"names {twice[0]!r} again: an action undoes "
+                       f"at most one other")
+        seen.update(pair)
+        out.append((index[pair[0]], index[pair[1]]))
+    return tuple(out)
+
+
 def recorded_facts(trace) -> RecordedFacts:
-    """The resets and refusals ``trace.meta["appended"]`` records (module docstring).
+    """The resets and refusals ``trace.meta["appended"]`` records and the undo pairs
+    ``trace.meta["undo"]`` declares (module docstring, :func:`undo_pairs`).
 
     Every recorded episode is checked against the trace: it must start a new episode at the
     observation the rounds' layout puts it, and its actions must be the ones recorded.
@@ -87,9 +148,10 @@ def recorded_facts(trace) -> RecordedFacts:
     >>> bool(recorded_facts(Trace(obs, np.array([0, 1, -1, 1]), ("pick_a", "place_b"))))
     False
     """
+    undo = undo_pairs(trace)
     rounds = (trace.meta or {}).get("appended")
     if rounds is None:
-        return NO_FACTS
+        return RecordedFacts(undo=undo) if undo else NO_FACTS
     src = trace.source or "the trace"
     if not isinstance(rounds, list):
         raise _bad(src, "meta.appended", "is not a list")
@@ -137,4 +199,4 @@ def recorded_facts(trace) -> RecordedFacts:
         if t != end:
             raise _bad(src, where, f"does not fit: its episodes record observations up to "
                        f"{t}, but the next round starts at {end}")
-    return RecordedFacts(tuple(resets), tuple(refusals))
+    return RecordedFacts(tuple(resets), tuple(refusals), undo)

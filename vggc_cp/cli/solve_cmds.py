@@ -359,9 +359,12 @@ def _solve_merge(args) -> int:
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
     facts = recorded_facts(trace)
-    if facts:
+    if facts.resets or facts.refusals:
         print(f"recorded       {len(facts.resets)} reset(s), {len(facts.refusals)} refused "
               f"action(s) (meta.appended): read as facts")
+    if facts.undo:
+        print(f"recorded       {len(facts.undo)} undo pair(s) (meta.undo): a graph that "
+              f"breaks one is flagged")
     for note in learned.skipped:
         print(f"evidence       skipped {note}")
     for cand in learned.candidates:

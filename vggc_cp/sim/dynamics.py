@@ -108,6 +108,22 @@ class Benchmark:
         object.__setattr__(self, "action_names", tuple(a.name for a in acts))
         object.__setattr__(self, "_actions", {a.name: a for a in acts})
 
+    @property
+    def undo_pairs(self) -> tuple[tuple[str, str], ...]:
+        """Every ``(pick, place)`` pair of action names that undo each other: one class, one
+        region, one level (:meth:`step`: the place puts back what the pick took, and the pick
+        takes what the place put down). Recorded in a generated trace's ``meta["undo"]``
+        (:func:`vggc_cp.recorded.undo_pairs`).
+
+        >>> from vggc_cp.sim.tasks import get_benchmark
+        >>> get_benchmark("fruit-2x3").undo_pairs[:2]
+        (('pick_red_0', 'place_red_0'), ('pick_red_1', 'place_red_1'))
+        """
+        acts = self._actions.values()
+        places = {(a.cls, a.region, a.level): a.name for a in acts if not a.pick}
+        return tuple((a.name, places[(a.cls, a.region, a.level)]) for a in acts
+                     if a.pick and (a.cls, a.region, a.level) in places)
+
     # ------------------------------------------------------------------ keys
     @property
     def blocks(self) -> bool:

@@ -274,6 +274,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0,
         "camera": camera,
         "look": the_look.name,
         "state_key": STATE_KEY_DOC[spec.family],
+        "undo": [list(pair) for pair in bench.undo_pairs],
         "generator": f"vggc-cp {__version__}",
     }
     if spec.object_classes is not None:

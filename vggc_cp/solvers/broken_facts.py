@@ -7,7 +7,13 @@ there and refused (a **refusal**). A graph breaks them where
 * a reset's two observations lie on two nodes: one state, two nodes, so one of the two is
   misplaced (or the state is split);
 * a refused action leaves the node of the observation where it was refused in the graph (an
-  observation of that node took it): two states, one node.
+  observation of that node took it): two states, one node;
+* an undo pair (:func:`vggc_cp.recorded.undo_pairs`, ``meta["undo"]``) comes back elsewhere:
+  one action of the pair takes node ``u`` to ``v`` and the other, which puts back what it
+  changed, takes ``v`` to ``w != u``: ``u`` and ``w`` are one state on two nodes, or ``v``
+  holds two states. A right graph never does this, whatever the recording (on 1,089 stored
+  runs of the suite, sessions 55-57, no passing graph did and 24 of 53 wrong ones did,
+  notebooks/calibration.md, session 57).
 
 Both are certain errors, not doubts about the evidence: :func:`broken_facts` lists each as a
 doubt (the nodes and the observations, the fact as evidence) and :func:`facts_check` flags
@@ -23,12 +29,69 @@ from vggc_cp.solvers.doubt_text import broken_fact_note
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
 
 
+def broken_undo(undo, actions: np.ndarray, action_names, labels: np.ndarray
+                ) -> tuple[Doubt, ...]:
+    """The undo pairs that ``labels`` break (module docstring), as merge doubts of the node
+    left and the node come back to, most breaks first; evidence ``undo``: the two actions in
+    the order taken, ``via``: the node between, ``transitions``: ``[[o, o'], [p, p']]`` (the
+    first action from ``o`` to ``o'``, the second from ``p`` to ``p'``), ``breaks``: how
+    many edges of the two nodes break it.
+
+    Parameters
+    ----------
+    undo : sequence of (int, int)
+        ``(pick, place)`` action indices (:attr:`vggc_cp.recorded.RecordedFacts.undo`).
+    actions : ndarray of int, shape (N-1,)
+    action_names : sequence of str
+    labels : ndarray of int, shape (N,)
+
+    >>> names = ("pick_a", "place_a")
+    >>> acts = np.array([0, 1, -1, 1, 0])          # 0 -pick-> 1 -place-> 2; 3 -place-> 4 -pick-> 5
+    >>> [d.nodes for d in broken_undo([(0, 1)], acts, names, np.array([0, 1, 0, 1, 0, 1]))]
+    []
+    >>> found = broken_undo([(0, 1)], acts, names, np.array([0, 1, 2, 1, 0, 3]))
+    >>> [f.nodes for f in found]                  # 0 -> 1 -> 2 and, from 1 -> 0, 0 -> 3
+    [(0, 2), (1, 3)]
+    >>> d = found[0]
+    >>> d.kind, d.nodes, d.observations, d.evidence["undo"], d.evidence["via"]
+    ('merge', (0, 2), ((0,), (2,)), ['pick_a', 'place_a'], 1)
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    actions = np.asarray(actions)
+    twin = {}
+    for p, q in undo:
+        twin[int(p)], twin[int(q)] = int(q), int(p)
+    # every edge of the graph, with the first transition that shows it
+    edges: dict[tuple[int, int], dict[int, int]] = {}
+    for t in np.flatnonzero(actions >= 0):
+        edges.setdefault((int(labels[t]), int(actions[t])), {}).setdefault(
+            int(labels[t + 1]), int(t))
+    found: dict[tuple[int, int], list] = {}
+    for (u, a), out in edges.items():
+        if a not in twin:
+            continue
+        for v, t in out.items():
+            for w, t2 in edges.get((v, twin[a]), {}).items():
+                if w != u:
+                    found.setdefault((min(u, w), max(u, w)), []).append((u, a, v, w, t, t2))
+    doubts = []
+    for key in sorted(found, key=lambda k: (-len(found[k]), k)):
+        u, a, v, w, t, t2 = found[key][0]
+        doubts.append(Doubt(MERGE, (u, w), ((t,), (t2 + 1,)),
+                            {"undo": [str(action_names[a]), str(action_names[twin[a]])],
+                             "via": v, "transitions": [[t, t + 1], [t2, t2 + 1]],
+                             "breaks": len(found[key])}, -1.0))
+    return tuple(doubts)
+
+
 def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray
                  ) -> tuple[Doubt, ...]:
-    """The resets and refusals of ``facts`` that ``labels`` break (module docstring), as
-    doubts: a merge doubt of the two nodes of a reset (evidence ``reset``: ``[a, b]``), a
-    split doubt of the node where an action was refused (evidence ``refused``: the action,
-    ``observation``: where; its other side: an observation of the node that took it).
+    """The resets, refusals and undo pairs of ``facts`` that ``labels`` break (module
+    docstring), as doubts: a merge doubt of the two nodes of a reset (evidence ``reset``:
+    ``[a, b]``), a split doubt of the node where an action was refused (evidence ``refused``:
+    the action, ``observation``: where; its other side: an observation of the node that took
+    it), and a merge doubt per pair of nodes an undo pair leaves and comes back to
+    (:func:`broken_undo`).
 
     Parameters
     ----------
@@ -60,7 +123,7 @@ def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray
         if (u, k) in taken:
             out.append(Doubt(SPLIT, (u,), ((int(o),), (taken[(u, k)],)),
                              {"refused": str(action_names[k]), "observation": int(o)}, -1.0))
-    return tuple(out)
+    return (*out, *broken_undo(facts.undo, actions, action_names, labels))
 
 
 def facts_check(conf: Confidence, broken) -> Confidence:

@@ -8,12 +8,26 @@ from vggc_cp.solvers.read_doubts import bound_decided
 
 
 def broken_fact_note(d: Doubt) -> str:
-    """One line for a broken fact (:func:`vggc_cp.solvers.broken_facts.broken_facts`); empty for another doubt."""
+    """One line for a broken fact (:func:`vggc_cp.solvers.broken_facts.broken_facts`); empty for another doubt.
+
+    >>> d = Doubt(MERGE, (3, 5), ((7,), (10,)), {"undo": ["pick_a", "place_a"], "via": 4,
+    ...                                          "transitions": [[7, 8], [9, 10]]})
+    >>> broken_fact_note(d)
+    'pick_a takes observation 7 (node 3) to observation 8 (node 4) and place_a, which undoes it, takes observation 9 (node 4) to observation 10 (node 5): one state on two nodes, or two states on node 4'
+    """
     ev = d.evidence or {}
     if isinstance(ev.get("reset"), list):
         a, b = ev["reset"]
         return (f"observation {b} was recorded from the state of observation {a}, "
                 f"but they lie on nodes {d.nodes[1]} and {d.nodes[0]}")
+    steps = ev.get("transitions")
+    if isinstance(ev.get("undo"), list) and len(ev["undo"]) == 2 and isinstance(steps, list) \
+            and [len(x) if isinstance(x, list) else 0 for x in steps] == [2, 2]:
+        (a, b), ((o, o2), (p, p2)) = ev["undo"], steps
+        return (f"{a} takes observation {o} (node {d.nodes[0]}) to observation {o2} (node "
+                f"{ev.get('via')}) and {b}, which undoes it, takes observation {p} (node "
+                f"{ev.get('via')}) to observation {p2} (node {d.nodes[1]}): one state on two "
+                f"nodes, or two states on node {ev.get('via')}")
     if "refused" in ev:
         return (f"{ev['refused']} was refused at observation {ev.get('observation')}, but "
                 f"node {d.nodes[0]} takes it (observation {d.observations[1][0]})")
