@@ -11,8 +11,8 @@ there and refused (a **refusal**). A graph breaks them where
 * an undo pair (:func:`vggc_cp.recorded.undo_pairs`, ``meta["undo"]``) comes back elsewhere:
   one action of the pair takes node ``u`` to ``v`` and the other, which puts back what it
   changed, takes ``v`` to ``w != u``: ``u`` and ``w`` are one state on two nodes, or ``v``
-  holds two states. A right graph never does this, whatever the recording (on 1,089 stored
-  runs of the suite, sessions 55-57, no passing graph did and 24 of 53 wrong ones did,
+  holds two states. A right graph never does this, whatever the recording (of 1,401 stored
+  runs of the suite, sessions 55-57, no passing graph did and 30 of 60 wrong ones did,
   notebooks/calibration.md, session 57).
 
 Both are certain errors, not doubts about the evidence: :func:`broken_facts` lists each as a
