@@ -105,6 +105,22 @@ def test_the_undo_pairs_a_task_declares_are_true_of_its_dynamics(name):
                     assert bench.step(mid, then) == s, (name, s, first, then)
 
 
+@pytest.mark.parametrize("name", ["fruit-4x6", "multifruit-2x3", "blocks-3", "random-3",
+                                  "random-7", "random-12"])
+def test_the_sites_a_task_declares_offer_one_pick_and_one_place_per_state(name):
+    bench = get_benchmark(name)
+    sites = bench.sites
+    assert sorted(a for g in sites for a in g) == sorted(bench.action_names)
+    states = bench.all_states()
+    assert len(states) <= 20000, "a small task: every state is checked"
+    for s in states:
+        legal = set(bench.valid_actions(s))
+        for group in sites:
+            for verb in ("pick", "place"):
+                assert len([a for a in group if a in legal and a.startswith(verb)]) <= 1, \
+                    (name, s, group)
+
+
 def test_a_generated_trace_declares_its_undo_pairs_and_they_hold_on_it(appended):
     trace, _, bench = appended
     pairs = recorded_facts(trace).undo
@@ -119,10 +135,13 @@ def test_a_generated_trace_declares_its_undo_pairs_and_they_hold_on_it(appended)
     assert back, "the walk undoes an action somewhere"
 
 
-def test_solvers_see_the_undo_pairs_so_the_hashes_do(appended):
-    trace, _, _ = appended
-    bare = replace(trace, meta={k: v for k, v in trace.meta.items() if k != "undo"})
-    assert not recorded_facts(bare)
+@pytest.mark.parametrize("drop", [("undo",), ("sites",), ("undo", "sites")])
+def test_solvers_see_the_undo_pairs_and_sites_so_the_hashes_do(appended, drop):
+    trace, _, bench = appended
+    facts = recorded_facts(trace)
+    assert [tuple(trace.action_names[a] for a in g) for g in facts.sites] == list(bench.sites)
+    bare = replace(trace, meta={k: v for k, v in trace.meta.items() if k not in drop})
+    assert bool(recorded_facts(bare)) == (len(drop) == 1)
     assert bare.content_hash() != trace.content_hash()
     assert bare.identity_hash() != trace.identity_hash()
 
@@ -139,6 +158,23 @@ def test_an_undo_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_
     trace, _, _ = appended
     path = tmp_path / "bad.npz"
     save_trace(replace(trace, meta={**trace.meta, "undo": undo}), path)
+    with pytest.raises(TraceError) as err:
+        load_trace(path)
+    assert str(err.value).startswith(f"{path}: field '{field}'") and says in str(err.value)
+
+
+@pytest.mark.parametrize("sites, field, says", [
+    ({"a": 1}, "meta.sites", "is not a list"),
+    ([[]], "meta.sites[0]", "expected a list of action names"),
+    ([["pick_red_0", "pick_nothing"]], "meta.sites[0]", "expected a list of action names"),
+    ([["pick_red_0"], ["place_red_0", "pick_red_0"]], "meta.sites[1]",
+     "names 'pick_red_0' again"),
+])
+def test_a_sites_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_path, sites,
+                                                                 field, says):
+    trace, _, _ = appended
+    path = tmp_path / "bad.npz"
+    save_trace(replace(trace, meta={**trace.meta, "sites": sites}), path)
     with pytest.raises(TraceError) as err:
         load_trace(path)
     assert str(err.value).startswith(f"{path}: field '{field}'") and says in str(err.value)
@@ -186,6 +222,7 @@ def test_solve_says_what_it_read_and_refuses_a_record_that_does_not_fit(appended
     out = capsys.readouterr().out
     assert "recorded       3 reset(s), 4 refused action(s)" in out
     assert "recorded       3 undo pair(s) (meta.undo)" in out
+    assert "recorded       3 site(s) (meta.sites)" in out
     meta = copy.deepcopy(new.meta)
     meta["appended"][0]["episodes"][0]["start_observation"] = -1
     bad = tmp_path / "bad.npz"

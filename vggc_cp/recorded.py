@@ -1,5 +1,5 @@
-"""What a recording states beyond its transitions: resets, refused actions and the actions that
-undo each other (beyond the paper).
+"""What a recording states beyond its transitions: resets, refused actions, the actions that
+undo each other and the actions that act at one site (beyond the paper).
 
 An episode recorded on request (``vggc-cp suggest`` -> ``generate --episodes --append``,
 ``docs/FORMATS.md``: ``meta["appended"]``) states two facts no image has to be read for:
@@ -25,8 +25,15 @@ A recording can also declare what the robot's skills are known to do, whatever t
   robot's skill library knows this of its own skills (``pick(red, 3)`` and ``place(red, 3)``);
   ``vggc-cp generate`` records it for every task. A graph that takes the pick from node
   ``u`` to ``v`` and the place from ``v`` to ``w != u`` is wrong: ``u`` and ``w`` are one
-  state, or ``v`` holds two (:mod:`vggc_cp.solvers.broken_facts`). Nothing reads the
-  names' spelling: a trace without the field declares no pair.
+  state, or ``v`` holds two (:mod:`vggc_cp.solvers.broken_facts`);
+* **sites** -- ``meta["sites"]``, a list of lists of action names: the actions that act at one
+  site (a region holding one stack: its picks and places of every class and level). A state
+  offers at most one pick at a site (of its top object) and at most one place (onto its top,
+  of the class the hand holds), so a graph whose node takes two picks, or two places, of
+  one site holds two states on that node. ``vggc-cp generate`` records the sites of every
+  task; a site where objects lie side by side (a bin) is not one.
+
+Nothing reads the names' spelling: a trace without a field declares nothing of it.
 """
 
 from __future__ import annotations
@@ -52,23 +59,29 @@ class RecordedFacts:
         observation ``o``.
     undo : tuple of (int, int)
         ``(p, q)``: pick ``p`` and place ``q`` (indices into ``action_names``) undo each other.
+    sites : tuple of tuple of int
+        The actions (indices into ``action_names``) that act at one site, per site.
     """
 
     resets: tuple[tuple[int, int], ...] = ()
     refusals: tuple[tuple[int, int], ...] = ()
     undo: tuple[tuple[int, int], ...] = ()
+    sites: tuple[tuple[int, ...], ...] = ()
 
     def __bool__(self) -> bool:
-        return bool(self.resets or self.refusals or self.undo)
+        return bool(self.resets or self.refusals or self.undo or self.sites)
 
     def key(self) -> bytes:
         """Canonical bytes of the facts (empty where there are none), for cache keys; the
-        undo pairs join only where there are some (keys of traces without them unchanged)."""
+        undo pairs and the sites join only where there are some (keys of traces without them
+        unchanged)."""
         if not self:
             return b""
         parts = [list(map(list, self.resets)), list(map(list, self.refusals))]
-        if self.undo:
+        if self.undo or self.sites:
             parts.append(list(map(list, self.undo)))
+        if self.sites:
+            parts.append(list(map(list, self.sites)))
         return json.dumps(parts).encode()
 
 
@@ -127,9 +140,45 @@ def undo_pairs(trace) -> tuple[tuple[int, int], ...]:
     return tuple(out)
 
 
+def site_groups(trace) -> tuple[tuple[int, ...], ...]:
+    """The sites ``trace.meta["sites"]`` declares (module docstring), as tuples of indices
+    into ``action_names``; empty where the field is absent. Bad input raises a
+    :class:`~vggc_cp.errors.TraceError` naming the field and index.
+
+    >>> import numpy as np
+    >>> from vggc_cp.trace import Trace
+    >>> names = ("pick_a_0", "pick_a_1", "place_a_0", "place_a_1")
+    >>> t = Trace(np.zeros((2, 2, 2, 3), np.uint8), np.array([0]), names, None,
+    ...           {"sites": [["pick_a_0", "place_a_0"], ["pick_a_1", "place_a_1"]]})
+    >>> site_groups(t)
+    ((0, 2), (1, 3))
+    """
+    groups = (trace.meta or {}).get("sites")
+    if groups is None:
+        return ()
+    src = trace.source or "the trace"
+    if not isinstance(groups, list):
+        raise _bad(src, "meta.sites", "is not a list")
+    index = {name: k for k, name in enumerate(trace.action_names)}
+    out, seen = [], set()
+    for i, group in enumerate(groups):
+        if not isinstance(group, list) or not group or not all(
+                isinstance(x, str) and x in index for x in group):
+            raise _bad(src, f"meta.sites[{i}]", f"is {group!r}: expected a list of action "
+                       f"names of the trace")
+        twice = [x for x in group if x in seen]
+        if twice or len(set(group)) < len(group):
+            raise _bad(src, f"meta.sites[{i}]", f"names {(twice or group)[0]!r} again: an "
+                       f"action acts at one site")
+        seen.update(group)
+        out.append(tuple(index[x] for x in group))
+    return tuple(out)
+
+
 def recorded_facts(trace) -> RecordedFacts:
-    """The resets and refusals ``trace.meta["appended"]`` records and the undo pairs
-    ``trace.meta["undo"]`` declares (module docstring, :func:`undo_pairs`).
+    """The resets and refusals ``trace.meta["appended"]`` records, the undo pairs
+    ``trace.meta["undo"]`` and the sites ``trace.meta["sites"]`` declare (module docstring,
+    :func:`undo_pairs`, :func:`site_groups`).
 
     Every recorded episode is checked against the trace: it must start a new episode at the
     observation the rounds' layout puts it, and its actions must be the ones recorded.
@@ -148,10 +197,10 @@ def recorded_facts(trace) -> RecordedFacts:
     >>> bool(recorded_facts(Trace(obs, np.array([0, 1, -1, 1]), ("pick_a", "place_b"))))
     False
     """
-    undo = undo_pairs(trace)
+    undo, sites = undo_pairs(trace), site_groups(trace)
     rounds = (trace.meta or {}).get("appended")
     if rounds is None:
-        return RecordedFacts(undo=undo) if undo else NO_FACTS
+        return RecordedFacts(undo=undo, sites=sites) if undo or sites else NO_FACTS
     src = trace.source or "the trace"
     if not isinstance(rounds, list):
         raise _bad(src, "meta.appended", "is not a list")
@@ -199,4 +248,4 @@ def recorded_facts(trace) -> RecordedFacts:
         if t != end:
             raise _bad(src, where, f"does not fit: its episodes record observations up to "
                        f"{t}, but the next round starts at {end}")
-    return RecordedFacts(tuple(resets), tuple(refusals), undo)
+    return RecordedFacts(tuple(resets), tuple(refusals), undo, sites)

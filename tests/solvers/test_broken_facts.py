@@ -1,8 +1,9 @@
 """Facts a recording states that a graph breaks (:mod:`vggc_cp.solvers.broken_facts`): found
 exactly where the labels break them, flagged with what to record, printed in the doubts table;
-undo pairs never broken by the true graph and broken by a split state, and a learned graph
-that breaks one flagged (random-1283 robot, a silent miss before); and, end to end, recorded
-episodes settle a site the learner could only read before."""
+undo pairs and sites never broken by the true graph, broken by a split state (undo) and two
+states joined (sites), and learned graphs that break them flagged (random-1283 and random-1297
+robot, silent misses before); and, end to end, recorded episodes settle a site the learner
+could only read before."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from vggc_cp.pipeline import learn_graph
 from vggc_cp.recorded import RecordedFacts, recorded_facts
 from vggc_cp.sim.append import EpisodeRequest, append_episodes
 from vggc_cp.sim.explore import generate
-from vggc_cp.solvers.broken_facts import broken_facts, broken_undo, facts_check
+from vggc_cp.solvers.broken_facts import broken_facts, broken_sites, broken_undo, facts_check
 from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_text import format_doubts
 from vggc_cp.solvers.doubts import MERGE, SPLIT
@@ -154,3 +155,40 @@ def test_a_learned_graph_that_breaks_an_undo_pair_is_flagged():
     u, w = broken[0].nodes
     # the doubt is true: the two nodes hold one state
     assert set(trace.states[labels == u]) & set(trace.states[labels == w])
+
+
+def test_the_true_graph_keeps_every_site_and_two_joined_states_break_one():
+    trace = generate("blocks-2", 60, seed=1, size=24).trace     # two levels at every site
+    sites = recorded_facts(trace).sites
+    truth = _state_labels(trace)
+    assert sites and not broken_sites(sites, trace.actions, trace.action_names, truth)
+    # two pick states of one hand-empty role that take different picks at one site, joined
+    acts, names = trace.actions, trace.action_names
+    site_of = {a: k for k, g in enumerate(sites) for a in g}
+    taken = {}
+    for t in np.flatnonzero(acts >= 0):
+        key = (site_of[int(acts[t])], names[acts[t]].split("_")[0])
+        taken.setdefault(key, {}).setdefault(int(acts[t]), int(t))
+    (a, o), (b, p) = next(list(v.items())[:2] for v in taken.values() if len(v) > 1)
+    joined = truth.copy()
+    joined[truth == truth[p]] = truth[o]
+    broken = broken_sites(sites, acts, names, joined)
+    assert [d.nodes for d in broken] == [(int(truth[o]),)]
+    assert broken[0].evidence["site"] == [names[a], names[b]]
+    assert broken[0].observations == ((o,), (p,))
+    flagged = facts_check(Confidence("mdl", 1.0, 5, None, 4.0, False, ()), list(broken))
+    assert flagged.suspect and "which a state offers once" in flagged.reasons[0]
+
+
+@pytest.mark.slow
+def test_a_learned_node_with_two_places_at_one_site_is_flagged():
+    # random-1297, robot look, |D| = 140, seed 0 (held-out draw 58): two states (a blue block
+    # at region 0 or at region 1) on one node, every other check quiet (a silent miss); the
+    # node takes place_blue_1_0 and place_blue_1_1, two places of one site
+    trace = generate("random-1297", 140, 0, size=64, look="robot").trace
+    learned = learn_graph(trace.without_states())
+    broken = [d for d in learned.doubts if "site" in d.evidence]
+    assert broken and learned.confidence.suspect
+    assert any("which a state offers once" in r for r in learned.confidence.reasons)
+    u, = broken[0].nodes
+    assert len(set(trace.states[learned.labels == u])) > 1    # the doubt is true

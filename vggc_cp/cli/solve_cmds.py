@@ -365,6 +365,9 @@ def _solve_merge(args) -> int:
     if facts.undo:
         print(f"recorded       {len(facts.undo)} undo pair(s) (meta.undo): a graph that "
               f"breaks one is flagged")
+    if facts.sites:
+        print(f"recorded       {len(facts.sites)} site(s) (meta.sites): a node that takes two "
+              f"picks or two places of one is flagged")
     for note in learned.skipped:
         print(f"evidence       skipped {note}")
     for cand in learned.candidates:

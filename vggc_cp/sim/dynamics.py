@@ -124,6 +124,20 @@ class Benchmark:
         return tuple((a.name, places[(a.cls, a.region, a.level)]) for a in acts
                      if a.pick and (a.cls, a.region, a.level) in places)
 
+    @property
+    def sites(self) -> tuple[tuple[str, ...], ...]:
+        """The action names that act at each region, region by region (picks then places, in
+        :attr:`action_names` order): a state offers at most one pick there (its top object)
+        and one place (onto its top, of the held class). Recorded in a generated trace's
+        ``meta["sites"]`` (:func:`vggc_cp.recorded.site_groups`).
+
+        >>> from vggc_cp.sim.tasks import get_benchmark
+        >>> get_benchmark("blocks-2").sites[0]
+        ('pick_0_0', 'pick_0_1', 'place_0_0', 'place_0_1')
+        """
+        return tuple(tuple(n for n, a in self._actions.items() if a.region == r)
+                     for r in range(self.spec.R))
+
     # ------------------------------------------------------------------ keys
     @property
     def blocks(self) -> bool:

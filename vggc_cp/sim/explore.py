@@ -275,6 +275,7 @@ def generate(name: str, n_transitions: int | None = None, seed: int = 0,
         "look": the_look.name,
         "state_key": STATE_KEY_DOC[spec.family],
         "undo": [list(pair) for pair in bench.undo_pairs],
+        "sites": [list(group) for group in bench.sites],
         "generator": f"vggc-cp {__version__}",
     }
     if spec.object_classes is not None:

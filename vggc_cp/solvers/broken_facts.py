@@ -13,7 +13,12 @@ there and refused (a **refusal**). A graph breaks them where
   changed, takes ``v`` to ``w != u``: ``u`` and ``w`` are one state on two nodes, or ``v``
   holds two states. A right graph never does this, whatever the recording (of 1,401 stored
   runs of the suite, sessions 55-57, no passing graph did and 30 of 60 wrong ones did,
-  notebooks/calibration.md, session 57).
+  notebooks/calibration.md, session 57);
+* a node takes two picks, or two places, of one site (:func:`vggc_cp.recorded.site_groups`,
+  ``meta["sites"]``): a state offers one of each there (the top object; onto the top, of the
+  class in the hand), so the node holds two states. On the 381 runs of session 57 no passing
+  graph did and 5 of 25 wrong ones did (random-1297 robot of draw 58 among them, which no
+  other check flagged).
 
 Both are certain errors, not doubts about the evidence: :func:`broken_facts` lists each as a
 doubt (the nodes and the observations, the fact as evidence) and :func:`facts_check` flags
@@ -84,14 +89,60 @@ def broken_undo(undo, actions: np.ndarray, action_names, labels: np.ndarray
     return tuple(doubts)
 
 
+def broken_sites(sites, actions: np.ndarray, action_names, labels: np.ndarray
+                 ) -> tuple[Doubt, ...]:
+    """The declared sites that ``labels`` break (module docstring): a split doubt of every node
+    that takes two actions of one kind at one site, the first observation that takes each
+    on its two sides; evidence ``site``: the two actions (in the order the node first takes
+    them).
+
+    Parameters
+    ----------
+    sites : sequence of sequence of int
+        Action indices per site (:attr:`vggc_cp.recorded.RecordedFacts.sites`).
+    actions : ndarray of int, shape (N-1,)
+    action_names : sequence of str
+    labels : ndarray of int, shape (N,)
+
+    >>> names = ("pick_a_0", "pick_a_1", "place_a_0", "place_a_1")
+    >>> acts = np.array([0, 2, -1, 1, 3])     # pick at 0 and place back; pick at 1 and back
+    >>> sites = [(0, 2), (1, 3)]
+    >>> broken_sites(sites, acts, names, np.array([0, 1, 0, 2, 3, 2]))
+    ()
+    >>> found = broken_sites([(0, 1, 2, 3)], acts, names, np.array([0, 1, 0, 0, 1, 0]))
+    >>> [f.nodes for f in found]                  # node 0 two picks, node 1 two places
+    [(0,), (1,)]
+    >>> d = found[0]
+    >>> d.kind, d.nodes, d.observations, d.evidence["site"]
+    ('split', (0,), ((0,), (3,)), ['pick_a_0', 'pick_a_1'])
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    actions = np.asarray(actions)
+    site_of = {int(a): k for k, group in enumerate(sites) for a in group}
+    kind = [0 if str(n).startswith("pick") else 1 for n in action_names]   # trace.action_kind
+    first: dict[tuple[int, int, int], dict[int, int]] = {}
+    for t in np.flatnonzero(actions >= 0):
+        a = int(actions[t])
+        if a in site_of:
+            first.setdefault((int(labels[t]), site_of[a], kind[a]), {}).setdefault(a, int(t))
+    out = []
+    for (u, _, _), taken in sorted(first.items()):
+        if len(taken) > 1:
+            (a, o), (b, p) = list(taken.items())[:2]
+            out.append(Doubt(SPLIT, (u,), ((o,), (p,)),
+                             {"site": [str(action_names[a]), str(action_names[b])]}, -1.0))
+    return tuple(out)
+
+
 def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray
                  ) -> tuple[Doubt, ...]:
     """The resets, refusals and undo pairs of ``facts`` that ``labels`` break (module
     docstring), as doubts: a merge doubt of the two nodes of a reset (evidence ``reset``:
     ``[a, b]``), a split doubt of the node where an action was refused (evidence ``refused``:
     the action, ``observation``: where; its other side: an observation of the node that took
-    it), and a merge doubt per pair of nodes an undo pair leaves and comes back to
-    (:func:`broken_undo`).
+    it), a merge doubt per pair of nodes an undo pair leaves and comes back to
+    (:func:`broken_undo`), and a split doubt per node that takes two picks or two places of
+    one site (:func:`broken_sites`).
 
     Parameters
     ----------
@@ -123,7 +174,8 @@ def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray
         if (u, k) in taken:
             out.append(Doubt(SPLIT, (u,), ((int(o),), (taken[(u, k)],)),
                              {"refused": str(action_names[k]), "observation": int(o)}, -1.0))
-    return (*out, *broken_undo(facts.undo, actions, action_names, labels))
+    return (*out, *broken_undo(facts.undo, actions, action_names, labels),
+            *broken_sites(facts.sites, actions, action_names, labels))
 
 
 def facts_check(conf: Confidence, broken) -> Confidence:

@@ -28,6 +28,12 @@ def broken_fact_note(d: Doubt) -> str:
                 f"{ev.get('via')}) and {b}, which undoes it, takes observation {p} (node "
                 f"{ev.get('via')}) to observation {p2} (node {d.nodes[1]}): one state on two "
                 f"nodes, or two states on node {ev.get('via')}")
+    if isinstance(ev.get("site"), list) and len(ev["site"]) == 2 and \
+            [len(x) for x in d.observations] == [1, 1]:
+        (a, b), ((o,), (p,)) = ev["site"], d.observations
+        return (f"node {d.nodes[0]} takes {a} (observation {o}) and {b} (observation {p}), "
+                f"two actions of one kind at one site, which a state offers once: two "
+                f"states on node {d.nodes[0]}")
     if "refused" in ev:
         return (f"{ev['refused']} was refused at observation {ev.get('observation')}, but "
                 f"node {d.nodes[0]} takes it (observation {d.observations[1][0]})")
