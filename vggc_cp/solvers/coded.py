@@ -48,6 +48,8 @@ class CodedProblem:
         As :attr:`Problem.refused`.
     resets : tuple of (int, int)
         As :attr:`Problem.resets`.
+    sites : tuple of tuple of int
+        As :attr:`Problem.sites`.
     """
 
     roles: np.ndarray
@@ -65,6 +67,7 @@ class CodedProblem:
     readings: Readings | None = None
     refused: tuple[tuple[int, int], ...] = ()
     resets: tuple[tuple[int, int], ...] = ()
+    sites: tuple[tuple[int, ...], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -94,7 +97,7 @@ class CodedProblem:
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
                    np.asarray(tables[1], dtype=np.float64), tuple(notes), action_colour,
-                   readings, facts.refusals, facts.resets)
+                   readings, facts.refusals, facts.resets, facts.sites)
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -138,7 +141,7 @@ class CodedProblem:
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
                        self.table_place[np.ix_(self.codes_place, self.codes_place)],
                        self.notes, self.action_colour, self.readings, self.refused,
-                       self.resets)
+                       self.resets, self.sites)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
@@ -157,7 +160,7 @@ class CodedProblem:
                            readings=None if self.readings is None
                            else self.readings.restricted(idx),
                            refused=kept_refusals(self.refused, new),
-                           resets=kept_resets(self.resets, new))
+                           resets=kept_resets(self.resets, new), sites=self.sites)
         return sub, idx
 
 
