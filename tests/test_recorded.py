@@ -146,35 +146,25 @@ def test_solvers_see_the_undo_pairs_and_sites_so_the_hashes_do(appended, drop):
     assert bare.identity_hash() != trace.identity_hash()
 
 
-@pytest.mark.parametrize("undo, field, says", [
-    ("pick_red_0", "meta.undo", "is not a list"),
-    ([["place_red_0", "pick_red_0"]], "meta.undo[0]", "expected [pick, place]"),
-    ([["pick_red_0", "place_red_9"]], "meta.undo[0]", "two action names of the trace"),
-    ([["pick_red_0", "place_red_0"], ["pick_red_0", "place_red_1"]], "meta.undo[1]",
+@pytest.mark.parametrize("key, value, field, says", [
+    ("undo", "pick_red_0", "meta.undo", "is not a list"),
+    ("undo", [["place_red_0", "pick_red_0"]], "meta.undo[0]", "expected [pick, place]"),
+    ("undo", [["pick_red_0", "place_red_9"]], "meta.undo[0]", "two action names of the trace"),
+    ("undo", [["pick_red_0", "place_red_0"], ["pick_red_0", "place_red_1"]], "meta.undo[1]",
      "names 'pick_red_0' again"),
+    ("sites", {"a": 1}, "meta.sites", "is not a list"),
+    ("sites", [[]], "meta.sites[0]", "expected a list of action names"),
+    ("sites", [["pick_red_0", "pick_nothing"]], "meta.sites[0]",
+     "expected a list of action names"),
+    ("sites", [["pick_red_0"], ["place_red_0", "pick_red_0"]], "meta.sites[1]",
+     "names 'pick_red_0' again"),
+    ("sites", [["pick_red_0", "pick_red_0"]], "meta.sites[0]", "names 'pick_red_0' again"),
 ])
-def test_an_undo_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_path, undo,
-                                                                  field, says):
+def test_a_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_path, key, value,
+                                                            field, says):
     trace, _, _ = appended
     path = tmp_path / "bad.npz"
-    save_trace(replace(trace, meta={**trace.meta, "undo": undo}), path)
-    with pytest.raises(TraceError) as err:
-        load_trace(path)
-    assert str(err.value).startswith(f"{path}: field '{field}'") and says in str(err.value)
-
-
-@pytest.mark.parametrize("sites, field, says", [
-    ({"a": 1}, "meta.sites", "is not a list"),
-    ([[]], "meta.sites[0]", "expected a list of action names"),
-    ([["pick_red_0", "pick_nothing"]], "meta.sites[0]", "expected a list of action names"),
-    ([["pick_red_0"], ["place_red_0", "pick_red_0"]], "meta.sites[1]",
-     "names 'pick_red_0' again"),
-])
-def test_a_sites_declaration_that_does_not_fit_is_refused_at_load(appended, tmp_path, sites,
-                                                                 field, says):
-    trace, _, _ = appended
-    path = tmp_path / "bad.npz"
-    save_trace(replace(trace, meta={**trace.meta, "sites": sites}), path)
+    save_trace(replace(trace, meta={**trace.meta, key: value}), path)
     with pytest.raises(TraceError) as err:
         load_trace(path)
     assert str(err.value).startswith(f"{path}: field '{field}'") and says in str(err.value)

@@ -98,6 +98,32 @@ def _int(value, src: str, field: str) -> int:
     return value
 
 
+def _declared(trace, key: str, fits, expected: str, again: str) -> tuple[tuple[int, ...], ...]:
+    """The lists of action names ``trace.meta[key]`` declares, as tuples of indices into
+    ``action_names``; empty where the field is absent. Each list must hold names of the trace
+    and pass ``fits``, and no name may appear twice; else a
+    :class:`~vggc_cp.errors.TraceError` names ``meta.key[i]``, saying ``expected`` or
+    ``again``."""
+    value = (trace.meta or {}).get(key)
+    if value is None:
+        return ()
+    src = trace.source or "the trace"
+    if not isinstance(value, list):
+        raise _bad(src, f"meta.{key}", "is not a list")
+    index = {name: k for k, name in enumerate(trace.action_names)}
+    out, seen = [], set()
+    for i, names in enumerate(value):
+        if not (isinstance(names, list) and names and fits(names) and all(
+                isinstance(x, str) and x in index for x in names)):
+            raise _bad(src, f"meta.{key}[{i}]", f"is {names!r}: expected {expected}")
+        twice = [x for k, x in enumerate(names) if x in seen or x in names[:k]]
+        if twice:
+            raise _bad(src, f"meta.{key}[{i}]", f"names {twice[0]!r} again: {again}")
+        seen.update(names)
+        out.append(tuple(index[x] for x in names))
+    return tuple(out)
+
+
 def undo_pairs(trace) -> tuple[tuple[int, int], ...]:
     """The undo pairs ``trace.meta["undo"]`` declares (module docstring), as indices into
     ``action_names``; empty where the field is absent. Bad input raises a
@@ -115,29 +141,11 @@ def undo_pairs(trace) -> tuple[tuple[int, int], ...]:
     ...
     vggc_cp.errors.TraceError: the trace: field 'meta.undo[0]' is ['place_a', 'pick_a']: expected [pick, place], two action names of the trace
     """
-    pairs = (trace.meta or {}).get("undo")
-    if pairs is None:
-        return ()
-    src = trace.source or "the trace"
-    if not isinstance(pairs, list):
-        raise _bad(src, "meta.undo", "is not a list")
-    index = {name: k for k, name in enumerate(trace.action_names)}
-    out, seen = [], set()
-    for i, pair in enumerate(pairs):
-        ok = (isinstance(pair, list) and len(pair) == 2 and all(isinstance(x, str) and x in index
-                                                                for x in pair)
-              # the kinds by the names' prefix, as vggc_cp.trace.action_kind reads them
-              and pair[0].startswith("pick") and pair[1].startswith("place"))
-        if not ok:
-            raise _bad(src, f"meta.undo[{i}]", f"is {pair!r}: expected [pick, place], two "
-                       f"action names of the trace")
-        twice = [x for x in pair if x in seen]
-        if twice:
-            raise _bad(src, f"meta.undo[{i}]", f"names {twice[0]!r} again: an action undoes "
-                       f"at most one other")
-        seen.update(pair)
-        out.append((index[pair[0]], index[pair[1]]))
-    return tuple(out)
+    # the kinds by the names' prefix, as vggc_cp.trace.action_kind reads them
+    return _declared(trace, "undo", lambda p: len(p) == 2 and str(p[0]).startswith("pick")
+                     and str(p[1]).startswith("place"),
+                     "[pick, place], two action names of the trace",
+                     "an action undoes at most one other")
 
 
 def site_groups(trace) -> tuple[tuple[int, ...], ...]:
@@ -153,26 +161,8 @@ def site_groups(trace) -> tuple[tuple[int, ...], ...]:
     >>> site_groups(t)
     ((0, 2), (1, 3))
     """
-    groups = (trace.meta or {}).get("sites")
-    if groups is None:
-        return ()
-    src = trace.source or "the trace"
-    if not isinstance(groups, list):
-        raise _bad(src, "meta.sites", "is not a list")
-    index = {name: k for k, name in enumerate(trace.action_names)}
-    out, seen = [], set()
-    for i, group in enumerate(groups):
-        if not isinstance(group, list) or not group or not all(
-                isinstance(x, str) and x in index for x in group):
-            raise _bad(src, f"meta.sites[{i}]", f"is {group!r}: expected a list of action "
-                       f"names of the trace")
-        twice = [x for x in group if x in seen]
-        if twice or len(set(group)) < len(group):
-            raise _bad(src, f"meta.sites[{i}]", f"names {(twice or group)[0]!r} again: an "
-                       f"action acts at one site")
-        seen.update(group)
-        out.append(tuple(index[x] for x in group))
-    return tuple(out)
+    return _declared(trace, "sites", lambda g: True, "a list of action names of the trace",
+                     "an action acts at one site")
 
 
 def recorded_facts(trace) -> RecordedFacts:

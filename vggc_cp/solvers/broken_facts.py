@@ -32,6 +32,7 @@ import numpy as np
 from vggc_cp.solvers.confidence import Confidence
 from vggc_cp.solvers.doubt_text import broken_fact_note
 from vggc_cp.solvers.doubts import MERGE, SPLIT, Doubt
+from vggc_cp.trace import action_kind
 
 
 def broken_undo(undo, actions: np.ndarray, action_names, labels: np.ndarray
@@ -119,7 +120,7 @@ def broken_sites(sites, actions: np.ndarray, action_names, labels: np.ndarray
     labels = np.asarray(labels, dtype=np.int64)
     actions = np.asarray(actions)
     site_of = {int(a): k for k, group in enumerate(sites) for a in group}
-    kind = [0 if str(n).startswith("pick") else 1 for n in action_names]   # trace.action_kind
+    kind = [action_kind(str(n)) for n in action_names]
     first: dict[tuple[int, int, int], dict[int, int]] = {}
     for t in np.flatnonzero(actions >= 0):
         a = int(actions[t])

@@ -53,6 +53,7 @@ from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     select_cascade,
     select_path_fewest,
 )
+from vggc_cp.trace import action_kind
 
 
 @dataclass(frozen=True)
@@ -131,7 +132,7 @@ class _Clusters:
         self.site_key: list[int] | None = None
         if getattr(problem, "sites", ()):
             key = [-1] * len(problem.action_names)
-            kinds = [0 if str(n).startswith("pick") else 1 for n in problem.action_names]
+            kinds = [action_kind(str(n)) for n in problem.action_names]
             for k, group in enumerate(problem.sites):
                 for a in group:
                     key[int(a)] = 2 * k + kinds[int(a)]
