@@ -181,19 +181,14 @@ def test_the_true_graph_keeps_every_site_and_two_joined_states_break_one():
 
 
 @pytest.mark.slow
-def test_declared_sites_keep_two_states_off_one_node():
-    # random-1297, robot look, |D| = 140, seed 0 (held-out draw 58): without its sites the
-    # learner puts two states (a blue block at region 0 or at region 1) on a node that takes
-    # place_blue_1_0 and place_blue_1_1, two places of one site, and every other check is
-    # quiet (a silent miss); the check names it. With them the merge never makes such a node.
+def test_a_learned_node_with_two_places_at_one_site_is_flagged():
+    # random-1297, robot look, |D| = 140, seed 0 (held-out draw 58): two states (a blue block
+    # at region 0 or at region 1) on one node, every other check quiet (a silent miss); the
+    # node takes place_blue_1_0 and place_blue_1_1, two places of one site
     trace = generate("random-1297", 140, 0, size=64, look="robot").trace
-    facts = recorded_facts(trace)
-    bare = replace(trace, meta={k: v for k, v in trace.meta.items() if k != "sites"})
-    blind = learn_graph(bare.without_states())
-    broken = broken_sites(facts.sites, trace.actions, trace.action_names, blind.labels)
-    assert broken and len(set(trace.states[blind.labels == broken[0].nodes[0]])) > 1
-    assert facts_check(blind.confidence, list(broken)).suspect
-    told = learn_graph(trace.without_states())
-    assert told.chosen.best.stats["vetoed_site"] > 0
-    assert not broken_sites(facts.sites, trace.actions, trace.action_names, told.labels)
-    assert all(len(set(trace.states[told.labels == u])) == 1 for u in np.unique(told.labels))
+    learned = learn_graph(trace.without_states())
+    broken = [d for d in learned.doubts if "site" in d.evidence]
+    assert broken and learned.confidence.suspect
+    assert any("which a state offers once" in r for r in learned.confidence.reasons)
+    u, = broken[0].nodes
+    assert len(set(trace.states[learned.labels == u])) > 1    # the doubt is true

@@ -336,27 +336,3 @@ def test_an_observation_where_an_action_was_refused_is_never_joined_with_one_tha
     other = Problem(blind.roles, blind.src, blind.act, blind.dst, blind.action_names,
                     pick, place, refused=((3, 2),))
     assert congruence_merge(other, threshold=0.1)[0][0] == congruence_merge(other, 0.1)[0][3]
-
-
-def test_a_node_is_never_left_by_two_picks_of_one_site():
-    # A -pick_1-> H1 -place_1-> X and B -pick_2-> H2 -place_2-> Y; the pick states A and B
-    # look alike, the holding states do not
-    trace = make_trace([["A", "pick_1", "H1", "place_1", "X"],
-                        ["B", "pick_2", "H2", "place_2", "Y"]], NAMES)
-    pick = np.full((4, 4), 0.9) - 0.9 * np.eye(4)      # pick-role: A, X, B, Y
-    pick[0, 2] = pick[2, 0] = 0.0                         # A and B alike
-    place = np.full((2, 2), 0.9) - 0.9 * np.eye(2)
-    blind = Problem.from_trace(trace.without_states(), pick, place)
-    labels, stats = congruence_merge(blind, threshold=0.1)
-    assert labels[0] == labels[3] and stats.vetoed_site == 0
-    # pick_1 and pick_2 act at one site: a state offers one of them, so A and B are two
-    one = Problem(blind.roles, blind.src, blind.act, blind.dst, blind.action_names, pick,
-                  place, sites=((0, 1, 3, 4), (2, 5)))
-    labels, stats = congruence_merge(one, threshold=0.1)
-    assert labels[0] != labels[3] and stats.vetoed_site >= 1
-    assert check(one.graph(labels)).ok
-    # at two sites: no constraint
-    two = Problem(blind.roles, blind.src, blind.act, blind.dst, blind.action_names, pick,
-                  place, sites=((0, 3), (1, 4), (2, 5)))
-    labels, stats = congruence_merge(two, threshold=0.1)
-    assert labels[0] == labels[3] and stats.vetoed_site == 0

@@ -214,11 +214,6 @@ class Problem:
         ``(a, b)``: observation ``b``, an episode's first, shows the state of observation
         ``a`` (:func:`vggc_cp.recorded.recorded_facts`); such an episode cannot run on nodes
         of its own (:func:`vggc_cp.solvers.episodes.lone_episodes`).
-    sites : tuple of tuple of int
-        The actions that act at one site, per site (:func:`vggc_cp.recorded.site_groups`): a
-        state is left by at most one pick and one place of a site, and entered by at most one
-        of each, so the congruence merge never makes a node that is
-        (:class:`~vggc_cp.solvers.merge._Clusters`, veto ``site``).
     """
 
     roles: np.ndarray
@@ -234,7 +229,6 @@ class Problem:
     readings: Readings | None = None
     refused: tuple[tuple[int, int], ...] = ()
     resets: tuple[tuple[int, int], ...] = ()
-    sites: tuple[tuple[int, ...], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -256,7 +250,7 @@ class Problem:
         return cls(trace.roles(), src, act, dst, trace.action_names,
                    np.asarray(dist_pick, dtype=np.float64), np.asarray(dist_place, dtype=np.float64),
                    action_colour=action_colour, readings=readings,
-                   refused=facts.refusals, resets=facts.resets, sites=facts.sites)
+                   refused=facts.refusals, resets=facts.resets)
 
     @property
     def n_obs(self) -> int:

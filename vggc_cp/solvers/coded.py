@@ -48,8 +48,6 @@ class CodedProblem:
         As :attr:`Problem.refused`.
     resets : tuple of (int, int)
         As :attr:`Problem.resets`.
-    sites : tuple of tuple of int
-        As :attr:`Problem.sites`.
     """
 
     roles: np.ndarray
@@ -67,7 +65,6 @@ class CodedProblem:
     readings: Readings | None = None
     refused: tuple[tuple[int, int], ...] = ()
     resets: tuple[tuple[int, int], ...] = ()
-    sites: tuple[tuple[int, ...], ...] = ()
     pick_obs: np.ndarray = field(init=False)
     place_obs: np.ndarray = field(init=False)
     local: np.ndarray = field(init=False)
@@ -97,7 +94,7 @@ class CodedProblem:
                    np.asarray(codes[0], dtype=np.int64), np.asarray(codes[1], dtype=np.int64),
                    np.asarray(tables[0], dtype=np.float64),
                    np.asarray(tables[1], dtype=np.float64), tuple(notes), action_colour,
-                   readings, facts.refusals, facts.resets, facts.sites)
+                   readings, facts.refusals, facts.resets)
 
     n_obs = Problem.n_obs
     n_pick = Problem.n_pick
@@ -141,7 +138,7 @@ class CodedProblem:
                        self.table_pick[np.ix_(self.codes_pick, self.codes_pick)],
                        self.table_place[np.ix_(self.codes_place, self.codes_place)],
                        self.notes, self.action_colour, self.readings, self.refused,
-                       self.resets, self.sites)
+                       self.resets)
 
     def restricted(self, keep: np.ndarray) -> tuple[CodedProblem, np.ndarray]:
         """The problem on the observations ``keep`` (bool, shape (N,)): transitions with both
@@ -160,7 +157,7 @@ class CodedProblem:
                            readings=None if self.readings is None
                            else self.readings.restricted(idx),
                            refused=kept_refusals(self.refused, new),
-                           resets=kept_resets(self.resets, new), sites=self.sites)
+                           resets=kept_resets(self.resets, new))
         return sub, idx
 
 

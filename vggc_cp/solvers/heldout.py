@@ -59,7 +59,7 @@ def subproblem(problem: Problem, keep: np.ndarray) -> tuple[Problem, np.ndarray]
                   problem.dist_place[np.ix_(lq, lq)], action_colour=problem.action_colour,
                   readings=None if problem.readings is None else problem.readings.restricted(idx),
                   refused=kept_refusals(problem.refused, new),
-                  resets=kept_resets(problem.resets, new), sites=problem.sites)
+                  resets=kept_resets(problem.resets, new))
     return sub, idx
 
 

@@ -53,7 +53,6 @@ from vggc_cp.solvers.selection import (  # noqa: F401  (re-exported)
     select_cascade,
     select_path_fewest,
 )
-from vggc_cp.trace import action_kind
 
 
 @dataclass(frozen=True)
@@ -63,8 +62,6 @@ class MergeStats:
     ``attempts`` and the veto counters count every candidate pair between two clusters that
     was examined; ``vetoes_replayed`` says how many of the vetoes were not recomputed because
     nothing their closure read had changed since the same attempt was vetoed;
-    ``vetoed_site`` closures that would have made a node left or entered by two picks, or
-    two places, of one site (:attr:`~vggc_cp.solvers.base.Problem.sites`);
     ``vetoed_hand`` counts closures that would have put two place observations whose hands
     hold different colours in one node (:func:`~vggc_cp.solvers.base.hand_colours`);
     ``read_splits`` the nodes cut afterwards where the sites' readings show two states
@@ -83,7 +80,6 @@ class MergeStats:
     vetoed_refused: int = 0
     read_splits: int = 0
     lone_moves: int = 0
-    vetoed_site: int = 0
 
 
 class _Clusters:
@@ -127,16 +123,6 @@ class _Clusters:
                 self.refused[o] = set()
             self.refused[o].add(int(k))
         self.any_refused = any(r is not None for r in self.refused)
-        # site and kind of every action of a declared site (-1: none): one per node and
-        # direction (Problem.sites)
-        self.site_key: list[int] | None = None
-        if getattr(problem, "sites", ()):
-            key = [-1] * len(problem.action_names)
-            kinds = [action_kind(str(n)) for n in problem.action_names]
-            for k, group in enumerate(problem.sites):
-                for a in group:
-                    key[int(a)] = 2 * k + kinds[int(a)]
-            self.site_key = key
         self.sums = self._distance_sums(problem)
 
     def _distance_sums(self, problem: Problem):
@@ -248,9 +234,7 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     A closure that would put place observations whose hands hold different colours in one
     cluster is refused (``hand``): the hand holds one object, whatever the images say. So is
     one that would put an observation where an action was refused (:attr:`Problem.refused`)
-    with one that took it (``refused``): the two are different states. So is one that would
-    make a node left, or entered, by two picks or two places of one declared site
-    (:attr:`Problem.sites`, ``site``): a state offers one of each there.
+    with one that took it (``refused``): the two are different states.
     """
     over: dict[int, int] = {}  # committed root -> tentative head
     groups: dict[int, list[int]] = {}  # tentative head -> committed roots in it (head first)
@@ -259,7 +243,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
     size = cl.size
     roles = cl.roles
     hand = cl.hand
-    site_key = cl.site_key
     read = read if read is not None else set()
     add_root = read.add
 
@@ -320,12 +303,6 @@ def _try_merge(cl: _Clusters, i: int, j: int, threshold: float, max_work: int,
             fb = gfirst.pop(hb, None) or first[hb]
             for act, y in fb.items():
                 fa.setdefault(act, y)
-            if site_key is not None:
-                at_site: dict[int, int] = {}
-                for act in fa:
-                    k = site_key[act]
-                    if k >= 0 and at_site.setdefault(k, act) != act:
-                        return None, "site"
             seen: dict[int, int] = {}
             still: list[tuple[int, int]] = []
             keep = still.append
@@ -398,7 +375,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     cl = _Clusters(problem)
     find = cl.find
     attempts = accepted = replayed = 0
-    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "hand": 0, "refused": 0, "site": 0}
+    vetoes = {"distance": 0, "exactly_one": 0, "work": 0, "hand": 0, "refused": 0}
     # A veto depends only on the clusters its closure read. Two memories, both exact:
     # * ``vetoed`` (as before): until the next commit, any candidate pair between the same two
     #   clusters (either way round) is skipped and not counted;
@@ -447,7 +424,7 @@ def _merge_sorted(problem: Problem, cand_i: Sequence[int], cand_j: Sequence[int]
     labels = problem.labels_from_colours(roots[problem.pick_obs], roots[problem.place_obs])
     return labels, MergeStats(attempts, accepted, vetoes["distance"], vetoes["exactly_one"],
                               vetoes["work"], replayed, vetoes["hand"],
-                              vetoes["refused"], vetoed_site=vetoes["site"])
+                              vetoes["refused"])
 
 
 def congruence_merge(problem: Problem, threshold: float, max_work: int = 2_000

@@ -442,7 +442,7 @@ class _Pass:
         stats = MergeStats(len(kinds), kinds.count("accepted"), kinds.count("distance"),
                            kinds.count("exactly_one"), kinds.count("work"),
                            kinds.count("replayed"), kinds.count("hand"),
-                           kinds.count("refused"), vetoed_site=kinds.count("site"))
+                           kinds.count("refused"))
         return labels, stats
 
     def _scan(self, d: np.ndarray, i: np.ndarray, j: np.ndarray, start: int, stop: int,
