@@ -20,7 +20,7 @@ there and refused (a **refusal**). A graph breaks them where
   graph did and 5 of 25 wrong ones did (random-1297 robot of draw 58 among them, which no
   other check flagged).
 
-Both are certain errors, not doubts about the evidence: :func:`broken_facts` lists each as a
+All four are certain errors, not doubts about the evidence: :func:`broken_facts` lists each as a
 doubt (the nodes and the observations, the fact as evidence) and :func:`facts_check` flags
 the graph, naming the first one and what to record next.
 """
@@ -137,7 +137,7 @@ def broken_sites(sites, actions: np.ndarray, action_names, labels: np.ndarray
 
 def broken_facts(facts, actions: np.ndarray, action_names, labels: np.ndarray
                  ) -> tuple[Doubt, ...]:
-    """The resets, refusals and undo pairs of ``facts`` that ``labels`` break (module
+    """The resets, refusals, undo pairs and sites of ``facts`` that ``labels`` break (module
     docstring), as doubts: a merge doubt of the two nodes of a reset (evidence ``reset``:
     ``[a, b]``), a split doubt of the node where an action was refused (evidence ``refused``:
     the action, ``observation``: where; its other side: an observation of the node that took
