@@ -71,6 +71,11 @@ class RecordedFacts:
     def __bool__(self) -> bool:
         return bool(self.resets or self.refusals or self.undo or self.sites)
 
+    @property
+    def appended(self) -> bool:
+        """Whether the recorded episodes (``meta["appended"]``) state a reset or a refusal."""
+        return bool(self.resets or self.refusals)
+
     def key(self) -> bytes:
         """Canonical bytes of the facts (empty where there are none), for cache keys; the
         undo pairs and the sites join only where there are some (keys of traces without them

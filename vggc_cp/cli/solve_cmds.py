@@ -359,7 +359,7 @@ def _solve_merge(args) -> int:
     print(f"trace          {args.trace}: {trace.n_obs} observations, |D| = "
           f"{trace.n_transitions}, pick {problem.n_pick}, place {problem.n_place}")
     facts = recorded_facts(trace)
-    if facts.resets or facts.refusals:
+    if facts.appended:
         print(f"recorded       {len(facts.resets)} reset(s), {len(facts.refusals)} refused "
               f"action(s) (meta.appended): read as facts")
     if facts.undo:

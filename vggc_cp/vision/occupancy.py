@@ -144,7 +144,7 @@ def site_labels(actions: np.ndarray, episodes: list[tuple[int, int]], acting: np
         for prev, nxt in zip(events, events[1:]):
             labels[prev[0] + 1:nxt[0] + 1] = prev[2]
         labels[events[-1][0] + 1:last + 1] = events[-1][2]
-    if facts.resets or facts.refusals:
+    if facts.appended:
         reset_labels(labels, actions, episodes, untouched, is_acting, kinds, colour, facts,
                      refusals, ruled_out)
     return labels
